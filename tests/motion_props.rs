@@ -55,7 +55,7 @@ fn request() -> impl Strategy<Value = MotionRequest> {
         (0.0f32..200.0, 0.0f32..2.0)
             .prop_map(|(speed, duration)| MotionRequest::Accelerate { speed, duration }),
         (0.0f32..2.0).prop_map(|duration| MotionRequest::Stop { duration }),
-        (kind(), 0.01f32..6.28, side()).prop_map(|(kind, angle, side)| MotionRequest::Turn {
+        (kind(), 0.01f32..6.2, side()).prop_map(|(kind, angle, side)| MotionRequest::Turn {
             kind,
             angle,
             side
