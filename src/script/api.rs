@@ -97,8 +97,8 @@ fn with_world<R>(
         return Err(outside(name));
     };
     let ud: AnyUserData = ud;
-    let mut world = ud.borrow_mut::<World>().map_err(|_| outside(name))?;
-    f(&mut world, fish)
+    ud.borrow_mut_scoped::<World, _>(|world| f(world, fish))
+        .map_err(|_| outside(name))?
 }
 
 fn world_err(name: &str, e: crate::world::WorldError) -> mlua::Error {

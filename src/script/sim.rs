@@ -298,6 +298,27 @@ impl Simulation {
         Ok(id)
     }
 
+    /// Adds a species built in Rust (not from a file) whose fish decide `decision_hz` times per
+    /// second. It is not hot-reloaded.
+    pub fn add_species(&mut self, species: Species, decision_hz: f64) -> SpeciesId {
+        let hz = if decision_hz.is_finite() && decision_hz > 0.0 {
+            decision_hz
+        } else {
+            10.0
+        };
+        let id = self.world.add_species(species);
+        let slot = SpeciesSlot {
+            path: PathBuf::new(),
+            period_ticks: (TICK_HZ / hz).round().max(1.0) as u64,
+        };
+        let i = usize::from(id.0);
+        if self.species.len() <= i {
+            self.species.resize(i + 1, slot.clone());
+        }
+        self.species[i] = slot;
+        id
+    }
+
     fn load_species(&self, path: &Path) -> Result<(Species, u64), ScriptError> {
         let file = read_species(&self.host, path)?;
         let period = (TICK_HZ / file.decision_hz).round().max(1.0) as u64;
