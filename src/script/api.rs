@@ -63,6 +63,7 @@ pub struct Ctx {
     see_pool: Vec<Table>,
     nearest_out: Table,
     body_out: Table,
+    tank_out: Table,
 }
 
 impl Ctx {
@@ -269,6 +270,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         see_pool: Vec::new(),
         nearest_out: lua.create_table()?,
         body_out: lua.create_table()?,
+        tank_out: lua.create_table()?,
     });
 
     let shoal = lua.create_table()?;
@@ -409,6 +411,25 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 t.raw_set("predator", d.predator)?;
                 ctx.species_tables[i] = Some(t.clone());
                 Ok(t)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "tank",
+        lua.create_function(|lua, ()| {
+            with_world(lua, "tank", |w, _| {
+                let t = *w.tank();
+                let out = lua
+                    .app_data_ref::<Ctx>()
+                    .map(|c| c.tank_out.clone())
+                    .ok_or_else(|| outside("tank"))?;
+                out.raw_set("min_x", t.min.x)?;
+                out.raw_set("min_y", t.min.y)?;
+                out.raw_set("min_z", t.min.z)?;
+                out.raw_set("max_x", t.max.x)?;
+                out.raw_set("max_y", t.max.y)?;
+                out.raw_set("max_z", t.max.z)?;
+                Ok(out)
             })
         })?,
     )?;
