@@ -158,6 +158,24 @@ impl GlbBuilder {
         self.accessor(view, FLOAT, data.len(), "MAT4")
     }
 
+    /// Any accessor from raw little-endian bytes (`component_type` is the glTF enum, `ty` e.g.
+    /// `"VEC4"`), as a vertex attribute view; for tests and unusual encodings.
+    pub fn raw_accessor(
+        &mut self,
+        bytes: &[u8],
+        component_type: u32,
+        count: usize,
+        ty: &str,
+        normalized: bool,
+    ) -> usize {
+        let view = self.view(bytes, Some(ARRAY_BUFFER));
+        let a = self.accessor(view, component_type, count, ty);
+        if normalized {
+            self.accessors[a]["normalized"] = json!(true);
+        }
+        a
+    }
+
     /// Raw bytes as a buffer view (an embedded image); returns the view index.
     pub fn image_view(&mut self, bytes: &[u8]) -> usize {
         self.view(bytes, None)

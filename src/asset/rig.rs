@@ -2,7 +2,8 @@
 //! end is the head, lay a vertebral chain along it and compute smooth skin weights.
 //!
 //! - **Long axis** (`--axis auto`): the principal axis of the vertex cloud (largest eigenvector
-//!   of its covariance, by power iteration); or a named asset axis.
+//!   of its covariance, by power iteration), snapped to an asset axis when within 15° of one;
+//!   or a named asset axis.
 //! - **Head end** (`--head auto`): the end whose last 20% of length has the larger cross-section
 //!   (product of the two perpendicular standard deviations). A fish's tail end is a thin
 //!   peduncle plus a tall but flat caudal fin, so its cross-section is small; the head is thick
@@ -231,7 +232,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         Axis::X => Vec3::X,
         Axis::Y => Vec3::Y,
         Axis::Z => Vec3::Z,
-        Axis::Auto => principal_axis(&positions, centroid),
+        Axis::Auto => crate::species::snap_to_asset_axis(principal_axis(&positions, centroid)),
     };
     let along: Vec<f32> = positions
         .iter()
