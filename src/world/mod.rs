@@ -16,6 +16,8 @@
 //! in world units, a species' body length being `SpeciesDesc.motion.l`; a fish's `pos` is its
 //! root, the head end of the vertebral column.
 
+pub mod bench;
+pub mod driver;
 pub mod grid;
 pub mod pose;
 pub mod sense;

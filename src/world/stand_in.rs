@@ -22,6 +22,30 @@ pub struct SpeciesDesc {
     pub predator: bool,
 }
 
+impl SpeciesDesc {
+    pub fn black_porgy() -> Self {
+        Self {
+            name: "black_porgy".into(),
+            asset: "black_porgy.glb".into(),
+            motion: MotionParams {
+                p: 0.4,
+                s: 50.0,
+                l: 50.0,
+                max_amp: 5.0,
+                lambda: 50.0,
+                omega: 1.0,
+                tt: 0.5,
+                f: 1.5,
+                turn_angle: 1.57,
+            },
+            view_range: 200.0,
+            view_angle_deg: 300.0,
+            max_speed: 150.0,
+            predator: false,
+        }
+    }
+}
+
 /// Stand-in for `species::SpeciesRig`.
 #[derive(Debug, Clone)]
 pub struct SpeciesRig {
