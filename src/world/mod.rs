@@ -25,6 +25,7 @@ mod stand_in;
 pub mod steer;
 mod store;
 
+use std::f32::consts::TAU;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
@@ -32,6 +33,7 @@ use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use glam::{Mat4, Vec3};
+use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
@@ -41,7 +43,8 @@ use steer::{Agent, Steer, SteerParams};
 use store::{FishStore, NewFish};
 
 // TEMPORARY: the contract's names from the species/skin work, until it lands in main.
-pub use stand_in::{FishModel, SpeciesDesc, SpeciesRig};
+pub use crate::skin::FishModel;
+pub use stand_in::{SpeciesDesc, SpeciesRig};
 
 /// The fixed motion tick, Hz.
 pub const TICK_HZ: f64 = 60.0;
@@ -606,7 +609,10 @@ impl World {
                 max: self.tank.max,
             });
         }
-        let mut player = MotionPlayer::new();
+        // Each fish's wave starts at its own phase (from its seed) so a shoal does not beat in
+        // lockstep.
+        let phase = Pcg32::seed_from_u64(p.seed ^ 0x5EED_0F_F15E_u64).random::<f32>() * TAU;
+        let mut player = MotionPlayer::with_phase(phase);
         if p.speed > 0.0 {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }

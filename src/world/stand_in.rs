@@ -1,14 +1,13 @@
-//! TEMPORARY STAND-INS — delete when `species` and `skin` land in main.
+//! TEMPORARY STAND-INS — delete when `species` lands in main.
 //!
 //! Minimal copies of the contract's names (world-api.md) so the world compiles before the
-//! species/skin work is merged. Nothing here is the real thing.
-
-use std::path::Path;
+//! species work is merged. Nothing here is the real thing.
 
 use glam::Mat4;
 
 use crate::motion::{Body, MotionParams};
-use crate::skeleton::{JointTransform, Skeleton};
+use crate::skeleton::JointTransform;
+use crate::skin::FishModel;
 
 /// Stand-in for `species::SpeciesDesc`.
 #[derive(Debug, Clone)]
@@ -58,25 +57,4 @@ impl SpeciesRig {
         Err("stand-in".into())
     }
     pub fn pose(&self, _yaw: &[f32], _locals: &mut [JointTransform]) {}
-}
-
-/// Stand-in for `skin::FishModel`.
-#[derive(Debug, Clone)]
-pub struct FishModel {
-    pub skeleton: Skeleton,
-    pub inverse_bind_poses: Vec<Mat4>,
-}
-
-impl FishModel {
-    pub fn load(_path: &Path) -> Result<Self, String> {
-        Err("stand-in".into())
-    }
-}
-
-/// Stand-in for `skin::palette`.
-pub fn palette(models: &[Mat4], ibms: &[Mat4], out: &mut [Mat4]) -> Result<(), String> {
-    for ((o, m), i) in out.iter_mut().zip(models).zip(ibms) {
-        *o = *m * *i;
-    }
-    Ok(())
 }
