@@ -611,7 +611,7 @@ impl World {
         }
         // Each fish's wave starts at its own phase (from its seed) so a shoal does not beat in
         // lockstep.
-        let phase = Pcg32::seed_from_u64(p.seed ^ 0x5EED_0F_F15E_u64).random::<f32>() * TAU;
+        let phase = Pcg32::seed_from_u64(p.seed ^ 0x005E_ED0F_F15E_u64).random::<f32>() * TAU;
         let mut player = MotionPlayer::with_phase(phase);
         if p.speed > 0.0 {
             player.push(MotionRequest::Swim { speed: p.speed })?;
