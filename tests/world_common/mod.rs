@@ -52,12 +52,11 @@ pub fn skeleton() -> Skeleton {
 }
 
 /// The test species: the skeleton above, the paper's 6 driven joints.
-pub fn species(name: &str, predator: bool) -> Species {
+pub fn species(name: &str) -> Species {
     let skeleton = skeleton();
     let inverse_bind_poses = skeleton.rest_models().iter().map(|m| m.inverse()).collect();
     let mut desc = SpeciesDesc::black_porgy();
     desc.name = name.to_string();
-    desc.predator = predator;
     desc.motion.l = L;
     desc.view_range = 4.0 * L;
     desc.view_angle_deg = 300.0;
@@ -65,7 +64,15 @@ pub fn species(name: &str, predator: bool) -> Species {
         desc,
         rig: SpeciesRig {
             body: Body::evenly_spaced(7),
+            driven_joints: (1..7).collect(),
+            // Joints' local frames are the body frame (+y up): bend about −y (ventral) so a
+            // positive yaw swings the part behind to the left (−z).
+            bend_axes: vec![Vec3::NEG_Y; 6],
             model_to_body: Mat4::IDENTITY,
+            model_body_length: L,
+            model_forward: Vec3::X,
+            model_up: Vec3::Y,
+            rest_locals: skeleton.rest_locals().to_vec(),
         },
         model: Arc::new(FishModel {
             skeleton,
@@ -87,8 +94,9 @@ pub fn tank() -> Tank {
 /// An empty world in [`tank`] with the test species (and a predator species).
 pub fn world() -> (World, SpeciesId, SpeciesId) {
     let mut w = World::new(tank(), 1);
-    let fish = w.add_species(species("porgy", false));
-    let shark = w.add_species(species("shark", true));
+    let fish = w.add_species(species("porgy"));
+    let shark = w.add_species(species("shark"));
+    w.set_predator(shark, true);
     (w, fish, shark)
 }
 
