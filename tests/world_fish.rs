@@ -379,3 +379,30 @@ fn fish_eat_food_within_reach_of_the_mouth() {
     assert!(!w.try_eat(id, FoodId(99)));
     let _ = L;
 }
+
+#[test]
+fn vision_nearest_keeps_the_head_of_the_full_list() {
+    let (mut w, porgy, _) = world();
+    let centre = Vec3::new(500.0, 200.0, 250.0);
+    let me = spawn(&mut w, porgy, centre, 0.0);
+    for i in 0..40 {
+        let a = i as f32 * 0.7;
+        let r = 20.0 + (i * 37 % 150) as f32;
+        spawn(
+            &mut w,
+            porgy,
+            centre + Vec3::new(a.cos() * r, (i % 5) as f32 * 7.0, a.sin() * r),
+            a,
+        );
+    }
+    w.add_food(centre + Vec3::new(35.0, 0.0, 0.0));
+    w.rebuild_grid();
+    let mut all = Vec::new();
+    let mut few = Vec::new();
+    w.vision(me, &mut all);
+    assert!(all.len() > 10, "{}", all.len());
+    for max in [0, 1, 5, 10, all.len(), all.len() + 3] {
+        w.vision_nearest(me, max, &mut few);
+        assert_eq!(few.as_slice(), &all[..max.min(all.len())], "max {max}");
+    }
+}

@@ -28,6 +28,8 @@ pub struct WanderParams {
     pub wall_margin_lengths: f32,
     /// Look this far ahead for rocks, body lengths (default 3).
     pub obstacle_lookahead_lengths: f32,
+    /// Percepts a decision considers, nearest first (default 24).
+    pub max_percepts: usize,
 }
 
 impl Default for WanderParams {
@@ -39,6 +41,7 @@ impl Default for WanderParams {
             separation_lengths: 1.0,
             wall_margin_lengths: 2.0,
             obstacle_lookahead_lengths: 3.0,
+            max_percepts: 24,
         }
     }
 }
@@ -87,7 +90,7 @@ impl WanderDriver {
             }
             decisions += 1;
             let t0 = Instant::now();
-            world.vision(id, &mut self.percepts);
+            world.vision_nearest(id, self.params.max_percepts, &mut self.percepts);
             let t1 = Instant::now();
             if let Some(want) = self.decide(world, id) {
                 // A refused request leaves the fish doing what it did; nothing to recover.

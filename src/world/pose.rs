@@ -12,10 +12,10 @@ use std::time::Instant;
 
 use glam::{Mat4, Quat};
 
-use crate::skin::palette;
 use super::{MAX_DRIVEN_JOINTS, Species, SpeciesId};
 use crate::motion::RootState;
 use crate::skeleton::JointTransform;
+use crate::skin::palette;
 
 /// Fish per leaf task: large enough that the per-leaf timing and scheduling are noise.
 pub const LEAF_FISH: usize = 64;
