@@ -420,8 +420,6 @@ pub struct World {
     time: f64,
     tick: u64,
     species: Vec<Species>,
-    /// Per species: whether other species see its fish as predators.
-    predators: Vec<bool>,
     fish: FishStore,
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
@@ -486,7 +484,6 @@ impl World {
             time: 0.0,
             tick: 0,
             species: Vec::new(),
-            predators: Vec::new(),
             fish: FishStore::default(),
             foods: Vec::new(),
             obstacles: Vec::new(),
@@ -534,29 +531,7 @@ impl World {
             log::error!("species {:?}: {e}", s.desc.name);
         }
         self.species.push(s);
-        self.predators.push(false);
         SpeciesId((self.species.len() - 1) as u16)
-    }
-
-    /// Marks a species as a predator (or not): other species' vision reports its fish as
-    /// [`PerceptKind::Predator`]. Species start as non-predators. Returns false for an unknown id.
-    // SpeciesDesc has no `predator` field yet; once it does, `add_species` takes it from there.
-    pub fn set_predator(&mut self, id: SpeciesId, predator: bool) -> bool {
-        match self.predators.get_mut(usize::from(id.0)) {
-            Some(p) => {
-                *p = predator;
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Whether a species is marked a predator.
-    pub fn is_predator(&self, id: SpeciesId) -> bool {
-        self.predators
-            .get(usize::from(id.0))
-            .copied()
-            .unwrap_or(false)
     }
 
     /// Replaces a species (hot reload): live fish of it pick up the new data on their next step.
@@ -1033,7 +1008,8 @@ impl World {
                 return;
             }
             let species = self.fish.species[o];
-            let predator = species != my_species && self.predators[usize::from(species.0)];
+            let predator =
+                species != my_species && self.species[usize::from(species.0)].desc.predator;
             let kind = if predator {
                 PerceptKind::Predator
             } else {

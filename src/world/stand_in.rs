@@ -19,6 +19,8 @@ pub struct SpeciesDesc {
     pub view_range: f32,
     pub view_angle_deg: f32,
     pub max_speed: f32,
+    /// Not on the species branch yet: the world helper adds it there after the merge.
+    pub predator: bool,
 }
 
 impl SpeciesDesc {
@@ -41,6 +43,7 @@ impl SpeciesDesc {
             view_range: 250.0,
             view_angle_deg: 300.0,
             max_speed: 120.0,
+            predator: false,
         }
     }
 }

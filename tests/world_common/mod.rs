@@ -52,11 +52,12 @@ pub fn skeleton() -> Skeleton {
 }
 
 /// The test species: the skeleton above, the paper's 6 driven joints.
-pub fn species(name: &str) -> Species {
+pub fn species(name: &str, predator: bool) -> Species {
     let skeleton = skeleton();
     let inverse_bind_poses = skeleton.rest_models().iter().map(|m| m.inverse()).collect();
     let mut desc = SpeciesDesc::black_porgy();
     desc.name = name.to_string();
+    desc.predator = predator;
     desc.motion.l = L;
     desc.view_range = 4.0 * L;
     desc.view_angle_deg = 300.0;
@@ -94,9 +95,8 @@ pub fn tank() -> Tank {
 /// An empty world in [`tank`] with the test species (and a predator species).
 pub fn world() -> (World, SpeciesId, SpeciesId) {
     let mut w = World::new(tank(), 1);
-    let fish = w.add_species(species("porgy"));
-    let shark = w.add_species(species("shark"));
-    w.set_predator(shark, true);
+    let fish = w.add_species(species("porgy", false));
+    let shark = w.add_species(species("shark", true));
     (w, fish, shark)
 }
 
