@@ -16,6 +16,8 @@
 //! in world units, a species' body length being `SpeciesDesc.motion.l`; a fish's `pos` is its
 //! root, the head end of the vertebral column.
 
+pub mod bench;
+pub mod driver;
 pub mod grid;
 pub mod pose;
 pub mod sense;
@@ -23,6 +25,7 @@ mod stand_in;
 pub mod steer;
 mod store;
 
+use std::f32::consts::TAU;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
@@ -30,6 +33,7 @@ use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use glam::{Mat4, Vec3};
+use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
@@ -39,7 +43,8 @@ use steer::{Agent, Steer, SteerParams};
 use store::{FishStore, NewFish};
 
 // TEMPORARY: the contract's names from the species/skin work, until it lands in main.
-pub use stand_in::{FishModel, SpeciesDesc, SpeciesRig};
+pub use crate::skin::FishModel;
+pub use stand_in::{SpeciesDesc, SpeciesRig};
 
 /// The fixed motion tick, Hz.
 pub const TICK_HZ: f64 = 60.0;
@@ -604,7 +609,10 @@ impl World {
                 max: self.tank.max,
             });
         }
-        let mut player = MotionPlayer::new();
+        // Each fish's wave starts at its own phase (from its seed) so a shoal does not beat in
+        // lockstep.
+        let phase = Pcg32::seed_from_u64(p.seed ^ 0x005E_ED0F_F15E_u64).random::<f32>() * TAU;
+        let mut player = MotionPlayer::with_phase(phase);
         if p.speed > 0.0 {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }
@@ -962,6 +970,11 @@ impl World {
     /// around its forward direction), nearest first (ties broken by kind and id, so the order is
     /// deterministic). Clears `out`; a stale id leaves it empty.
     pub fn vision(&self, id: FishId, out: &mut Vec<Percept>) {
+        self.vision_unsorted(id, out);
+        out.sort_unstable_by(nearest_first);
+    }
+
+    fn vision_unsorted(&self, id: FishId, out: &mut Vec<Percept>) {
         out.clear();
         let Some(d) = self.fish.dense(id) else {
             return;
@@ -1057,15 +1070,22 @@ impl World {
                 });
             }
         }
+    }
 
-        out.sort_unstable_by(|a, b| {
-            a.distance
-                .total_cmp(&b.distance)
-                .then(a.kind.cmp(&b.kind))
-                .then(a.fish.cmp(&b.fish))
-                .then(a.food.cmp(&b.food))
-                .then(a.obstacle.map(|o| o.0).cmp(&b.obstacle.map(|o| o.0)))
-        });
+    /// [`World::vision`] keeping only the `max` nearest percepts (the same ones, in the same
+    /// order, as the first `max` of the full list), for scripts that look at a few things.
+    /// Cheaper than sorting everything when many fish are in view.
+    pub fn vision_nearest(&self, id: FishId, max: usize, out: &mut Vec<Percept>) {
+        self.vision_unsorted(id, out);
+        if out.len() > max {
+            if max == 0 {
+                out.clear();
+                return;
+            }
+            out.select_nth_unstable_by(max - 1, nearest_first);
+            out.truncate(max);
+        }
+        out.sort_unstable_by(nearest_first);
     }
 
     /// The fish's body sensor: depth, distances to floor, surface and nearest side wall (with
@@ -1339,7 +1359,7 @@ impl World {
     }
 
     /// Rebuilds the spatial grid from the fish's current positions (and the food grid), with
-    /// cells as large as the longest view range. Timed into `grid_ns`.
+    /// cells of half the longest view range. Timed into `grid_ns`.
     pub fn rebuild_grid(&mut self) {
         let start = Instant::now();
         let extent = self.tank.extent().max_element();
@@ -1409,6 +1429,17 @@ impl World {
     pub fn counters_mut(&mut self) -> &mut StageCounters {
         &mut self.counters
     }
+}
+
+/// Vision's order: nearest first, ties broken by kind, then fish, food and obstacle id (a total
+/// order on distinct percepts, so the result is deterministic).
+fn nearest_first(a: &Percept, b: &Percept) -> std::cmp::Ordering {
+    a.distance
+        .total_cmp(&b.distance)
+        .then(a.kind.cmp(&b.kind))
+        .then(a.fish.cmp(&b.fish))
+        .then(a.food.cmp(&b.food))
+        .then(a.obstacle.cmp(&b.obstacle))
 }
 
 /// Sum of the drift velocities of the current zones at `p`, world units per second. Each zone

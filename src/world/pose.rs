@@ -10,12 +10,12 @@ use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use glam::{Mat4, Quat, Vec3};
+use glam::{Mat4, Quat};
 
-use super::stand_in::palette;
 use super::{MAX_DRIVEN_JOINTS, Species, SpeciesId};
 use crate::motion::RootState;
 use crate::skeleton::JointTransform;
+use crate::skin::palette;
 
 /// Fish per leaf task: large enough that the per-leaf timing and scheduling are noise.
 pub const LEAF_FISH: usize = 64;
@@ -123,7 +123,7 @@ fn leaf(
             .is_err()
             {
                 failures += 1;
-                out[lo..hi].fill(Mat4::from_translation(Vec3::ZERO));
+                out[lo..hi].fill(Mat4::IDENTITY);
             }
         }
         let end = Instant::now();
@@ -143,6 +143,7 @@ fn leaf(
 mod tests {
     use super::*;
     use crate::world::sense::forward;
+    use glam::Vec3;
 
     #[test]
     fn root_matrix_faces_the_heading_and_sits_at_the_root() {

@@ -1,7 +1,8 @@
-//! Shared helpers of the script tests.
+//! Helpers shared by the integration tests (script tests and asset tests).
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
@@ -94,4 +95,31 @@ pub fn sim_in(root: &Path, seed: u64) -> Simulation {
     s.add_species(species("black_porgy", false), 10.0);
     s.add_species(species("barracuda", true), 10.0);
     s
+}
+
+/// Runs the Khronos validator (tools/validate-gltf.mjs) on `files`; panics with its report on
+/// any error or warning, or if the validator is not installed.
+pub fn validate(files: &[&Path]) {
+    let tools = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools");
+    assert!(
+        tools.join("node_modules/gltf-validator").is_dir(),
+        "the glTF validator is not installed: run `npm ci` in tools/ (needs node and npm)"
+    );
+    let out = Command::new("node")
+        .arg(tools.join("validate-gltf.mjs"))
+        .args(files)
+        .output()
+        .expect("running node: install nodejs to run the glTF validator");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "validator found errors or warnings:\n{report}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in files {
+        assert!(
+            report.contains(&format!("{}: 0 errors, 0 warnings", f.display())),
+            "{report}"
+        );
+    }
 }
