@@ -5,10 +5,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
 
-use glam::{Mat4, Vec3};
-use shoal::motion::{Body, MotionParams};
+use shoal::motion::MotionParams;
 use shoal::script::Simulation;
-use shoal::skeleton::{JointTransform, NO_PARENT, Skeleton};
 use shoal::world::{FishModel, Species, SpeciesDesc, SpeciesRig};
 
 /// The repository root (holds `scripts/`).
@@ -37,49 +35,37 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// A black-porgy-like species built in Rust: Table 1's motion parameters (l = 50), a chain
-/// skeleton of 7 segments.
+/// The black porgy built from `assets/black_porgy.glb` and `SpeciesDesc::black_porgy()`, named
+/// `name`; a predator swims faster and sees further. (Built here rather than from
+/// `scripts/species/*.lua` while the world still carries its interim species types.)
 pub fn species(name: &str, predator: bool) -> Species {
-    let motion = MotionParams::BLACK_PORGY;
-    let body = Body::black_porgy();
-    let n = body.joints_x.len() + 1;
-    let mut parents = vec![NO_PARENT];
-    parents.extend((0..n - 1).map(|i| i as u16));
-    let names = (0..n).map(|i| format!("j{i}")).collect();
-    let seg = motion.l / (n - 1) as f32;
-    let locals: Vec<JointTransform> = (0..n)
-        .map(|i| JointTransform {
-            translation: if i == 0 {
-                Vec3::ZERO
-            } else {
-                Vec3::new(-seg, 0.0, 0.0)
-            },
-            ..JointTransform::IDENTITY
-        })
-        .collect();
-    let skeleton = Skeleton::new(parents, names, locals).unwrap();
-    let ibms = skeleton.rest_models().iter().map(Mat4::inverse).collect();
+    let real = shoal::species::SpeciesDesc::black_porgy();
+    let model = FishModel::load(&repo().join("assets").join(&real.asset)).unwrap();
+    let rig = shoal::species::SpeciesRig::bind(&real, &model).unwrap();
+    let base = SpeciesDesc::black_porgy();
     Species {
         desc: SpeciesDesc {
             name: name.to_owned(),
-            asset: String::new(),
             motion: MotionParams {
                 s: if predator { 70.0 } else { 50.0 },
-                ..motion
+                ..base.motion
             },
             view_range: if predator { 500.0 } else { 300.0 },
-            view_angle_deg: 300.0,
             max_speed: if predator { 160.0 } else { 150.0 },
             predator,
+            ..base
         },
         rig: SpeciesRig {
-            body,
-            model_to_body: Mat4::IDENTITY,
+            body: rig.body,
+            driven_joints: rig.driven_joints,
+            bend_axes: rig.bend_axes,
+            model_to_body: rig.model_to_body,
+            model_body_length: rig.model_body_length,
+            model_forward: rig.model_forward,
+            model_up: rig.model_up,
+            rest_locals: rig.rest_locals,
         },
-        model: Arc::new(FishModel {
-            skeleton,
-            inverse_bind_poses: ibms,
-        }),
+        model: Arc::new(model),
     }
 }
 
