@@ -55,6 +55,9 @@ pub struct Ctx {
     pub fish: Option<FishId>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
+    /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
+    /// `nearest`); reset whenever `fish` changes.
+    pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
@@ -262,6 +265,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     lua.set_app_data(Ctx {
         fish: None,
         perception_ns: 0,
+        percepts_of: None,
         percepts: Vec::with_capacity(64),
         keys,
         species_names: Vec::new(),
@@ -290,7 +294,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 let start = Instant::now();
                 let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside("see"))?;
                 let ctx = &mut *ctx;
-                w.vision(f, &mut ctx.percepts);
+                if ctx.percepts_of != Some(f) {
+                    w.vision(f, &mut ctx.percepts);
+                    ctx.percepts_of = Some(f);
+                }
                 let out = ctx.see_out.clone();
                 let mut n = 0usize;
                 let percepts = std::mem::take(&mut ctx.percepts);
@@ -329,7 +336,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     .app_data_mut::<Ctx>()
                     .ok_or_else(|| outside("nearest"))?;
                 let ctx = &mut *ctx;
-                w.vision(f, &mut ctx.percepts);
+                if ctx.percepts_of != Some(f) {
+                    w.vision(f, &mut ctx.percepts);
+                    ctx.percepts_of = Some(f);
+                }
                 let want = match &species {
                     Some(s) => w.species_by_name(&s.to_str()?),
                     None => None,

@@ -87,18 +87,24 @@ end
 -- True while an avoidance manoeuvre of kind `which` ("rock" or "wall") is held, starting one if
 -- p asks for it. A held manoeuvre is replaced only by one pointing somewhere else entirely (a
 -- second wall), not by the slowly changing wish of the same one.
+local AVOID_KEYS = {
+  rock = { heading = "rock_heading", depth = "rock_depth", speed = "rock_speed" },
+  wall = { heading = "wall_heading", depth = "wall_depth", speed = "wall_speed" },
+}
+
 function C.avoiding(fish, p, which)
   local m = fish.memory
   local now = shoal.time()
-  local h = p[which .. "_heading"]
+  local k = AVOID_KEYS[which]
+  local h = p[k.heading]
   local held = m.avoid_kind == which and m.avoid_until and now < m.avoid_until
   if held and not (h and angle_between(h, m.avoid_heading) > C.AVOID_RETARGET) then
     return true
   end
   if h then
     m.avoid_kind = which
-    m.avoid_heading, m.avoid_depth = h, p[which .. "_depth"]
-    m.avoid_speed = p[which .. "_speed"]
+    m.avoid_heading, m.avoid_depth = h, p[k.depth]
+    m.avoid_speed = p[k.speed]
     m.avoid_until = now + C.AVOID_HOLD
     return true
   end
