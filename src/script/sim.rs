@@ -360,6 +360,12 @@ impl Simulation {
             })
     }
 
+    /// Removes a fish and forgets its script table and memory. False if it was already gone.
+    pub fn despawn(&mut self, id: FishId) -> bool {
+        self.host.forget_fish(id);
+        self.world.despawn(id)
+    }
+
     /// The world.
     pub fn world(&self) -> &World {
         &self.world
