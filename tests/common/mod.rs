@@ -3,21 +3,21 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::Arc;
 
 use shoal::motion::MotionParams;
 use shoal::script::Simulation;
-use shoal::world::{FishModel, Species, SpeciesDesc, SpeciesRig};
+use shoal::world::{Species, SpeciesDesc};
 
 /// The repository root (holds `scripts/`).
 pub fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A copy of the repository's `scripts/` in a temporary directory (for tests that edit files).
+/// A copy of the repository's `scripts/` and `assets/` in a temporary directory (for tests that edit files).
 pub fn scratch_repo() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     copy_dir(&repo().join("scripts"), &dir.path().join("scripts"));
+    copy_dir(&repo().join("assets"), &dir.path().join("assets"));
     let root = dir.path().to_path_buf();
     (dir, root)
 }
@@ -35,38 +35,22 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// The black porgy built from `assets/black_porgy.glb` and `SpeciesDesc::black_porgy()`, named
-/// `name`; a predator swims faster and sees further. (Built here rather than from
-/// `scripts/species/*.lua` while the world still carries its interim species types.)
+/// The black porgy (`SpeciesDesc::black_porgy()` on `assets/black_porgy.glb`) under another
+/// name; a predator swims faster and sees further.
 pub fn species(name: &str, predator: bool) -> Species {
-    let real = shoal::species::SpeciesDesc::black_porgy();
-    let model = FishModel::load(&repo().join("assets").join(&real.asset)).unwrap();
-    let rig = shoal::species::SpeciesRig::bind(&real, &model).unwrap();
     let base = SpeciesDesc::black_porgy();
-    Species {
-        desc: SpeciesDesc {
-            name: name.to_owned(),
-            motion: MotionParams {
-                s: if predator { 70.0 } else { 50.0 },
-                ..base.motion
-            },
-            view_range: if predator { 500.0 } else { 300.0 },
-            max_speed: if predator { 160.0 } else { 150.0 },
-            predator,
-            ..base
+    let desc = SpeciesDesc {
+        name: name.to_owned(),
+        motion: MotionParams {
+            s: if predator { 70.0 } else { 50.0 },
+            ..base.motion
         },
-        rig: SpeciesRig {
-            body: rig.body,
-            driven_joints: rig.driven_joints,
-            bend_axes: rig.bend_axes,
-            model_to_body: rig.model_to_body,
-            model_body_length: rig.model_body_length,
-            model_forward: rig.model_forward,
-            model_up: rig.model_up,
-            rest_locals: rig.rest_locals,
-        },
-        model: Arc::new(model),
-    }
+        view_range: if predator { 500.0 } else { 300.0 },
+        max_speed: if predator { 160.0 } else { 150.0 },
+        predator,
+        ..base
+    };
+    Species::load(desc, &repo().join("assets")).unwrap()
 }
 
 /// An empty-tank simulation of the repository's scripts with the test species
