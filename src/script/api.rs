@@ -419,6 +419,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 t.raw_set("view_angle", d.view_angle_deg.to_radians())?;
                 t.raw_set("turn_time", d.motion.tt)?;
                 t.raw_set("predator", d.predator)?;
+                t.raw_set("hunger_per_s", d.drives.hunger_per_s)?;
+                t.raw_set("satiation_per_food", d.drives.satiation_per_food)?;
+                t.raw_set("fear_decay_per_s", d.drives.fear_decay_per_s)?;
+                t.raw_set("sociability", d.drives.sociability)?;
                 ctx.species_tables[i] = Some(t.clone());
                 Ok(t)
             })

@@ -1,10 +1,11 @@
 -- Shared pieces of the shipped behaviours: drives (after Tu & Terzopoulos, "Artificial Fishes",
 -- 1994), reflexes every behaviour runs first (collision avoidance, escape), and held wishes.
 --
--- Drives live in fish.memory so they persist across ticks and reloads:
---   hunger in [0, 1]: rises at HUNGER_RATE per second, falls by MEAL per pellet eaten.
+-- Drives live in fish.memory so they persist across ticks and reloads; their rates are species
+-- data (scripts/species/*.lua, `drives = { ... }`):
+--   hunger in [0, 1]: rises at hunger_per_s, falls by satiation_per_food per pellet eaten.
 --   fear   in [0, 1]: FEAR_LENGTHS body lengths / distance to the nearest predator seen, decaying
---                     at FEAR_DECAY per second once none is seen (the fish remembers where it was).
+--                     at fear_decay_per_s once none is seen (the fish remembers where it was).
 --
 -- Wishes that need a whole turn to carry out (avoiding a wall, a new wander direction) are held
 -- for a moment in memory rather than recomputed every decision: recomputing them as the fish
@@ -13,11 +14,8 @@
 local shoal = shoal
 local C = {}
 
-C.HUNGER_RATE = 0.01   -- per second: from sated to starving in 100 s
-C.MEAL = 0.4           -- hunger removed by one pellet
 C.HUNGRY = 0.3         -- above this, food in sight wins over crowding/wandering
 C.FEAR_LENGTHS = 6     -- a predator within this many body lengths is frightening
-C.FEAR_DECAY = 0.1     -- per second, once no predator is seen
 C.AFRAID = 0.5         -- fear above this: flee
 C.AVOID_HOLD = 1.5     -- seconds an avoidance manoeuvre is held
 C.AVOID_RETARGET = math.rad(60)  -- a new manoeuvre this different replaces a held one
@@ -37,7 +35,7 @@ end
 -- Updates hunger; returns it.
 function C.hunger(fish, dt)
   local m = fish.memory
-  local h = (m.hunger or 0.5) + C.HUNGER_RATE * dt
+  local h = (m.hunger or 0.5) + shoal.species().hunger_per_s * dt
   if h > 1 then h = 1 end
   m.hunger = h
   return h
@@ -46,7 +44,7 @@ end
 -- Updates fear from the predator in p (if any) and remembers where it was; returns fear.
 function C.fear(fish, p, dt)
   local m = fish.memory
-  local f = (m.fear or 0) - C.FEAR_DECAY * dt
+  local f = (m.fear or 0) - shoal.species().fear_decay_per_s * dt
   if p.predator_id then
     local length = shoal.species().length
     local f_now = C.FEAR_LENGTHS * length / math.max(p.predator_distance, 1e-3)
@@ -162,7 +160,7 @@ function C.feed(fish, p)
     ate = shoal.eat(p.food_id)
     if ate then
       local m = fish.memory
-      m.hunger = math.max(0, (m.hunger or 0) - C.MEAL)
+      m.hunger = math.max(0, (m.hunger or 0) - shoal.species().satiation_per_food)
       m.meals = (m.meals or 0) + 1
     end
   end
