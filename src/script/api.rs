@@ -21,11 +21,9 @@ use mlua::{AnyUserData, Lua, LuaString, Table, Value, Variadic};
 use rand::Rng;
 
 use crate::motion::{MotionRequest, Side, TurnKind};
+use crate::world::sense;
 use crate::world::steer::Steer;
 use crate::world::{FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
-
-/// Registry key under which the scoped world userdata lives while behaviours run.
-pub const WORLD_KEY: &str = "shoal.world";
 
 /// Default number of percepts `shoal.see` returns.
 pub const DEFAULT_SEE_MAX: usize = 32;
@@ -47,18 +45,43 @@ struct Keys {
     kind_food: LuaString,
     kind_obstacle: LuaString,
     kind_predator: LuaString,
+    /// `shoal.body()` fields, in [`BODY_FIELDS`] order.
+    body: Vec<LuaString>,
 }
+
+/// Field names of the table `shoal.body()` returns.
+const BODY_FIELDS: [&str; 16] = [
+    "x",
+    "y",
+    "z",
+    "depth",
+    "to_floor",
+    "to_surface",
+    "to_wall",
+    "wall_x",
+    "wall_y",
+    "wall_z",
+    "contact",
+    "speed",
+    "heading",
+    "pitch",
+    "motion",
+    "queue",
+];
 
 /// Per-call context of the API, kept as Lua app data.
 pub struct Ctx {
     /// The fish whose behaviour is running, if any.
     pub fish: Option<FishId>,
+    /// The world, as scoped userdata, while behaviours run (`None` otherwise).
+    pub world: Option<AnyUserData>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
     /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
     /// `nearest`); reset whenever `fish` changes.
     pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
+    neighbor_ids: Vec<FishId>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
     species_tables: Vec<Option<Table>>,
@@ -93,14 +116,13 @@ fn with_world<R>(
     name: &str,
     f: impl FnOnce(&mut World, FishId) -> mlua::Result<R>,
 ) -> mlua::Result<R> {
-    let fish = lua
-        .app_data_ref::<Ctx>()
-        .and_then(|c| c.fish)
-        .ok_or_else(|| outside(name))?;
-    let Value::UserData(ud) = lua.named_registry_value::<Value>(WORLD_KEY)? else {
-        return Err(outside(name));
+    let (fish, ud) = {
+        let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside(name))?;
+        match (ctx.fish, &ctx.world) {
+            (Some(fish), Some(ud)) => (fish, ud.clone()),
+            _ => return Err(outside(name)),
+        }
     };
-    let ud: AnyUserData = ud;
     ud.borrow_mut_scoped::<World, _>(|world| f(world, fish))
         .map_err(|_| outside(name))?
 }
@@ -170,6 +192,93 @@ fn fill_percept(
     t.raw_set(&k.heading, p.heading)?;
     t.raw_set(&k.speed, p.speed)?;
     Ok(())
+}
+
+/// The nearest fish, predator or food pellet the fish sees — the same one [`World::vision`]
+/// lists first of that kind — found without building (and sorting) the whole percept list:
+/// neighbours come from the world's grid, bearings are computed for the winner only.
+fn nearest_of(
+    w: &World,
+    f: FishId,
+    kind: PerceptKind,
+    species: Option<SpeciesId>,
+    ids: &mut Vec<FishId>,
+) -> Option<Percept> {
+    let me = *w.root(f)?;
+    let my_species = w.species_of(f)?;
+    let desc = &w.species(my_species).desc;
+    let (range, angle) = (desc.view_range, desc.view_angle_deg);
+    let fwd = sense::forward(me.heading, me.pitch);
+    let mut best: Option<Percept> = None;
+    let mut best_d = f32::INFINITY;
+    let blank = |kind, pos: Vec3, distance| Percept {
+        kind,
+        fish: None,
+        food: None,
+        obstacle: None,
+        species: None,
+        pos,
+        distance,
+        bearing: sense::bearing(me.pos, me.heading, pos),
+        elevation: sense::elevation(me.pos, pos),
+        heading: 0.0,
+        speed: 0.0,
+    };
+    match kind {
+        PerceptKind::Fish | PerceptKind::Predator => {
+            w.neighbors(me.pos, range, ids);
+            let mut winner = None;
+            for &o in ids.iter() {
+                if o == f {
+                    continue;
+                }
+                let (Some(sp), Some(r)) = (w.species_of(o), w.root(o)) else {
+                    continue;
+                };
+                let predator = sp != my_species && w.species(sp).desc.predator;
+                if (kind == PerceptKind::Predator) != predator || species.is_some_and(|s| s != sp) {
+                    continue;
+                }
+                let d = r.pos.distance(me.pos);
+                let better = d < best_d
+                    || (d == best_d && winner.is_some_and(|(b, _, _): (FishId, _, _)| o < b));
+                if better && d <= range && sense::in_view_cone(me.pos, fwd, angle, r.pos) {
+                    best_d = d;
+                    winner = Some((o, sp, *r));
+                }
+            }
+            if let Some((o, sp, r)) = winner {
+                best = Some(Percept {
+                    fish: Some(o),
+                    species: Some(sp),
+                    heading: r.heading,
+                    speed: r.speed,
+                    ..blank(kind, r.pos, best_d)
+                });
+            }
+        }
+        PerceptKind::Food => {
+            let mut winner = None;
+            for (id, food) in w.foods() {
+                if food.eaten {
+                    continue;
+                }
+                let d = food.pos.distance(me.pos);
+                if d < best_d && d <= range && sense::in_view_cone(me.pos, fwd, angle, food.pos) {
+                    best_d = d;
+                    winner = Some((id, food.pos));
+                }
+            }
+            if let Some((id, pos)) = winner {
+                best = Some(Percept {
+                    food: Some(id),
+                    ..blank(kind, pos, best_d)
+                });
+            }
+        }
+        PerceptKind::Obstacle => {}
+    }
+    best
 }
 
 fn parse_side(name: &str, s: &LuaString) -> mlua::Result<Side> {
@@ -261,12 +370,18 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         kind_food: key("food")?,
         kind_obstacle: key("obstacle")?,
         kind_predator: key("predator")?,
+        body: BODY_FIELDS
+            .iter()
+            .map(|f| lua.create_string(f))
+            .collect::<mlua::Result<_>>()?,
     };
     lua.set_app_data(Ctx {
         fish: None,
+        world: None,
         perception_ns: 0,
         percepts_of: None,
         percepts: Vec::with_capacity(64),
+        neighbor_ids: Vec::with_capacity(64),
         keys,
         species_names: Vec::new(),
         species_tables: Vec::new(),
@@ -336,22 +451,26 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     .app_data_mut::<Ctx>()
                     .ok_or_else(|| outside("nearest"))?;
                 let ctx = &mut *ctx;
-                if ctx.percepts_of != Some(f) {
-                    w.vision(f, &mut ctx.percepts);
-                    ctx.percepts_of = Some(f);
-                }
                 let want = match &species {
-                    Some(s) => w.species_by_name(&s.to_str()?),
+                    Some(s) => match w.species_by_name(&s.to_str()?) {
+                        Some(id) => Some(id),
+                        None => return Ok(Value::Nil),
+                    },
                     None => None,
                 };
-                if species.is_some() && want.is_none() {
-                    return Ok(Value::Nil);
-                }
-                let found = ctx
-                    .percepts
-                    .iter()
-                    .find(|p| p.kind == kind && (want.is_none() || p.species == want))
-                    .copied();
+                let found = if ctx.percepts_of == Some(f) || kind == PerceptKind::Obstacle {
+                    // The full vision list is at hand (or obstacles, which it handles best).
+                    if ctx.percepts_of != Some(f) {
+                        w.vision(f, &mut ctx.percepts);
+                        ctx.percepts_of = Some(f);
+                    }
+                    ctx.percepts
+                        .iter()
+                        .find(|p| p.kind == kind && (want.is_none() || p.species == want))
+                        .copied()
+                } else {
+                    nearest_of(w, f, kind, want, &mut ctx.neighbor_ids)
+                };
                 let r = match found {
                     Some(p) => {
                         let t = ctx.nearest_out.clone();
@@ -370,26 +489,31 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         lua.create_function(|lua, ()| {
             with_world(lua, "body", |w, f| {
                 let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
-                let t = lua
-                    .app_data_ref::<Ctx>()
-                    .map(|c| c.body_out.clone())
-                    .ok_or_else(|| outside("body"))?;
-                t.raw_set("x", b.pos.x)?;
-                t.raw_set("y", b.pos.y)?;
-                t.raw_set("z", b.pos.z)?;
-                t.raw_set("depth", b.depth)?;
-                t.raw_set("to_floor", b.to_floor)?;
-                t.raw_set("to_surface", b.to_surface)?;
-                t.raw_set("to_wall", b.to_wall)?;
-                t.raw_set("wall_x", b.wall_normal.x)?;
-                t.raw_set("wall_y", b.wall_normal.y)?;
-                t.raw_set("wall_z", b.wall_normal.z)?;
-                t.raw_set("contact", b.contact)?;
-                t.raw_set("speed", b.speed)?;
-                t.raw_set("heading", b.heading)?;
-                t.raw_set("pitch", b.pitch)?;
-                t.raw_set("motion", w.current_motion(f).unwrap_or("idle"))?;
-                t.raw_set("queue", w.queue_len(f).unwrap_or(0))?;
+                let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside("body"))?;
+                let t = &ctx.body_out;
+                let k = &ctx.keys.body;
+                let numbers = [
+                    b.pos.x,
+                    b.pos.y,
+                    b.pos.z,
+                    b.depth,
+                    b.to_floor,
+                    b.to_surface,
+                    b.to_wall,
+                    b.wall_normal.x,
+                    b.wall_normal.y,
+                    b.wall_normal.z,
+                ];
+                for (key, v) in k.iter().zip(numbers) {
+                    t.raw_set(key, v)?;
+                }
+                t.raw_set(&k[10], b.contact)?;
+                t.raw_set(&k[11], b.speed)?;
+                t.raw_set(&k[12], b.heading)?;
+                t.raw_set(&k[13], b.pitch)?;
+                t.raw_set(&k[14], w.current_motion(f).unwrap_or("idle"))?;
+                t.raw_set(&k[15], w.queue_len(f).unwrap_or(0))?;
+                let t = t.clone();
                 Ok(t)
             })
         })?,
