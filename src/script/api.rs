@@ -45,29 +45,7 @@ struct Keys {
     kind_food: LuaString,
     kind_obstacle: LuaString,
     kind_predator: LuaString,
-    /// `shoal.body()` fields, in [`BODY_FIELDS`] order.
-    body: Vec<LuaString>,
 }
-
-/// Field names of the table `shoal.body()` returns.
-const BODY_FIELDS: [&str; 16] = [
-    "x",
-    "y",
-    "z",
-    "depth",
-    "to_floor",
-    "to_surface",
-    "to_wall",
-    "wall_x",
-    "wall_y",
-    "wall_z",
-    "contact",
-    "speed",
-    "heading",
-    "pitch",
-    "motion",
-    "queue",
-];
 
 /// Per-call context of the API, kept as Lua app data.
 pub struct Ctx {
@@ -82,14 +60,12 @@ pub struct Ctx {
     pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
     neighbor_ids: Vec<FishId>,
+    motion_names: Vec<(&'static str, LuaString)>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
     species_tables: Vec<Option<Table>>,
     see_out: Table,
     see_pool: Vec<Table>,
-    nearest_out: Table,
-    body_out: Table,
-    tank_out: Table,
 }
 
 impl Ctx {
@@ -281,6 +257,70 @@ fn nearest_of(
     best
 }
 
+/// A percept as the values `shoal.nearest` returns: kind, species, id, distance, bearing,
+/// elevation, x, y, z, heading, speed (all nil when nothing is seen).
+type PerceptValues = (
+    Option<LuaString>,
+    Option<LuaString>,
+    Option<u32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+);
+
+const NOTHING_SEEN: PerceptValues = (
+    None, None, None, None, None, None, None, None, None, None, None,
+);
+
+fn percept_values(
+    lua: &Lua,
+    ctx: &mut Ctx,
+    world: &World,
+    p: &Percept,
+) -> mlua::Result<PerceptValues> {
+    let species = match p.species {
+        Some(s) => Some(species_name(lua, ctx, world, s)?),
+        None => None,
+    };
+    let id = p
+        .fish
+        .map(|f| f.index)
+        .or(p.food.map(|f| f.0))
+        .or(p.obstacle.map(|o| o.0));
+    Ok((
+        Some(kind_key(&ctx.keys, p.kind).clone()),
+        species,
+        id,
+        Some(p.distance),
+        Some(p.bearing),
+        Some(p.elevation),
+        Some(p.pos.x),
+        Some(p.pos.y),
+        Some(p.pos.z),
+        Some(p.heading),
+        Some(p.speed),
+    ))
+}
+
+/// The motion layer's motion names, interned once.
+fn motion_name(lua: &Lua, name: &'static str) -> mlua::Result<LuaString> {
+    if let Some(ctx) = lua.app_data_ref::<Ctx>()
+        && let Some((_, s)) = ctx.motion_names.iter().find(|(n, _)| *n == name)
+    {
+        return Ok(s.clone());
+    }
+    let s = lua.create_string(name)?;
+    if let Some(mut ctx) = lua.app_data_mut::<Ctx>() {
+        ctx.motion_names.push((name, s.clone()));
+    }
+    Ok(s)
+}
+
 fn parse_side(name: &str, s: &LuaString) -> mlua::Result<Side> {
     match s.as_bytes().as_ref() {
         b"left" => Ok(Side::Left),
@@ -370,10 +410,6 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         kind_food: key("food")?,
         kind_obstacle: key("obstacle")?,
         kind_predator: key("predator")?,
-        body: BODY_FIELDS
-            .iter()
-            .map(|f| lua.create_string(f))
-            .collect::<mlua::Result<_>>()?,
     };
     lua.set_app_data(Ctx {
         fish: None,
@@ -382,14 +418,12 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         percepts_of: None,
         percepts: Vec::with_capacity(64),
         neighbor_ids: Vec::with_capacity(64),
+        motion_names: Vec::new(),
         keys,
         species_names: Vec::new(),
         species_tables: Vec::new(),
         see_out: lua.create_table()?,
         see_pool: Vec::new(),
-        nearest_out: lua.create_table()?,
-        body_out: lua.create_table()?,
-        tank_out: lua.create_table()?,
     });
 
     let shoal = lua.create_table()?;
@@ -439,8 +473,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?,
     )?;
-    shoal.set(
-        "nearest",
+    let nearest_raw =
         lua.create_function(|lua, (kind, species): (LuaString, Option<LuaString>)| {
             let kind = parse_kind(&kind.as_bytes()).ok_or_else(|| {
                 rt("shoal.nearest: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
@@ -454,7 +487,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 let want = match &species {
                     Some(s) => match w.species_by_name(&s.to_str()?) {
                         Some(id) => Some(id),
-                        None => return Ok(Value::Nil),
+                        None => return Ok(NOTHING_SEEN),
                     },
                     None => None,
                 };
@@ -472,52 +505,38 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     nearest_of(w, f, kind, want, &mut ctx.neighbor_ids)
                 };
                 let r = match found {
-                    Some(p) => {
-                        let t = ctx.nearest_out.clone();
-                        fill_percept(lua, ctx, w, &t, &p)?;
-                        Value::Table(t)
-                    }
-                    None => Value::Nil,
+                    Some(p) => percept_values(lua, ctx, w, &p)?,
+                    None => NOTHING_SEEN,
                 };
                 ctx.perception_ns += start.elapsed().as_nanos() as u64;
                 Ok(r)
             })
-        })?,
-    )?;
-    shoal.set(
-        "body",
-        lua.create_function(|lua, ()| {
-            with_world(lua, "body", |w, f| {
-                let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
-                let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside("body"))?;
-                let t = &ctx.body_out;
-                let k = &ctx.keys.body;
-                let numbers = [
-                    b.pos.x,
-                    b.pos.y,
-                    b.pos.z,
-                    b.depth,
-                    b.to_floor,
-                    b.to_surface,
-                    b.to_wall,
-                    b.wall_normal.x,
-                    b.wall_normal.y,
-                    b.wall_normal.z,
-                ];
-                for (key, v) in k.iter().zip(numbers) {
-                    t.raw_set(key, v)?;
-                }
-                t.raw_set(&k[10], b.contact)?;
-                t.raw_set(&k[11], b.speed)?;
-                t.raw_set(&k[12], b.heading)?;
-                t.raw_set(&k[13], b.pitch)?;
-                t.raw_set(&k[14], w.current_motion(f).unwrap_or("idle"))?;
-                t.raw_set(&k[15], w.queue_len(f).unwrap_or(0))?;
-                let t = t.clone();
-                Ok(t)
-            })
-        })?,
-    )?;
+        })?;
+    let body_raw = lua.create_function(|lua, ()| {
+        with_world(lua, "body", |w, f| {
+            let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
+            let motion = motion_name(lua, w.current_motion(f).unwrap_or("idle"))?;
+            let n = b.wall_normal;
+            Ok((
+                b.pos.x,
+                b.pos.y,
+                b.pos.z,
+                b.depth,
+                b.to_floor,
+                b.to_surface,
+                b.to_wall,
+                n.x,
+                n.y,
+                n.z,
+                b.contact,
+                b.speed,
+                b.heading,
+                b.pitch,
+                motion,
+                w.queue_len(f).unwrap_or(0),
+            ))
+        })
+    })?;
     shoal.set(
         "species",
         lua.create_function(|lua, ()| {
@@ -552,25 +571,12 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?,
     )?;
-    shoal.set(
-        "tank",
-        lua.create_function(|lua, ()| {
-            with_world(lua, "tank", |w, _| {
-                let t = *w.tank();
-                let out = lua
-                    .app_data_ref::<Ctx>()
-                    .map(|c| c.tank_out.clone())
-                    .ok_or_else(|| outside("tank"))?;
-                out.raw_set("min_x", t.min.x)?;
-                out.raw_set("min_y", t.min.y)?;
-                out.raw_set("min_z", t.min.z)?;
-                out.raw_set("max_x", t.max.x)?;
-                out.raw_set("max_y", t.max.y)?;
-                out.raw_set("max_z", t.max.z)?;
-                Ok(out)
-            })
-        })?,
-    )?;
+    let tank_raw = lua.create_function(|lua, ()| {
+        with_world(lua, "tank", |w, _| {
+            let t = *w.tank();
+            Ok((t.min.x, t.min.y, t.min.z, t.max.x, t.max.y, t.max.z))
+        })
+    })?;
     shoal.set(
         "time",
         lua.create_function(|lua, ()| with_world(lua, "time", |w, _| Ok(w.time())))?,
@@ -822,9 +828,45 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         })?,
     )?;
 
+    // Tables are filled on the Lua side: a field store there is a VM instruction, while one
+    // made from Rust is a protected call under the memory limit.
+    lua.load(WRAPPERS).set_name("=shoal api").call::<()>((
+        &shoal,
+        body_raw,
+        nearest_raw,
+        tank_raw,
+    ))?;
     lua.globals().set("shoal", shoal)?;
     Ok(())
 }
+
+/// `shoal.body`, `shoal.nearest` and `shoal.tank`: Rust returns plain values, these fill one
+/// reused table each.
+const WRAPPERS: &str = r#"
+local shoal, body_raw, nearest_raw, tank_raw = ...
+local body, near, tank = {}, {}, {}
+function shoal.body()
+  local b = body
+  b.x, b.y, b.z, b.depth, b.to_floor, b.to_surface, b.to_wall,
+    b.wall_x, b.wall_y, b.wall_z, b.contact, b.speed, b.heading, b.pitch, b.motion,
+    b.queue = body_raw()
+  return b
+end
+function shoal.nearest(kind, species)
+  local n = near
+  local k
+  k, n.species, n.id, n.distance, n.bearing, n.elevation, n.x, n.y, n.z, n.heading,
+    n.speed = nearest_raw(kind, species)
+  if k == nil then return nil end
+  n.kind = k
+  return n
+end
+function shoal.tank()
+  local t = tank
+  t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z = tank_raw()
+  return t
+end
+"#;
 
 /// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).
 pub fn registered_names(lua: &Lua) -> mlua::Result<Vec<String>> {

@@ -185,7 +185,11 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Rc<Budget>), Scrip
         remaining: Cell::new(0),
         granted: Cell::new(0),
         abort: Cell::new(None),
-        soft_memory: limits.memory_bytes / 16 * 15,
+        soft_memory: if limits.memory_bytes == 0 {
+            usize::MAX
+        } else {
+            limits.memory_bytes / 16 * 15
+        },
     });
     install(&lua, &root, &budget).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_memory_limit(limits.memory_bytes)
