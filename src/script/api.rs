@@ -200,6 +200,14 @@ fn nearest_of(
         heading: 0.0,
         speed: 0.0,
     };
+    if kind == PerceptKind::Predator
+        && !(0..w.num_species()).any(|i| {
+            let s = SpeciesId(i as u16);
+            s != my_species && w.species(s).desc.predator
+        })
+    {
+        return None; // no predator species in the world: nothing to look for
+    }
     match kind {
         PerceptKind::Fish | PerceptKind::Predator => {
             w.neighbors(me.pos, range, ids);

@@ -33,6 +33,7 @@ pub struct Limits {
     pub instructions_per_load: u64,
     /// Bytes the whole Lua state may allocate (default 256 MiB). A call that grows the state past
     /// 15/16 of it is stopped with an error naming its line; the hard limit is a backstop.
+    /// 0 disables both (for measurements only: a script could then exhaust the process).
     pub memory_bytes: usize,
 }
 
