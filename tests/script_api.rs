@@ -507,7 +507,11 @@ fn test_nearest_agrees_with_the_full_vision_list() {
         let a = i as f32 * 2.399;
         let r = 30.0 + 7.0 * i as f32;
         let p = Vec3::new(a.cos() * r, 200.0 + (a * 3.0).sin() * 60.0, a.sin() * r);
-        let species = if i % 13 == 5 { "barracuda" } else { "black_porgy" };
+        let species = if i % 13 == 5 {
+            "barracuda"
+        } else {
+            "black_porgy"
+        };
         sim.spawn(species, p, a, 0.0, Some(0.0), None).unwrap();
         if i % 3 == 0 {
             sim.world_mut().add_food(p + Vec3::new(20.0, -10.0, 15.0));
