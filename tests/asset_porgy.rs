@@ -306,11 +306,18 @@ fn generated_faces_wind_outwards() {
             if face.dot(n[a] + n[b] + n[c]) <= 0.0 {
                 disagree += 1;
                 if disagree < 12 {
-                    eprintln!("{file}: triangle {a},{b},{c} at {} normal {}", (p[a] + p[b] + p[c]) / 3.0, n[a]);
+                    eprintln!(
+                        "{file}: triangle {a},{b},{c} at {} normal {}",
+                        (p[a] + p[b] + p[c]) / 3.0,
+                        n[a]
+                    );
                 }
             }
         }
-        assert_eq!(disagree, 0, "{file}: {disagree} triangles wound against their normals");
+        assert_eq!(
+            disagree, 0,
+            "{file}: {disagree} triangles wound against their normals"
+        );
         // Mid-body flank vertices (|x| well off the median plane) face outwards in x.
         let mut outward = 0;
         let mut total = 0;
@@ -322,6 +329,9 @@ fn generated_faces_wind_outwards() {
                 }
             }
         }
-        assert!(total > 10 && outward == total, "{file}: {outward}/{total} flank normals outward");
+        assert!(
+            total > 10 && outward == total,
+            "{file}: {outward}/{total} flank normals outward"
+        );
     }
 }

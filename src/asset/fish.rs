@@ -657,12 +657,14 @@ impl FishPlan {
             for i in 0..=na {
                 for j in 0..=nb {
                     let (a, b) = (i as f32 / na as f32, j as f32 / nb as f32);
-                    m.positions.push(point(a, b) + side * (sign * thickness * (1.0 - b)));
+                    m.positions
+                        .push(point(a, b) + side * (sign * thickness * (1.0 - b)));
                     m.normals.push(side * sign);
                     m.colors.push(color(a, b));
                     pairs.clear();
                     weights(a, b, &mut pairs);
-                    m.influences.push(Influences::from_pairs(&pairs, joint("root")));
+                    m.influences
+                        .push(Influences::from_pairs(&pairs, joint("root")));
                 }
             }
             let v = |i: usize, j: usize| base + (i * (nb + 1) + j) as u32;
