@@ -282,6 +282,7 @@ fn species_desc_reads_from_json_with_defaults() {
     let d: SpeciesDesc = serde_json::from_str(json).unwrap();
     assert_eq!(d.drives, shoal::species::Drives::default());
     assert_eq!(d.color_tint, None);
+    assert!(!d.predator);
     assert!(d.view_range > 0.0 && d.max_speed > 0.0);
     d.validate().unwrap();
     let eel = SpeciesDesc::eel();
