@@ -77,7 +77,8 @@ pub struct SpeciesDesc {
     /// Top speed, world units per second.
     #[serde(default = "default_max_speed")]
     pub max_speed: f32,
-    /// Whether other fish perceive this species as a predator (and it hunts them).
+    /// Whether other species see this one as a predator (their vision reports its fish as
+    /// `PerceptKind::Predator`).
     #[serde(default)]
     pub predator: bool,
     /// Optional linear RGB multiplier on the asset's colours.

@@ -9,6 +9,7 @@ use glam::{Mat4, Vec3};
 use shoal::motion::{Body, MotionParams};
 use shoal::script::Simulation;
 use shoal::skeleton::{JointTransform, NO_PARENT, Skeleton};
+use shoal::skin::SkinnedMesh;
 use shoal::world::{FishModel, Species, SpeciesDesc, SpeciesRig};
 
 /// The repository root (holds `scripts/`).
@@ -59,10 +60,13 @@ pub fn species(name: &str, predator: bool) -> Species {
         .collect();
     let skeleton = Skeleton::new(parents, names, locals).unwrap();
     let ibms = skeleton.rest_models().iter().map(Mat4::inverse).collect();
+    let rest_locals = skeleton.rest_locals().to_vec();
+    let num_driven = body.power.len();
     Species {
         desc: SpeciesDesc {
             name: name.to_owned(),
             asset: String::new(),
+            vertebral_joints: (1..=num_driven).map(|i| format!("j{i}")).collect(),
             motion: MotionParams {
                 s: if predator { 70.0 } else { 50.0 },
                 ..motion
@@ -71,14 +75,25 @@ pub fn species(name: &str, predator: bool) -> Species {
             view_angle_deg: 300.0,
             max_speed: if predator { 160.0 } else { 150.0 },
             predator,
+            ..SpeciesDesc::black_porgy()
         },
         rig: SpeciesRig {
             body,
+            // Joints j1.. are the driven ones; their local frames are the body frame, so the
+            // ventral bend axis is −y.
+            driven_joints: (1..=num_driven).collect(),
+            bend_axes: vec![Vec3::NEG_Y; num_driven],
             model_to_body: Mat4::IDENTITY,
+            model_body_length: motion.l,
+            model_forward: Vec3::X,
+            model_up: Vec3::Y,
+            rest_locals,
         },
         model: Arc::new(FishModel {
             skeleton,
             inverse_bind_poses: ibms,
+            mesh: SkinnedMesh::default(),
+            warnings: Vec::new(),
         }),
     }
 }
