@@ -73,7 +73,9 @@ pub enum JointKind {
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum SkeletonError {
     /// The per-joint arrays disagree in length.
-    #[error("skeleton arrays differ in length: {parents} parents, {names} names, {rests} rest poses")]
+    #[error(
+        "skeleton arrays differ in length: {parents} parents, {names} names, {rests} rest poses"
+    )]
     LengthMismatch {
         parents: usize,
         names: usize,

@@ -1,0 +1,111 @@
+//! Helpers shared by the integration tests (script tests and asset tests).
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+
+use shoal::motion::MotionParams;
+use shoal::script::Simulation;
+use shoal::world::{FishModel, Species, SpeciesDesc, SpeciesRig};
+
+/// The repository root (holds `scripts/`).
+pub fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A copy of the repository's `scripts/` in a temporary directory (for tests that edit files).
+pub fn scratch_repo() -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(&repo().join("scripts"), &dir.path().join("scripts"));
+    let root = dir.path().to_path_buf();
+    (dir, root)
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            std::fs::copy(&p, to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// The black porgy built from `assets/black_porgy.glb` and `SpeciesDesc::black_porgy()`, named
+/// `name`; a predator swims faster and sees further. (Built here rather than from
+/// `scripts/species/*.lua` while the world still carries its interim species types.)
+pub fn species(name: &str, predator: bool) -> Species {
+    let real = shoal::species::SpeciesDesc::black_porgy();
+    let model = FishModel::load(&repo().join("assets").join(&real.asset)).unwrap();
+    let rig = shoal::species::SpeciesRig::bind(&real, &model).unwrap();
+    let base = SpeciesDesc::black_porgy();
+    Species {
+        desc: SpeciesDesc {
+            name: name.to_owned(),
+            motion: MotionParams {
+                s: if predator { 70.0 } else { 50.0 },
+                ..base.motion
+            },
+            view_range: if predator { 500.0 } else { 300.0 },
+            max_speed: if predator { 160.0 } else { 150.0 },
+            predator,
+            ..base
+        },
+        rig: SpeciesRig {
+            body: rig.body,
+            driven_joints: rig.driven_joints,
+            bend_axes: rig.bend_axes,
+            model_to_body: rig.model_to_body,
+            model_body_length: rig.model_body_length,
+            model_forward: rig.model_forward,
+            model_up: rig.model_up,
+            rest_locals: rig.rest_locals,
+        },
+        model: Arc::new(model),
+    }
+}
+
+/// An empty-tank simulation of the repository's scripts with the test species
+/// `black_porgy` and `barracuda` added.
+pub fn sim(seed: u64) -> Simulation {
+    sim_in(repo(), seed)
+}
+
+/// Like [`sim`] for the scripts under `root`.
+pub fn sim_in(root: &Path, seed: u64) -> Simulation {
+    let mut s = Simulation::from_scene(root, Path::new("scenes/empty_tank.lua"), seed).unwrap();
+    s.add_species(species("black_porgy", false), 10.0);
+    s.add_species(species("barracuda", true), 10.0);
+    s
+}
+
+/// Runs the Khronos validator (tools/validate-gltf.mjs) on `files`; panics with its report on
+/// any error or warning, or if the validator is not installed.
+pub fn validate(files: &[&Path]) {
+    let tools = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools");
+    assert!(
+        tools.join("node_modules/gltf-validator").is_dir(),
+        "the glTF validator is not installed: run `npm ci` in tools/ (needs node and npm)"
+    );
+    let out = Command::new("node")
+        .arg(tools.join("validate-gltf.mjs"))
+        .args(files)
+        .output()
+        .expect("running node: install nodejs to run the glTF validator");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "validator found errors or warnings:\n{report}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in files {
+        assert!(
+            report.contains(&format!("{}: 0 errors, 0 warnings", f.display())),
+            "{report}"
+        );
+    }
+}
