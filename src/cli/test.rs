@@ -28,7 +28,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let root = std::env::current_dir().context("cannot read the current directory")?;
     let paths = if args.paths.is_empty() {
-        vec![root.join("tests/behavior")]
+        vec![PathBuf::from("tests/behavior")]
     } else {
         args.paths.clone()
     };
@@ -62,7 +62,11 @@ fn run_once(paths: &[PathBuf], options: &RunOptions) -> anyhow::Result<Summary> 
     Ok(summary)
 }
 
-fn watch(paths: &[PathBuf], root: &std::path::Path, options: &RunOptions) -> anyhow::Result<ExitCode> {
+fn watch(
+    paths: &[PathBuf],
+    root: &std::path::Path,
+    options: &RunOptions,
+) -> anyhow::Result<ExitCode> {
     use notify::RecursiveMode;
     use notify_debouncer_full::new_debouncer;
 
@@ -76,7 +80,9 @@ fn watch(paths: &[PathBuf], root: &std::path::Path, options: &RunOptions) -> any
         let dir = if path.is_dir() {
             path.clone()
         } else {
-            path.parent().map(|p| p.to_path_buf()).unwrap_or_else(|| root.to_path_buf())
+            path.parent()
+                .map(|p| p.to_path_buf())
+                .unwrap_or_else(|| root.to_path_buf())
         };
         debouncer
             .watch(&dir, RecursiveMode::Recursive)

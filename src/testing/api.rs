@@ -26,6 +26,11 @@
 //!   (mean distance to each fish's nearest neighbour), `w:min_distance(fishes)`, `w:centroid(fishes)`,
 //!   `w:tank()` → `{min, max}`, `w:errors()` → script errors so far (strings with file:line),
 //!   `w:obstacles()`, `w:fish_count()`.
+//! - `t:world{scratch = true}` gives the world a private copy of `scripts/` and `assets/`;
+//!   `w:write_script(path, source)` then writes a script there (path relative to `scripts/`) and
+//!   reloads what it affects, as saving it in an editor would in the aquarium.
+//! - Fish also expose `species` (name) and `params` (the species' motion parameters: `p`, `s`,
+//!   `l`, `max_amp`, `lambda`, `omega`, `tt` in seconds, `f`, `turn_angle`).
 //! - `t:expect(cond, msg)`, `t:near(actual, expected, tol, msg)`, `t:less(a, b, msg)`,
 //!   `t:greater(a, b, msg)`: record a failure (with file, line, expected, actual, simulated time)
 //!   and carry on; a Lua error ends the test as a failure.
@@ -36,7 +41,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use glam::Vec3;
-use mlua::{Lua, Table, UserData, UserDataFields, UserDataMethods, Value};
+use mlua::{Lua, LuaSerdeExt, Table, UserData, UserDataFields, UserDataMethods, Value};
 
 use super::trace::{Sample, Trace};
 use super::{Failure, RunOptions, TestOutcome};
@@ -60,6 +65,8 @@ struct TestState {
 
 struct WorldState {
     sim: Simulation,
+    /// The private copy of `scripts/` and `assets/` of a `scratch = true` world (removed on drop).
+    scratch: Option<tempfile::TempDir>,
     trace: Vec<Sample>,
     fish: Vec<FishId>,
     foods: Vec<FoodId>,
@@ -83,7 +90,12 @@ impl WorldState {
 
     fn step(&mut self) {
         self.sim.step();
-        if self.sim.world().tick_count() % TRACE_EVERY_TICKS == 0 {
+        if self
+            .sim
+            .world()
+            .tick_count()
+            .is_multiple_of(TRACE_EVERY_TICKS)
+        {
             self.record();
         }
     }
@@ -99,7 +111,11 @@ impl WorldState {
                 .iter()
                 .filter_map(|&id| world.food(id).map(|f| (f.pos, f.eaten)))
                 .collect(),
-            obstacles: world.obstacles().iter().map(|o| (o.pos, o.radius)).collect(),
+            obstacles: world
+                .obstacles()
+                .iter()
+                .map(|o| (o.pos, o.radius))
+                .collect(),
         }
     }
 }
@@ -142,6 +158,26 @@ fn caller_line(lua: &Lua) -> Option<usize> {
     })
 }
 
+/// A runtime error located at the Lua line that called into Rust (`file:line: message`), so
+/// errors raised by the test API point at the test's own line like Lua's `error()` does.
+fn located(lua: &Lua, message: impl std::fmt::Display) -> mlua::Error {
+    let place = (1..6).find_map(|level| {
+        lua.inspect_stack(level, |debug| {
+            let source = debug.source();
+            if source.what == "C" {
+                return None;
+            }
+            let file = source.short_src.as_deref().unwrap_or("?").to_string();
+            debug.current_line().map(|line| format!("{file}:{line}"))
+        })
+        .flatten()
+    });
+    match place {
+        Some(place) => mlua::Error::runtime(format!("{place}: {message}")),
+        None => mlua::Error::runtime(message.to_string()),
+    }
+}
+
 fn vec3_from(value: &Value, what: &str) -> mlua::Result<Vec3> {
     let Value::Table(t) = value else {
         return Err(mlua::Error::runtime(format!(
@@ -151,9 +187,9 @@ fn vec3_from(value: &Value, what: &str) -> mlua::Result<Vec3> {
     };
     let mut v = [0f32; 3];
     for (i, slot) in v.iter_mut().enumerate() {
-        let n: f64 = t.get(i + 1).map_err(|_| {
-            mlua::Error::runtime(format!("{what}[{}] must be a number", i + 1))
-        })?;
+        let n: f64 = t
+            .get(i + 1)
+            .map_err(|_| mlua::Error::runtime(format!("{what}[{}] must be a number", i + 1)))?;
         if !n.is_finite() {
             return Err(mlua::Error::runtime(format!(
                 "{what}[{}] = {n} is not a finite number",
@@ -215,20 +251,30 @@ impl UserData for TestHandle {
             };
             let seed: u64 = opts.get::<Option<u64>>("seed")?.unwrap_or(1);
             let scene: Option<String> = opts.get("scene")?;
-            let root = this.0.borrow().root.clone();
+            let scratch_wanted = opts.get::<Option<bool>>("scratch")?.unwrap_or(false);
+            let mut root = this.0.borrow().root.clone();
+            let scratch = if scratch_wanted {
+                let dir = make_scratch(&root)
+                    .map_err(|e| located(lua, format!("t:world scratch copy: {e}")))?;
+                root = dir.path().to_path_buf();
+                Some(dir)
+            } else {
+                None
+            };
             let mut sim = match &scene {
                 Some(scene) => Simulation::from_scene(&root, Path::new(scene), seed),
                 None => Simulation::empty(&root, seed),
             }
-            .map_err(|e| mlua::Error::runtime(format!("t:world: {e}")))?;
+            .map_err(|e| located(lua, format!("t:world: {e}")))?;
             if let Some(tank) = opts.get::<Option<Table>>("tank")? {
                 let min = vec3_from(&tank.get("min")?, "tank.min")?;
                 let max = vec3_from(&tank.get("max")?, "tank.max")?;
                 sim.set_tank(min, max)
-                    .map_err(|e| mlua::Error::runtime(format!("t:world: {e}")))?;
+                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
             }
             let world = Rc::new(RefCell::new(WorldState {
                 sim,
+                scratch,
                 trace: Vec::new(),
                 fish: Vec::new(),
                 foods: Vec::new(),
@@ -239,16 +285,19 @@ impl UserData for TestHandle {
                 test: this.0.clone(),
             })
         });
-        methods.add_method("expect", |lua, this, (cond, msg): (Value, Option<String>)| {
-            let ok = !matches!(cond, Value::Nil | Value::Boolean(false));
-            Ok(this.check(lua, ok, || {
-                format!(
-                    "expected: {} — got {}",
-                    msg.unwrap_or_else(|| "condition to hold".into()),
-                    describe(&cond)
-                )
-            }))
-        });
+        methods.add_method(
+            "expect",
+            |lua, this, (cond, msg): (Value, Option<String>)| {
+                let ok = !matches!(cond, Value::Nil | Value::Boolean(false));
+                Ok(this.check(lua, ok, || {
+                    format!(
+                        "expected: {} — got {}",
+                        msg.unwrap_or_else(|| "condition to hold".into()),
+                        describe(&cond)
+                    )
+                }))
+            },
+        );
         methods.add_method(
             "near",
             |lua, this, (actual, expected, tol, msg): (f64, f64, f64, Option<String>)| {
@@ -320,16 +369,14 @@ fn ticks_for(seconds: f64) -> mlua::Result<u64> {
 
 impl UserData for WorldHandle {
     fn add_fields<F: UserDataFields<Self>>(fields: &mut F) {
-        fields.add_field_method_get("time", |_, this| {
-            Ok(this.world.borrow().sim.world().time())
-        });
+        fields.add_field_method_get("time", |_, this| Ok(this.world.borrow().sim.world().time()));
     }
 
     fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
-        methods.add_method("spawn", |_, this, opts: Table| {
+        methods.add_method("spawn", |lua, this, opts: Table| {
             let species: String = opts
                 .get::<Option<String>>("species")?
-                .ok_or_else(|| mlua::Error::runtime("w:spawn needs species = \"name\""))?;
+                .ok_or_else(|| located(lua, "w:spawn needs species = \"name\""))?;
             let pos = vec3_from(&opts.get("pos")?, "pos")?;
             let heading: f32 = opts.get::<Option<f32>>("heading")?.unwrap_or(0.0);
             let pitch: f32 = opts.get::<Option<f32>>("pitch")?.unwrap_or(0.0);
@@ -339,7 +386,7 @@ impl UserData for WorldHandle {
             let id = world
                 .sim
                 .spawn(&species, pos, heading, pitch, speed, behavior.as_deref())
-                .map_err(|e| mlua::Error::runtime(format!("w:spawn: {e}")))?;
+                .map_err(|e| located(lua, format!("w:spawn: {e}")))?;
             world.fish.push(id);
             world.record();
             Ok(FishHandle {
@@ -365,7 +412,11 @@ impl UserData for WorldHandle {
                     "w:obstacle radius must be > 0, got {radius}"
                 )));
             }
-            this.world.borrow_mut().sim.world_mut().add_obstacle(pos, radius);
+            this.world
+                .borrow_mut()
+                .sim
+                .world_mut()
+                .add_obstacle(pos, radius);
             Ok(())
         });
         methods.add_method("run", |_, this, seconds: f64| {
@@ -449,6 +500,40 @@ impl UserData for WorldHandle {
             let world = this.world.borrow();
             lua.create_sequence_from(world.sim.error_messages())
         });
+        methods.add_method(
+            "write_script",
+            |_, this, (relative, source): (String, String)| {
+                let mut world = this.world.borrow_mut();
+                let Some(dir) = world.scratch.as_ref() else {
+                    return Err(mlua::Error::runtime(
+                        "w:write_script needs a world made with t:world{ scratch = true }",
+                    ));
+                };
+                let relative = Path::new(&relative);
+                if relative.is_absolute()
+                    || relative
+                        .components()
+                        .any(|c| matches!(c, std::path::Component::ParentDir))
+                {
+                    return Err(mlua::Error::runtime(format!(
+                        "w:write_script: {} must be a path inside scripts/",
+                        relative.display()
+                    )));
+                }
+                let path = dir.path().join("scripts").join(relative);
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent).map_err(mlua::Error::external)?;
+                }
+                std::fs::write(&path, source).map_err(mlua::Error::external)?;
+                // As the file watcher would on a save: reload what the file affects.
+                let events = world.sim.reload_changed(&[path]);
+                Ok(events
+                    .iter()
+                    .map(|e| format!("{e:?}"))
+                    .collect::<Vec<_>>()
+                    .join("; "))
+            },
+        );
         methods.add_method("fish_count", |_, this, ()| {
             Ok(this.world.borrow().sim.world().num_fish())
         });
@@ -491,6 +576,28 @@ pub fn nearest_distances(points: &[Vec3]) -> (f64, f64) {
     (sum / points.len() as f64, min)
 }
 
+/// A private copy of `root/scripts` and `root/assets` so a test can write scripts freely.
+fn make_scratch(root: &Path) -> std::io::Result<tempfile::TempDir> {
+    fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
+        std::fs::create_dir_all(to)?;
+        for entry in std::fs::read_dir(from)? {
+            let entry = entry?;
+            let path = entry.path();
+            if path.is_dir() {
+                copy_dir(&path, &to.join(entry.file_name()))?;
+            } else {
+                std::fs::copy(&path, to.join(entry.file_name()))?;
+            }
+        }
+        Ok(())
+    }
+    let dir = tempfile::tempdir()?;
+    for sub in ["scripts", "assets"] {
+        copy_dir(&root.join(sub), &dir.path().join(sub))?;
+    }
+    Ok(dir)
+}
+
 fn parse_side(side: &str) -> mlua::Result<Side> {
     match side {
         "left" => Ok(Side::Left),
@@ -513,13 +620,13 @@ fn parse_kind(kind: &str) -> mlua::Result<TurnKind> {
 }
 
 impl FishHandle {
-    fn request(&self, request: MotionRequest) -> mlua::Result<()> {
+    fn request(&self, lua: &Lua, request: MotionRequest) -> mlua::Result<()> {
         self.world
             .borrow_mut()
             .sim
             .world_mut()
             .request(self.id, request, true)
-            .map_err(|e| mlua::Error::runtime(e.to_string()))
+            .map_err(|e| located(lua, e))
     }
 }
 
@@ -559,6 +666,20 @@ impl UserData for FishHandle {
             let world = this.world.borrow();
             Ok(world.sim.world().current_motion(this.id))
         });
+        fields.add_field_method_get("params", |lua, this| {
+            let world = this.world.borrow();
+            let w = world.sim.world();
+            match w.species_of(this.id) {
+                Some(sid) => lua.to_value(&w.species(sid).desc.motion),
+                None => Ok(Value::Nil),
+            }
+        });
+        fields.add_field_method_get("species", |_, this| {
+            let world = this.world.borrow();
+            let w = world.sim.world();
+            Ok(w.species_of(this.id)
+                .map(|sid| w.species(sid).desc.name.clone()))
+        });
         fields.add_field_method_get("memory", |lua, this| {
             let world = this.world.borrow();
             let json = world.sim.memory_json(this.id);
@@ -567,32 +688,38 @@ impl UserData for FishHandle {
     }
 
     fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
-        methods.add_method("swim", |_, this, speed: f32| {
-            this.request(MotionRequest::Swim { speed })
+        methods.add_method("swim", |lua, this, speed: f32| {
+            this.request(lua, MotionRequest::Swim { speed })
         });
-        methods.add_method("accelerate", |_, this, (speed, duration): (f32, f32)| {
-            this.request(MotionRequest::Accelerate { speed, duration })
+        methods.add_method("accelerate", |lua, this, (speed, duration): (f32, f32)| {
+            this.request(lua, MotionRequest::Accelerate { speed, duration })
         });
-        methods.add_method("stop", |_, this, duration: Option<f32>| {
-            this.request(MotionRequest::Stop {
-                duration: duration.unwrap_or(1.0),
-            })
+        methods.add_method("stop", |lua, this, duration: Option<f32>| {
+            this.request(
+                lua,
+                MotionRequest::Stop {
+                    duration: duration.unwrap_or(1.0),
+                },
+            )
         });
         methods.add_method(
             "turn",
-            |_, this, (kind, degrees, side): (String, f32, String)| {
-                this.request(MotionRequest::Turn {
-                    kind: parse_kind(&kind)?,
-                    angle: degrees.to_radians(),
-                    side: parse_side(&side)?,
-                })
+            |lua, this, (kind, degrees, side): (String, f32, String)| {
+                this.request(
+                    lua,
+                    MotionRequest::Turn {
+                        kind: parse_kind(&kind)?,
+                        angle: degrees.to_radians(),
+                        side: parse_side(&side)?,
+                    },
+                )
             },
         );
-        methods.add_method("ascend", |_, this, height: f32| {
-            this.request(MotionRequest::Ascend { height })
+        methods.add_method("ascend", |lua, this, height: f32| {
+            this.request(lua, MotionRequest::Ascend { height })
         });
-        methods.add_method("descend", |_, this, depth: f32| {
-            this.request(MotionRequest::Descend { depth })
+        methods.add_method("descend", |lua, this, depth: f32| {
+            this.request(lua, MotionRequest::Descend { depth })
         });
         methods.add_method("set_behavior", |_, this, name: Option<String>| {
             let mut world = this.world.borrow_mut();
@@ -613,7 +740,12 @@ impl UserData for FoodHandle {
         });
         fields.add_field_method_get("pos", |lua, this| {
             let world = this.world.borrow();
-            let pos = world.sim.world().food(this.id).map(|f| f.pos).unwrap_or_default();
+            let pos = world
+                .sim
+                .world()
+                .food(this.id)
+                .map(|f| f.pos)
+                .unwrap_or_default();
             vec3_to(lua, pos)
         });
     }
@@ -746,7 +878,9 @@ fn run_one(
     {
         let stem = format!(
             "{}-{}",
-            file.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default(),
+            file.file_stem()
+                .map(|s| s.to_string_lossy())
+                .unwrap_or_default(),
             slug(name)
         );
         for (i, world) in state.worlds.iter().enumerate() {
@@ -758,7 +892,10 @@ fn run_one(
             };
             let csv = dir.join(format!("{base}.csv"));
             let png = dir.join(format!("{base}.png"));
-            match trace.write_csv(&csv).and_then(|()| trace.write_top_view(&png)) {
+            match trace
+                .write_csv(&csv)
+                .and_then(|()| trace.write_top_view(&png))
+            {
                 Ok(()) => trace_files.extend([csv, png]),
                 Err(e) => log::warn!("{e}"),
             }
@@ -777,7 +914,13 @@ fn run_one(
 
 fn slug(name: &str) -> String {
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 
@@ -832,6 +975,9 @@ mod tests {
             split_lua_error("tests/behavior/a_test.lua:12: boom\nstack traceback:"),
             (Some(12), "boom".to_string())
         );
-        assert_eq!(split_lua_error("no line here"), (None, "no line here".into()));
+        assert_eq!(
+            split_lua_error("no line here"),
+            (None, "no line here".into())
+        );
     }
 }

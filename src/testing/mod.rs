@@ -43,7 +43,11 @@ impl std::fmt::Display for Failure {
             Some(line) => write!(f, "{}:{line}: ", self.file.display())?,
             None => write!(f, "{}: ", self.file.display())?,
         }
-        write!(f, "{} (at simulated t = {:.2} s)", self.message, self.sim_time)
+        write!(
+            f,
+            "{} (at simulated t = {:.2} s)",
+            self.message, self.sim_time
+        )
     }
 }
 

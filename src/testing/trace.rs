@@ -83,12 +83,13 @@ impl Trace {
         let root = BitMapBackend::new(path, (px, py)).into_drawing_area();
         root.fill(&RGBColor(12, 40, 64)).map_err(|e| plot_err(&e))?;
         // Top view seen from above with +y up: x to the right, z towards the bottom.
-        let area = root.apply_coord_spec(Cartesian2d::<
-            plotters::coord::types::RangedCoordf32,
-            plotters::coord::types::RangedCoordf32,
-        >::new(
-            min.x..max.x, min.z..max.z, (0..px as i32, 0..py as i32)
-        ));
+        let area =
+            root.apply_coord_spec(Cartesian2d::<
+                plotters::coord::types::RangedCoordf32,
+                plotters::coord::types::RangedCoordf32,
+            >::new(
+                min.x..max.x, min.z..max.z, (0..px as i32, 0..py as i32)
+            ));
         area.draw(&Rectangle::new(
             [(min.x, min.z), (max.x, max.z)],
             ShapeStyle::from(&RGBColor(200, 220, 240)).stroke_width(2),
