@@ -10,11 +10,16 @@ use shoal::script::{ReloadEvent, Simulation};
 
 #[test]
 fn test_default_scene_runs_without_script_errors() {
-    let mut sim = Simulation::from_scene(common::repo(), Path::new("scenes/default.lua"), 1).unwrap();
+    let mut sim =
+        Simulation::from_scene(common::repo(), Path::new("scenes/default.lua"), 1).unwrap();
     assert_eq!(sim.world().num_fish(), 37);
     let foods_at_start = sim.world().foods().count();
     sim.run(20.0);
-    assert!(sim.error_messages().is_empty(), "{:?}", sim.error_messages());
+    assert!(
+        sim.error_messages().is_empty(),
+        "{:?}",
+        sim.error_messages()
+    );
     assert!(sim.load_errors().is_empty(), "{:?}", sim.load_errors());
     // Food drops every 5 s from t = 3: at 3, 8, 13, 18 → 4 drops of 3 pellets.
     assert_eq!(sim.world().foods().count(), foods_at_start + 12);
@@ -38,10 +43,24 @@ fn test_species_files_set_decision_rates() {
     .unwrap();
     let mut sim = Simulation::from_scene(&root, Path::new("scenes/empty_tank.lua"), 2).unwrap();
     let eel = sim
-        .spawn("eel", Vec3::new(0.0, 100.0, 0.0), 0.0, 0.0, None, Some("count"))
+        .spawn(
+            "eel",
+            Vec3::new(0.0, 100.0, 0.0),
+            0.0,
+            0.0,
+            None,
+            Some("count"),
+        )
         .unwrap();
     let porgy = sim
-        .spawn("black_porgy", Vec3::new(0.0, 200.0, 0.0), 0.0, 0.0, None, Some("count"))
+        .spawn(
+            "black_porgy",
+            Vec3::new(0.0, 200.0, 0.0),
+            0.0,
+            0.0,
+            None,
+            Some("count"),
+        )
         .unwrap();
     sim.run(1.0);
     assert_eq!(sim.memory_json(eel)["n"], 5);
@@ -66,14 +85,19 @@ fn test_species_reload_applies_to_live_fish() {
     assert_ne!(before, 77.0);
     assert_eq!(sim.world().species(sid).desc.max_speed, 77.0);
     sim.run(0.5);
-    assert!(sim.error_messages().is_empty(), "{:?}", sim.error_messages());
+    assert!(
+        sim.error_messages().is_empty(),
+        "{:?}",
+        sim.error_messages()
+    );
     // A broken species file keeps the old data and says why.
     std::fs::write(&file, "return { base = 'black_porgy', decision_hz = 0 }\n").unwrap();
     let events = sim.reload_changed(std::slice::from_ref(&file));
     assert_eq!(
         events,
         [ReloadEvent::Failed(
-            "scripts/species/black_porgy.lua: decision_hz must be a number in (0, 60], got 0".into()
+            "scripts/species/black_porgy.lua: decision_hz must be a number in (0, 60], got 0"
+                .into()
         )]
     );
     assert_eq!(sim.world().species(sid).desc.max_speed, 77.0);
