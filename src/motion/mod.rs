@@ -81,7 +81,11 @@ pub enum MotionRequest {
     /// Come to rest over `duration` seconds.
     Stop { duration: f32 },
     /// Turn by `angle` radians (> 0) to `side`.
-    Turn { kind: TurnKind, angle: f32, side: Side },
+    Turn {
+        kind: TurnKind,
+        angle: f32,
+        side: Side,
+    },
     /// Rise by `height` length units (pitch up, then level out).
     Ascend { height: f32 },
     /// Sink by `depth` length units (pitch down, then level out).
@@ -116,7 +120,11 @@ pub struct Body {
 pub enum MotionError {
     /// A parameter is NaN, infinite or out of its range.
     #[error("invalid motion parameter {name} = {value}: {why}")]
-    InvalidParam { name: &'static str, value: f32, why: String },
+    InvalidParam {
+        name: &'static str,
+        value: f32,
+        why: String,
+    },
 }
 
 /// Plays a queue of [`MotionRequest`]s for one fish, integrating the wave phase over time.

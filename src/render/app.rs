@@ -1,0 +1,1 @@
+//! The aquarium window (`shoal run`).
