@@ -131,10 +131,20 @@ impl ShaderWatcher {
             None,
             move |res: notify_debouncer_full::DebounceEventResult| {
                 if let Ok(events) = res {
+                    use notify_debouncer_full::notify::EventKind;
+                    use notify_debouncer_full::notify::event::ModifyKind;
+                    // Only writes count: reading the files to reload them must not re-trigger.
                     let wgsl = events.iter().any(|e| {
-                        e.paths
-                            .iter()
-                            .any(|p| p.extension().is_some_and(|x| x == "wgsl"))
+                        let write = match e.kind {
+                            EventKind::Create(_) | EventKind::Remove(_) => true,
+                            EventKind::Modify(ModifyKind::Metadata(_)) => false,
+                            EventKind::Modify(_) => true,
+                            _ => false,
+                        };
+                        write
+                            && e.paths
+                                .iter()
+                                .any(|p| p.extension().is_some_and(|x| x == "wgsl"))
                     });
                     if wgsl {
                         let _ = tx.send(());
