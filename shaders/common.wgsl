@@ -38,7 +38,7 @@ fn apply_fog(color: vec3<f32>, world_pos: vec3<f32>) -> vec3<f32> {
     let depth = max(globals.tank_max_caustic.y - world_pos.y, 0.0);
     let height = max(globals.tank_max_caustic.y - globals.tank_min_fog.y, 1.0);
     // Deeper surfaces receive less light and look bluer.
-    let depth_att = mix(vec3<f32>(1.0), vec3<f32>(0.55, 0.75, 0.9), clamp(depth / height, 0.0, 1.0));
+    let depth_att = mix(vec3<f32>(1.0), vec3<f32>(0.72, 0.86, 0.95), clamp(depth / height, 0.0, 1.0));
     let lit = color * depth_att;
     let f = 1.0 - exp(-dist * globals.tank_min_fog.w);
     return mix(lit, water_color(to_pos / max(dist, 1e-4)), clamp(f, 0.0, 1.0));

@@ -79,13 +79,13 @@ fn fs_floor(in: FloorOut) -> @location(0) vec4<f32> {
     let warp = value_noise(p * 0.02) * 6.0;
     let ripple = sin(p.x * 0.11 + p.y * 0.04 + warp) * 0.5 + 0.5;
     let grain = value_noise(p * 0.9) * 0.5 + value_noise(p * 0.23) * 0.5;
-    let sand = vec3<f32>(0.52, 0.4, 0.22) * (0.78 + 0.14 * ripple + 0.16 * grain);
+    let sand = vec3<f32>(0.66, 0.5, 0.27) * (0.78 + 0.14 * ripple + 0.16 * grain);
     let lo = globals.tank_min_fog.xz;
     let hi = globals.tank_max_caustic.xz;
     // Outside the tank walls the floor darkens so the tank footprint reads clearly.
     let inside = step(lo.x, p.x) * step(p.x, hi.x) * step(lo.y, p.y) * step(p.y, hi.y);
     let light = max(globals.light_dir.y, 0.0) * 0.85 + 0.2;
     var color = sand * light * mix(0.45, 1.0, inside);
-    color = color + vec3<f32>(0.55, 0.75, 0.6) * caustics(in.world_pos) * 0.3 * inside;
+    color = color + vec3<f32>(0.75, 0.8, 0.6) * caustics(in.world_pos) * 0.3 * inside;
     return vec4<f32>(apply_fog(color, in.world_pos), 1.0);
 }

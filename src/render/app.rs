@@ -562,6 +562,9 @@ impl ApplicationHandler for App {
     }
 }
 
+/// Picks one stage's time out of a frame's timings.
+type StageOf = fn(&FrameTimes) -> f32;
+
 fn mean_max(times: &VecDeque<FrameTimes>, f: impl Fn(&FrameTimes) -> f32) -> (f32, f32) {
     if times.is_empty() {
         return (0.0, 0.0);
@@ -601,7 +604,7 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                 ui.label("mean");
                 ui.label("max");
                 ui.end_row();
-                let rows: [(&str, fn(&FrameTimes) -> f32); 4] = [
+                let rows: [(&str, StageOf); 4] = [
                     ("simulation", |t| t.sim_ms),
                     ("skinning upload", |t| t.upload_ms),
                     ("draw (encode+submit)", |t| t.draw_ms),

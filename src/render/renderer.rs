@@ -348,7 +348,7 @@ impl Renderer {
         if n == 0 || mesh.indices.is_empty() {
             return Err(bad("no vertices or no indices".into()));
         }
-        if mesh.indices.len() % 3 != 0 {
+        if !mesh.indices.len().is_multiple_of(3) {
             return Err(bad(format!(
                 "{} indices is not a whole number of triangles",
                 mesh.indices.len()

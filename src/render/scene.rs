@@ -142,7 +142,7 @@ impl DemoSceneConfig {
     /// Checks the tank is a proper box and numbers are finite.
     pub fn validate(&self) -> Result<(), String> {
         let s = self.tank.size();
-        if !(s.x > 0.0 && s.y > 0.0 && s.z > 0.0) || !s.is_finite() {
+        if !(s.x > 0.0 && s.y > 0.0 && s.z > 0.0 && s.is_finite()) {
             return Err(format!(
                 "tank min {} must be below max {}",
                 self.tank.min, self.tank.max

@@ -242,11 +242,10 @@ impl TestFish {
         for (j, (dst, inv)) in out.iter_mut().zip(&self.inverse_bind).enumerate() {
             let offset = if j == 0 { 0.0 } else { -seg_len };
             let yaw = yaws.get(j).copied().unwrap_or(0.0);
-            model = model
-                * Mat4::from_rotation_translation(
-                    Quat::from_rotation_y(-yaw),
-                    Vec3::new(offset, 0.0, 0.0),
-                );
+            model *= Mat4::from_rotation_translation(
+                Quat::from_rotation_y(-yaw),
+                Vec3::new(offset, 0.0, 0.0),
+            );
             *dst = root * model * *inv;
         }
     }
