@@ -13,8 +13,23 @@
 //! - `lateral` displacement of the midline is positive towards the fish's left; a joint's local
 //!   `yaw` is positive when it bends the body towards the fish's left.
 //! - `Side` follows the paper's `d`: −1 left, +1 right.
+//!
+//! Files: [`wave`] holds equations (2)–(7) as functions named after the paper's symbols;
+//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); `player.rs` holds
+//! [`MotionPlayer`] (the motions, their queue and the root's locomotion); [`presets`] the four
+//! experiments of Table 1. `docs/motion.md` maps every equation to its function and records every
+//! reading of the paper that had to be chosen.
 
 use glam::Vec3;
+
+pub mod body;
+mod player;
+pub mod presets;
+pub mod wave;
+
+pub use body::{MidlinePoseJob, power_after_fig5};
+pub use player::MotionPlayer;
+pub use presets::Preset;
 
 /// Which way a turn goes: the paper's `d` (−1 left, 1 right; 0 "front" is not a turn).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -125,59 +140,239 @@ pub enum MotionError {
         value: f32,
         why: String,
     },
+    /// A [`Body`] is malformed (joint positions not increasing, lengths disagree, ...).
+    #[error("invalid body: {why}")]
+    InvalidBody { why: String },
+    /// No preset has this name.
+    #[error("unknown motion preset {name:?}: expected one of ex1, ex2, ex3, ex4")]
+    UnknownPreset { name: String },
 }
 
-/// Plays a queue of [`MotionRequest`]s for one fish, integrating the wave phase over time.
-///
-/// Allocation happens only when the queue grows; `step` never allocates.
-#[derive(Debug, Clone)]
-pub struct MotionPlayer {
-    _private: (),
-}
+/// Fraction of `l` the tail tip sweeps peak to peak in a steady swim with the default
+/// parameters (Bainbridge 1958: about 0.2 body lengths).
+pub const DEFAULT_TAIL_EXCURSION_BODY_LENGTHS: f32 = 0.2;
 
-impl MotionPlayer {
-    /// A player at rest with an empty queue.
-    pub fn new() -> Self {
-        todo!("motion work")
+fn check(name: &'static str, value: f32, ok: bool, why: &str) -> Result<(), MotionError> {
+    if !value.is_finite() {
+        return Err(MotionError::InvalidParam {
+            name,
+            value,
+            why: "must be a finite number".to_owned(),
+        });
     }
-    /// Queues `request` after the ones already queued. Rejects NaN / out-of-range values.
-    pub fn push(&mut self, request: MotionRequest) -> Result<(), MotionError> {
-        let _ = request;
-        todo!("motion work")
-    }
-    /// Drops the queue and starts `request` now, blending from the current body shape.
-    pub fn interrupt(&mut self, request: MotionRequest) -> Result<(), MotionError> {
-        let _ = request;
-        todo!("motion work")
-    }
-    /// Number of requests waiting behind the current one.
-    pub fn queue_len(&self) -> usize {
-        todo!("motion work")
-    }
-    /// Name of the motion now playing (`"swim"`, `"accelerate"`, `"stop"`, `"normal_turn"`,
-    /// `"quick_turn"`, `"serial_turn"`, `"ascend"`, `"descend"`, `"idle"`).
-    pub fn current_name(&self) -> &'static str {
-        todo!("motion work")
-    }
-    /// Advances by `dt` seconds: updates `root` (locomotion) and writes the midline's lateral
-    /// displacement at each entry of `body.joints_x` into `lateral` and each driven joint's local
-    /// yaw (radians) into `yaw`. Panics only on mismatched slice lengths (a programming error).
-    pub fn step(
-        &mut self,
-        dt: f32,
-        params: &MotionParams,
-        body: &Body,
-        root: &mut RootState,
-        lateral: &mut [f32],
-        yaw: &mut [f32],
-    ) {
-        let _ = (dt, params, body, root, lateral, yaw);
-        todo!("motion work")
+    if ok {
+        Ok(())
+    } else {
+        Err(MotionError::InvalidParam {
+            name,
+            value,
+            why: why.to_owned(),
+        })
     }
 }
 
-impl Default for MotionPlayer {
+impl MotionParams {
+    /// The black porgy defaults (the paper's fish, Table 1 Ex1's pivot and length).
+    ///
+    /// p = 0.4, s = 50 (one body length per second), l = 50, λ = l (a carangiform body wave about
+    /// one body long), maxAmp = l/6 so the tail tip sweeps 2·(1 − p)·maxAmp = 0.2·l peak to peak,
+    /// ω = 3.75 so the Strouhal number 2·p·ω·(1 − p)·maxAmp/λ is 0.30 at every speed, Tt = 2 s,
+    /// f = 1, turn angle 90°.
+    pub const BLACK_PORGY: Self = Self {
+        p: 0.4,
+        s: 50.0,
+        l: 50.0,
+        max_amp: 50.0 / 6.0,
+        lambda: 50.0,
+        omega: 3.75,
+        tt: 2.0,
+        f: 1.0,
+        turn_angle: std::f32::consts::FRAC_PI_2,
+    };
+
+    /// Checks every field: finite, and p ∈ (18.8/132, 1) so λ' > 0, s ≥ 0, l > 0, maxAmp ≥ 0,
+    /// λ > 0, ω ≥ 0, Tt > 0, f ∈ [1, 2], turn angle ∈ (0, 2π]. The error names the field, its
+    /// value and why.
+    pub fn validate(&self) -> Result<(), MotionError> {
+        check(
+            "p",
+            self.p,
+            self.p > wave::P_MIN && self.p < 1.0,
+            "the pivot must lie in (18.8/132, 1) = (0.1424, 1): below it λ' = (132·p − 18.8)·λ \
+             is not positive, at 1 there is no body behind the pivot",
+        )?;
+        check("s", self.s, self.s >= 0.0, "speed must not be negative")?;
+        check("l", self.l, self.l > 0.0, "body length must be positive")?;
+        check(
+            "max_amp",
+            self.max_amp,
+            self.max_amp >= 0.0,
+            "maximum amplitude must not be negative",
+        )?;
+        check(
+            "lambda",
+            self.lambda,
+            self.lambda > 0.0,
+            "wavelength must be positive",
+        )?;
+        check(
+            "omega",
+            self.omega,
+            self.omega >= 0.0,
+            "the wave-speed factor must not be negative (the wave would run tail to head)",
+        )?;
+        check(
+            "tt",
+            self.tt,
+            self.tt > 0.0,
+            "turning time must be positive",
+        )?;
+        check(
+            "f",
+            self.f,
+            (1.0..=2.0).contains(&self.f),
+            "the turn amplitude weight f must lie in [1, 2]",
+        )?;
+        check(
+            "turn_angle",
+            self.turn_angle,
+            self.turn_angle > 0.0 && self.turn_angle <= std::f32::consts::TAU,
+            "turn angle must lie in (0, 2π] radians",
+        )?;
+        Ok(())
+    }
+
+    /// The same fish at body length `l`: maxAmp and λ scale with the body, the rest is kept.
+    pub fn with_length(mut self, l: f32) -> Self {
+        let k = l / self.l;
+        self.max_amp *= k;
+        self.lambda *= k;
+        self.l = l;
+        self
+    }
+
+    /// λ' = (132·p − 18.8)·λ for these parameters, length units.
+    pub fn lambda_prime(&self) -> f32 {
+        wave::lambda_prime(self.p, self.lambda)
+    }
+
+    /// Tail-beat frequency at `speed` (length units per second), hertz.
+    pub fn tail_beat_hz(&self, speed: f32) -> f32 {
+        wave::tail_beat_hz(speed, self.p, self.omega, self.lambda)
+    }
+
+    /// Peak-to-peak sideways sweep of the tail tip in a steady swim, length units: 2·(1 − p)·maxAmp.
+    pub fn tail_excursion(&self) -> f32 {
+        2.0 * (1.0 - self.p) * self.max_amp
+    }
+
+    /// Strouhal number f·A/U of a steady swim (independent of speed with this wave):
+    /// tail-beat frequency × peak-to-peak tail excursion / speed = 2·p·ω·(1 − p)·maxAmp/λ.
+    pub fn strouhal(&self) -> f32 {
+        self.p * self.omega / self.lambda * self.tail_excursion()
+    }
+}
+
+impl Default for MotionParams {
+    /// [`MotionParams::BLACK_PORGY`].
     fn default() -> Self {
-        Self::new()
+        Self::BLACK_PORGY
+    }
+}
+
+impl Side {
+    /// The side for the paper's `d`: −1 left, 1 right, 0 (straight ahead) none.
+    pub fn from_d(d: i32) -> Result<Option<Self>, MotionError> {
+        match d {
+            -1 => Ok(Some(Side::Left)),
+            0 => Ok(None),
+            1 => Ok(Some(Side::Right)),
+            _ => Err(MotionError::InvalidParam {
+                name: "d",
+                value: d as f32,
+                why: "the turn direction d must be -1 (left), 0 (straight) or 1 (right)".to_owned(),
+            }),
+        }
+    }
+}
+
+impl TurnKind {
+    /// The motion name the player reports for this turn.
+    pub fn name(self) -> &'static str {
+        match self {
+            TurnKind::Normal => "normal_turn",
+            TurnKind::Quick => "quick_turn",
+            TurnKind::Serial => "serial_turn",
+        }
+    }
+}
+
+impl MotionRequest {
+    /// Checks the request's numbers: speeds and heights finite and ≥ 0, durations finite and
+    /// ≥ 0, turn angles finite in (0, 2π].
+    pub fn validate(&self) -> Result<(), MotionError> {
+        let speed_why = "speed must not be negative";
+        let duration_why = "duration must not be negative";
+        match *self {
+            MotionRequest::Swim { speed } => check("speed", speed, speed >= 0.0, speed_why),
+            MotionRequest::Accelerate { speed, duration } => {
+                check("speed", speed, speed >= 0.0, speed_why)?;
+                check("duration", duration, duration >= 0.0, duration_why)
+            }
+            MotionRequest::Stop { duration } => {
+                check("duration", duration, duration >= 0.0, duration_why)
+            }
+            MotionRequest::Turn { angle, .. } => check(
+                "angle",
+                angle,
+                angle > 0.0 && angle <= std::f32::consts::TAU,
+                "turn angle must lie in (0, 2π] radians; use `side` for the direction",
+            ),
+            MotionRequest::Ascend { height } => check(
+                "height",
+                height,
+                height >= 0.0,
+                "height must not be negative (use Descend to sink)",
+            ),
+            MotionRequest::Descend { depth } => check(
+                "depth",
+                depth,
+                depth >= 0.0,
+                "depth must not be negative (use Ascend to rise)",
+            ),
+        }
+    }
+
+    /// The name [`MotionPlayer::current_name`] reports while this request plays.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MotionRequest::Swim { .. } => "swim",
+            MotionRequest::Accelerate { .. } => "accelerate",
+            MotionRequest::Stop { .. } => "stop",
+            MotionRequest::Turn { kind, .. } => kind.name(),
+            MotionRequest::Ascend { .. } => "ascend",
+            MotionRequest::Descend { .. } => "descend",
+        }
+    }
+}
+
+impl RootState {
+    /// Unit forward vector: (cos h · cos pitch, sin pitch, −sin h · cos pitch).
+    pub fn forward(&self) -> Vec3 {
+        let (sh, ch) = self.heading.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        Vec3::new(ch * cp, sp, -sh * cp)
+    }
+
+    /// Unit vector to the fish's left in the horizontal plane: (−sin h, 0, −cos h).
+    pub fn left(&self) -> Vec3 {
+        let (sh, ch) = self.heading.sin_cos();
+        Vec3::new(-sh, 0.0, -ch)
+    }
+
+    /// The root's rotation: heading about +y, then pitch about the fish's own +z (nose up), so
+    /// that the model's +x axis maps onto [`RootState::forward`].
+    pub fn rotation(&self) -> glam::Quat {
+        glam::Quat::from_rotation_y(self.heading) * glam::Quat::from_rotation_z(self.pitch)
     }
 }

@@ -1,0 +1,343 @@
+//! Body curve → joint angles (paper 3.4 Fig. 5 and 3.5.3).
+//!
+//! The motion functions give the midline's sideways displacement along the body. The vertebral
+//! chain is rigid segments joined at the driven joints, so the curve is sampled at the head, at
+//! each driven joint and at the tail tip; each segment's angle to the body axis follows from its
+//! two end samples, and a joint's local yaw is the bend between the segment behind it and the one
+//! in front, weighted by the joint's power after Fig. 5.
+
+use glam::Vec3;
+
+use super::{Body, MotionError, RootState};
+
+/// Power weight of a joint at `x` (fraction of body length from the head), after Fig. 5.
+///
+/// Fig. 5 (from Altringham & Ellerby, the paper's ref. [15]) shows the instantaneous muscle power
+/// at three places along the black porgy, A (anterior), B (middle) and C (posterior); in
+/// carangiform swimmers the posterior myotomes deliver most of the power and the front of the body
+/// mostly stiffens. We read the three curves' peaks as weights A = 0.6 at x = 0.3, B = 0.8 at
+/// x = 0.55 and C = 1.0 at x = 0.8, interpolate linearly between them and hold the end values
+/// outside. For the default six joints (x = 1/7 … 6/7) this gives 0.6, 0.6, 0.70, 0.83, 0.93, 1.0.
+pub fn power_after_fig5(x: f32) -> f32 {
+    const A: (f32, f32) = (0.3, 0.6);
+    const B: (f32, f32) = (0.55, 0.8);
+    const C: (f32, f32) = (0.8, 1.0);
+    if x <= A.0 {
+        A.1
+    } else if x <= B.0 {
+        A.1 + (x - A.0) / (B.0 - A.0) * (B.1 - A.1)
+    } else if x <= C.0 {
+        B.1 + (x - B.0) / (C.0 - B.0) * (C.1 - B.1)
+    } else {
+        C.1
+    }
+}
+
+impl Body {
+    /// The paper's default: 7 vertebral segments of equal length, so 6 driven joints at
+    /// x = 1/7 … 6/7, then the tail tip at 1; weights from [`power_after_fig5`].
+    pub fn black_porgy() -> Self {
+        Self::evenly_spaced(7)
+    }
+
+    /// `num_segments` equal segments (at least 2): driven joints at k/num_segments for
+    /// k = 1 … num_segments − 1, the tail tip at 1, weights from [`power_after_fig5`].
+    pub fn evenly_spaced(num_segments: usize) -> Self {
+        let n = num_segments.max(2);
+        let joints_x: Vec<f32> = (1..=n).map(|k| k as f32 / n as f32).collect();
+        let power = joints_x[..n - 1]
+            .iter()
+            .map(|&x| power_after_fig5(x))
+            .collect();
+        Self { joints_x, power }
+    }
+
+    /// Number of driven joints (entries of `yaw`); `joints_x` has one more (the tail tip).
+    pub fn num_joints(&self) -> usize {
+        self.power.len()
+    }
+
+    /// Checks that `joints_x` rises strictly inside (0, 1) and ends at the tail tip 1.0, and that
+    /// there is one finite, non-negative power weight per driven joint.
+    pub fn validate(&self) -> Result<(), MotionError> {
+        let bad = |why: String| Err(MotionError::InvalidBody { why });
+        if self.joints_x.len() < 2 {
+            return bad(format!(
+                "joints_x has {} entries; it needs at least one driven joint and the tail tip",
+                self.joints_x.len()
+            ));
+        }
+        if self.power.len() + 1 != self.joints_x.len() {
+            return bad(format!(
+                "{} power weights for {} driven joints (joints_x has {} entries including the tail tip)",
+                self.power.len(),
+                self.joints_x.len() - 1,
+                self.joints_x.len()
+            ));
+        }
+        let mut previous = 0.0;
+        for (i, &x) in self.joints_x.iter().enumerate() {
+            if !x.is_finite() || x <= previous || x > 1.0 {
+                return bad(format!(
+                    "joints_x[{i}] = {x} must be finite, above the previous entry ({previous}) and at most 1"
+                ));
+            }
+            previous = x;
+        }
+        if self.joints_x[self.joints_x.len() - 1] != 1.0 {
+            return bad(format!(
+                "the last entry of joints_x is {}, but it must be the tail tip 1.0",
+                self.joints_x[self.joints_x.len() - 1]
+            ));
+        }
+        for (i, &w) in self.power.iter().enumerate() {
+            if !w.is_finite() || w < 0.0 {
+                return bad(format!(
+                    "power[{i}] = {w} must be a finite, non-negative weight"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Turns midline samples into joint yaws. Returns the head segment's yaw relative to the heading
+/// (radians, counter-clockwise seen from above).
+///
+/// `lateral_head` is the displacement at the head (x = 0), `lateral` at each entry of `joints_x`
+/// (length units, positive to the fish's left). Segment k runs from joint k to the next sample;
+/// its angle θ_k = atan2(Δlateral, Δx·l) leans towards the left as it goes tail-wards. Joint k's
+/// yaw is power[k]·(θ_k − θ_{k−1}), with θ_{−1} the head segment's angle. Lengths are asserted.
+pub(crate) fn curve_to_yaw(
+    l: f32,
+    joints_x: &[f32],
+    power: &[f32],
+    lateral_head: f32,
+    lateral: &[f32],
+    yaw: &mut [f32],
+) -> f32 {
+    assert_eq!(
+        lateral.len(),
+        joints_x.len(),
+        "lateral: one entry per joints_x"
+    );
+    assert_eq!(
+        yaw.len() + 1,
+        joints_x.len(),
+        "yaw: one entry per driven joint"
+    );
+    assert_eq!(power.len(), yaw.len(), "power: one entry per driven joint");
+    let theta_head = (lateral[0] - lateral_head).atan2(joints_x[0] * l);
+    let mut theta_prev = theta_head;
+    for k in 0..yaw.len() {
+        let theta = (lateral[k + 1] - lateral[k]).atan2((joints_x[k + 1] - joints_x[k]) * l);
+        yaw[k] = power[k] * (theta - theta_prev);
+        theta_prev = theta;
+    }
+    -theta_head
+}
+
+/// Places the posed vertebral chain in the world: the head, each driven joint and the tail tip.
+///
+/// Forward kinematics of the rigid planar chain in the root's frame (pitch included): the head sits
+/// `head_lateral` to the fish's left of `root.pos`, the head segment points along
+/// `root.heading + head_yaw`, and each joint bends the part behind it by its `yaw` (positive to the
+/// left). Segment lengths are the rest lengths Δx·l. Used by the plots and tests; never allocates.
+#[derive(Debug)]
+pub struct MidlinePoseJob<'a> {
+    /// The root (position at the head end, heading, pitch).
+    pub root: &'a RootState,
+    /// The body the yaws belong to.
+    pub body: &'a Body,
+    /// Body length, length units.
+    pub l: f32,
+    /// The head's sideways offset from `root.pos`, length units, positive left
+    /// ([`super::MotionPlayer::head_lateral`]).
+    pub head_lateral: f32,
+    /// The head segment's yaw relative to the heading, radians CCW ([`super::MotionPlayer::head_yaw`]).
+    pub head_yaw: f32,
+    /// One local yaw per driven joint, radians, positive bends towards the left.
+    pub yaw: &'a [f32],
+    /// Output: head, then each driven joint, then the tail tip (`joints_x.len() + 1` points).
+    pub points: &'a mut [Vec3],
+}
+
+impl MidlinePoseJob<'_> {
+    /// Checks the body and that `yaw` and `points` have the sizes the body implies.
+    pub fn validate(&self) -> Result<(), MotionError> {
+        self.body.validate()?;
+        if self.yaw.len() != self.body.num_joints() {
+            return Err(MotionError::InvalidBody {
+                why: format!(
+                    "yaw has {} entries, expected {} (one per driven joint)",
+                    self.yaw.len(),
+                    self.body.num_joints()
+                ),
+            });
+        }
+        if self.points.len() != self.body.joints_x.len() + 1 {
+            return Err(MotionError::InvalidBody {
+                why: format!(
+                    "points has {} entries, expected {} (head, driven joints, tail tip)",
+                    self.points.len(),
+                    self.body.joints_x.len() + 1
+                ),
+            });
+        }
+        if !self.l.is_finite() || self.l <= 0.0 {
+            return Err(MotionError::InvalidParam {
+                name: "l",
+                value: self.l,
+                why: "body length must be positive".to_owned(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Validates, then writes the points.
+    pub fn run(self) -> Result<(), MotionError> {
+        self.validate()?;
+        let rotation = self.root.rotation();
+        // Body frame: +x forward, −z left. (back, left) → (−back, 0, −left).
+        let to_world =
+            |back: f32, left: f32| self.root.pos + rotation * Vec3::new(-back, 0.0, -left);
+        let mut back = 0.0;
+        let mut left = self.head_lateral;
+        // Angle of the tail-ward direction, measured from straight back towards the left.
+        let mut alpha = -self.head_yaw;
+        let mut x_prev = 0.0;
+        self.points[0] = to_world(back, left);
+        for (k, &x) in self.body.joints_x.iter().enumerate() {
+            if k > 0 {
+                alpha += self.yaw[k - 1];
+            }
+            let len = (x - x_prev) * self.l;
+            back += len * alpha.cos();
+            left += len * alpha.sin();
+            x_prev = x;
+            self.points[k + 1] = to_world(back, left);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn test_power_profile_values() {
+        assert_eq!(power_after_fig5(0.1), 0.6);
+        assert!((power_after_fig5(0.425) - 0.7).abs() < 1e-6);
+        assert!((power_after_fig5(0.675) - 0.9).abs() < 1e-6);
+        assert_eq!(power_after_fig5(0.95), 1.0);
+        let body = Body::black_porgy();
+        assert_eq!(body.num_joints(), 6);
+        assert_eq!(body.joints_x.len(), 7);
+        assert_eq!(body.joints_x[6], 1.0);
+        assert!((body.joints_x[0] - 1.0 / 7.0).abs() < 1e-6);
+        body.validate().unwrap();
+    }
+
+    #[test]
+    fn test_curve_to_yaw_hand_values() {
+        // Three samples after the head: joints at x = 0.5, tip at 1; l = 2, so both segments are 1
+        // long. Head at 0, joint at 0 (straight head segment), tip 1 to the left: the tail segment
+        // leans 45° left, so the joint yaws +π/4 (weight 1) and the head segment is straight.
+        let mut yaw = [0.0];
+        let head_yaw = curve_to_yaw(2.0, &[0.5, 1.0], &[1.0], 0.0, &[0.0, 1.0], &mut yaw);
+        assert!((yaw[0] - std::f32::consts::FRAC_PI_4).abs() < 1e-6);
+        assert_eq!(head_yaw, 0.0);
+        // Head 1 to the right of the joint: the head segment leans 45° left going tail-wards, so
+        // the head points 45° right of the heading (−π/4), and a straight continuation bends 0.
+        let head_yaw = curve_to_yaw(2.0, &[0.5, 1.0], &[0.5], -1.0, &[0.0, 1.0], &mut yaw);
+        assert!((head_yaw + std::f32::consts::FRAC_PI_4).abs() < 1e-6);
+        assert!(yaw[0].abs() < 1e-6);
+    }
+
+    #[test]
+    fn test_midline_pose_validity_names_each_bad_input() {
+        let body = Body::black_porgy();
+        let root = RootState::default();
+        let yaw = [0.0; 6];
+        let mut points = [Vec3::ZERO; 8];
+        let mut job = MidlinePoseJob {
+            root: &root,
+            body: &body,
+            l: 50.0,
+            head_lateral: 0.0,
+            head_yaw: 0.0,
+            yaw: &yaw,
+            points: &mut points,
+        };
+        assert!(job.validate().is_ok());
+        job.l = f32::NAN;
+        assert!(matches!(
+            job.validate(),
+            Err(MotionError::InvalidParam { name: "l", .. })
+        ));
+        job.l = 50.0;
+        job.yaw = &yaw[..5];
+        let err = job.validate().unwrap_err().to_string();
+        assert!(err.contains("yaw has 5 entries, expected 6"), "{err}");
+        job.yaw = &yaw;
+        let mut short = [Vec3::ZERO; 7];
+        job.points = &mut short;
+        let err = job.validate().unwrap_err().to_string();
+        assert!(err.contains("points has 7 entries, expected 8"), "{err}");
+        let mut bad_body = Body::black_porgy();
+        bad_body.joints_x[2] = 0.1;
+        let err = bad_body.validate().unwrap_err().to_string();
+        assert!(err.contains("joints_x[2] = 0.1"), "{err}");
+        let mut bad_body = Body::black_porgy();
+        bad_body.power.pop();
+        assert!(
+            bad_body
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("5 power weights")
+        );
+        let mut bad_body = Body::black_porgy();
+        bad_body.joints_x[6] = 0.99;
+        assert!(bad_body.validate().is_err());
+    }
+
+    #[test]
+    fn test_midline_pose_straight_and_bent() {
+        // Two segments of 1 (l = 2, joint at 0.5); heading 90° (facing −z), root at the origin.
+        let body = Body {
+            joints_x: vec![0.5, 1.0],
+            power: vec![1.0],
+        };
+        let root = RootState {
+            heading: std::f32::consts::FRAC_PI_2,
+            ..RootState::default()
+        };
+        let mut points = [Vec3::ZERO; 3];
+        MidlinePoseJob {
+            root: &root,
+            body: &body,
+            l: 2.0,
+            head_lateral: 0.0,
+            head_yaw: 0.0,
+            yaw: &[std::f32::consts::FRAC_PI_2],
+            points: &mut points,
+        }
+        .run()
+        .unwrap();
+        // Facing −z, the body trails towards +z; the tail segment bends 90° to the fish's left,
+        // which for a fish facing −z is −x.
+        assert!(points[0].abs_diff_eq(Vec3::ZERO, 1e-6));
+        assert!(
+            points[1].abs_diff_eq(Vec3::new(0.0, 0.0, 1.0), 1e-6),
+            "{:?}",
+            points[1]
+        );
+        assert!(
+            points[2].abs_diff_eq(Vec3::new(-1.0, 0.0, 1.0), 1e-6),
+            "{:?}",
+            points[2]
+        );
+    }
+}

@@ -1,0 +1,675 @@
+//! The motion player (paper Fig. 10): a per-fish queue of motion requests, each played to
+//! completion in order, with the body wave's phase integrated over time and the root moved along.
+
+use std::collections::VecDeque;
+use std::f32::consts::{FRAC_PI_4, PI, TAU};
+
+use super::body::curve_to_yaw;
+use super::wave::{self, smoothstep};
+use super::{Body, MotionError, MotionParams, MotionRequest, RootState, TurnKind};
+
+/// Seconds a `Swim` request takes to reach its speed (smoothstep ramp).
+pub const SPEED_RAMP_S: f32 = 0.5;
+/// Seconds over which a new motion's body shape cross-fades from the previous one's.
+pub const SHAPE_BLEND_S: f32 = 0.3;
+/// Speed, in body lengths per second, at which the swim wave reaches its full amplitude; below it
+/// the amplitude fades (smoothstep) to a straight body at rest.
+pub const FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S: f32 = 0.25;
+/// Radius of a normal turn's path, body lengths: the turn lasts max(Tt, angle·radius/speed).
+pub const NORMAL_TURN_RADIUS_BODY_LENGTHS: f32 = 1.0;
+/// Largest heading change of one serial-turn stroke (radians): a serial turn of angle a makes
+/// ⌈a / 45°⌉ strokes of Tt each.
+pub const SERIAL_STROKE_MAX_RAD: f32 = FRAC_PI_4;
+/// Speed of normal/serial turns, ascents and descents started from (almost) rest, as a fraction
+/// of the cruising speed `s`: these motions keep the fish swimming.
+pub const MIN_MOVING_SPEED_FRACTION: f32 = 0.5;
+/// Steepest pitch of an ascent or descent, radians (30°).
+pub const MAX_CLIMB_PITCH_RAD: f32 = PI / 6.0;
+/// Shortest ascent or descent, seconds.
+pub const MIN_CLIMB_S: f32 = 1.0;
+/// Time constant, seconds, with which pitch relaxes to level outside ascents and descents.
+pub const PITCH_RELAX_S: f32 = 0.3;
+/// Extra bend of the quick turn's wave F_st over the swim amplitude (a C-shaped bend).
+pub const QUICK_TURN_BEND_GAIN: f32 = 3.0;
+/// Extra bend of the serial turn's wave F_st over the swim amplitude.
+pub const SERIAL_TURN_BEND_GAIN: f32 = 2.0;
+/// Most motion transitions a single `step` performs (zero-length motions finish at once).
+const MAX_TRANSITIONS_PER_STEP: usize = 8;
+
+/// What an active motion does, planned when it starts (from the root's speed and the params).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Plan {
+    /// At rest, nothing queued.
+    Idle,
+    /// Swim, accelerate, stop: the speed ramps from v0 to v1 over `ramp_s`.
+    Speed { ramp_s: f32 },
+    /// A turn of `angle` radians to side `d` in `strokes` strokes of `stroke_s` seconds; the
+    /// quick/serial wave F_st has wavelength `wavelength` along the body.
+    Turn {
+        kind: TurnKind,
+        d: f32,
+        angle: f32,
+        strokes: u32,
+        stroke_s: f32,
+        wavelength: f32,
+    },
+    /// Rise (`height` > 0) or sink (< 0) by |height| length units.
+    Climb { height: f32 },
+}
+
+/// One motion in progress.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Active {
+    request: Option<MotionRequest>,
+    plan: Plan,
+    elapsed_s: f32,
+    duration_s: f32,
+    /// Speed when the motion started and the speed it settles at, length units per second.
+    v0: f32,
+    v1: f32,
+}
+
+impl Active {
+    const IDLE: Self = Self {
+        request: None,
+        plan: Plan::Idle,
+        elapsed_s: 0.0,
+        duration_s: f32::INFINITY,
+        v0: 0.0,
+        v1: 0.0,
+    };
+
+    /// Plans `request` starting at speed `v0`.
+    fn start(request: Option<MotionRequest>, v0: f32, params: &MotionParams) -> Self {
+        let moving = |v0: f32| {
+            v0.max(MIN_MOVING_SPEED_FRACTION * params.s)
+                .max(FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l)
+        };
+        let mut a = Self {
+            request,
+            plan: Plan::Idle,
+            elapsed_s: 0.0,
+            duration_s: f32::INFINITY,
+            v0,
+            v1: 0.0,
+        };
+        let Some(request) = request else {
+            return a;
+        };
+        match request {
+            MotionRequest::Swim { speed } => {
+                a.v1 = speed;
+                a.plan = Plan::Speed {
+                    ramp_s: SPEED_RAMP_S,
+                };
+            }
+            MotionRequest::Accelerate { speed, duration } => {
+                a.v1 = speed;
+                a.duration_s = duration;
+                a.plan = Plan::Speed { ramp_s: duration };
+            }
+            MotionRequest::Stop { duration } => {
+                a.v1 = 0.0;
+                a.duration_s = duration;
+                a.plan = Plan::Speed { ramp_s: duration };
+            }
+            MotionRequest::Turn { kind, angle, side } => {
+                let tt = params.tt;
+                // λ'' = 2·Tt is a period; the swim wave's phase speed ω' at cruising speed turns it
+                // into a length along the body (at least 2 body lengths, so the bend stays one C).
+                let wavelength = (wave::lambda_2(tt)
+                    * wave::omega_prime(params.s, params.p, params.omega))
+                .max(2.0 * params.l);
+                let (v1, strokes, stroke_s, duration) = match kind {
+                    TurnKind::Normal => {
+                        let v1 = moving(v0);
+                        let arc = angle * NORMAL_TURN_RADIUS_BODY_LENGTHS * params.l;
+                        let duration = if v1 > 0.0 { (arc / v1).max(tt) } else { tt };
+                        (v1, 1, duration, duration)
+                    }
+                    TurnKind::Quick => (v0, 1, tt, tt),
+                    TurnKind::Serial => {
+                        let strokes = ((angle / SERIAL_STROKE_MAX_RAD).ceil() as u32).max(1);
+                        (moving(v0), strokes, tt, strokes as f32 * tt)
+                    }
+                };
+                a.v1 = v1;
+                a.duration_s = duration;
+                a.plan = Plan::Turn {
+                    kind,
+                    d: side.d(),
+                    angle,
+                    strokes,
+                    stroke_s,
+                    wavelength,
+                };
+            }
+            MotionRequest::Ascend { height } | MotionRequest::Descend { depth: height } => {
+                let signed = if matches!(request, MotionRequest::Ascend { .. }) {
+                    height
+                } else {
+                    -height
+                };
+                let v1 = moving(v0);
+                // Vertical speed peaks at H·π/(2T) (cosine ease); keep it ≤ v1·sin(max pitch).
+                let duration =
+                    (PI * height / (2.0 * v1 * MAX_CLIMB_PITCH_RAD.sin())).max(MIN_CLIMB_S);
+                a.v1 = v1;
+                a.duration_s = duration;
+                a.plan = Plan::Climb { height: signed };
+            }
+        }
+        a
+    }
+
+    fn name(&self) -> &'static str {
+        self.request.map_or("idle", |r| r.name())
+    }
+
+    fn completed(&self) -> bool {
+        self.elapsed_s >= self.duration_s
+    }
+
+    /// Swim and idle give way as soon as something is queued; every other motion plays out.
+    fn yields(&self) -> bool {
+        matches!(self.request, None | Some(MotionRequest::Swim { .. }))
+    }
+
+    /// What plays when this motion completes with nothing queued.
+    fn continuation(&self) -> Option<MotionRequest> {
+        match self.request {
+            None => None,
+            Some(MotionRequest::Stop { .. }) => None,
+            Some(_) if self.v1 <= 0.0 => None,
+            Some(_) => Some(MotionRequest::Swim { speed: self.v1 }),
+        }
+    }
+
+    /// The turn interpolation I_p at `t` seconds into the motion (0 outside turns).
+    fn ip(&self, t: f32) -> f32 {
+        match self.plan {
+            Plan::Turn { stroke_s, .. } if t < self.duration_s => wave::i_p(t, stroke_s),
+            _ => 0.0,
+        }
+    }
+
+    fn speed_at(&self, t: f32) -> f32 {
+        match self.plan {
+            Plan::Idle => self.v0 * (1.0 - smoothstep(t / SPEED_RAMP_S)),
+            Plan::Turn {
+                kind: TurnKind::Quick,
+                ..
+            } => self.v0 * (1.0 - self.ip(t)),
+            Plan::Speed { ramp_s } if ramp_s <= 0.0 => self.v1,
+            Plan::Speed { ramp_s } => self.v0 + (self.v1 - self.v0) * smoothstep(t / ramp_s),
+            Plan::Turn { .. } | Plan::Climb { .. } => {
+                self.v0 + (self.v1 - self.v0) * smoothstep(t / SPEED_RAMP_S)
+            }
+        }
+    }
+
+    /// Fraction in [0, 1] of the turn's heading change (or the climb's height) done at `t`.
+    /// Its rate is proportional to I_p, so the heading turns fastest when the turn wave is
+    /// strongest and not at all at the ends of a stroke.
+    fn progress(&self, t: f32) -> f32 {
+        if !self.duration_s.is_finite() || self.duration_s <= 0.0 {
+            return 1.0;
+        }
+        let u = (t / self.duration_s).clamp(0.0, 1.0);
+        let strokes = match self.plan {
+            Plan::Turn { strokes, .. } => strokes as f32,
+            _ => 1.0,
+        };
+        let su = u * strokes;
+        let whole = su.floor().min(strokes - 1.0);
+        let frac = su - whole;
+        (whole + 0.5 * (1.0 - (PI * frac).cos())) / strokes
+    }
+}
+
+/// Per-step values every shape evaluation shares.
+struct ShapeContext {
+    p: f32,
+    l: f32,
+    max_amp: f32,
+    lambda: f32,
+    lambda_prime: f32,
+    phase: f32,
+    gain: f32,
+    tt: f32,
+    f: f32,
+}
+
+/// The paper's F (positive to the fish's right) of motion `a` at body fraction `x`.
+fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
+    let xl = x * c.l;
+    let s = wave::swim_wave(
+        xl,
+        c.p,
+        c.l,
+        c.max_amp,
+        c.lambda,
+        c.lambda_prime,
+        c.phase,
+        c.gain,
+    );
+    let Plan::Turn {
+        kind,
+        d,
+        wavelength,
+        ..
+    } = a.plan
+    else {
+        return s;
+    };
+    let ip = a.ip(a.elapsed_s);
+    let xp = wave::x_prime(xl, c.p, c.l);
+    if ip == 0.0 || xp < 0.0 {
+        // The turn functions only change the part behind the pivot (paper 3.5.2).
+        return s;
+    }
+    let amp = wave::amplitude(xl, c.p, c.l, c.max_amp);
+    let t = match kind {
+        TurnKind::Normal => wave::f_nt(amp, xp, c.lambda, c.phase, d, c.f),
+        TurnKind::Quick => wave::f_st(
+            amp * QUICK_TURN_BEND_GAIN * c.f,
+            xp,
+            wavelength,
+            a.elapsed_s,
+            c.tt,
+            d,
+        ),
+        TurnKind::Serial => wave::f_st(
+            amp * SERIAL_TURN_BEND_GAIN * c.f,
+            xp,
+            wavelength,
+            a.elapsed_s,
+            c.tt,
+            d,
+        ),
+    };
+    wave::t_locomotion(s, t, ip)
+}
+
+fn wrap_angle(a: f32) -> f32 {
+    let w = (a + PI).rem_euclid(TAU) - PI;
+    if w <= -PI { w + TAU } else { w }
+}
+
+/// Plays a queue of [`MotionRequest`]s for one fish, integrating the wave phase over time.
+///
+/// Allocation happens only when the queue grows; `step` never allocates.
+///
+/// Each request plays to completion before the next (Fig. 10); `Swim` plays until something else
+/// is queued. When a motion completes with nothing queued, the fish keeps swimming at the speed
+/// the motion ended with (after `Stop`, it rests). Every change of motion cross-fades the body
+/// shape over [`SHAPE_BLEND_S`] and ramps the speed smoothly; the wave's phase only ever advances.
+#[derive(Debug, Clone)]
+pub struct MotionPlayer {
+    queue: VecDeque<MotionRequest>,
+    current: Active,
+    previous: Option<Active>,
+    blend_elapsed_s: f32,
+    /// An interrupt is waiting at the front of the queue.
+    cut: bool,
+    /// Swim wave phase φ, radians in [0, 2π).
+    phase: f32,
+    head_lateral: f32,
+    head_yaw: f32,
+}
+
+impl MotionPlayer {
+    /// A player at rest with an empty queue.
+    pub fn new() -> Self {
+        Self {
+            queue: VecDeque::new(),
+            current: Active::IDLE,
+            previous: None,
+            blend_elapsed_s: 0.0,
+            cut: false,
+            phase: 0.0,
+            head_lateral: 0.0,
+            head_yaw: 0.0,
+        }
+    }
+
+    /// A player at rest whose wave starts at `phase` radians (to de-synchronise a shoal).
+    pub fn with_phase(phase: f32) -> Self {
+        let mut player = Self::new();
+        if phase.is_finite() {
+            player.phase = phase.rem_euclid(TAU);
+        }
+        player
+    }
+
+    /// Queues `request` after the ones already queued. Rejects NaN / out-of-range values.
+    pub fn push(&mut self, request: MotionRequest) -> Result<(), MotionError> {
+        request.validate()?;
+        self.queue.push_back(request);
+        Ok(())
+    }
+
+    /// Drops the queue and starts `request` now, blending from the current body shape.
+    ///
+    /// "Now" is the next [`MotionPlayer::step`]; until then `request` waits at the head of the
+    /// queue.
+    pub fn interrupt(&mut self, request: MotionRequest) -> Result<(), MotionError> {
+        request.validate()?;
+        self.queue.clear();
+        self.queue.push_back(request);
+        self.cut = true;
+        Ok(())
+    }
+
+    /// Number of requests waiting behind the current one.
+    pub fn queue_len(&self) -> usize {
+        self.queue.len()
+    }
+
+    /// Name of the motion now playing (`"swim"`, `"accelerate"`, `"stop"`, `"normal_turn"`,
+    /// `"quick_turn"`, `"serial_turn"`, `"ascend"`, `"descend"`, `"idle"`).
+    pub fn current_name(&self) -> &'static str {
+        self.current.name()
+    }
+
+    /// The request now playing (`None` when idle). After a motion completes with nothing
+    /// queued, this is the implicit `Swim` at the speed it ended with.
+    pub fn current(&self) -> Option<MotionRequest> {
+        self.current.request
+    }
+
+    /// Seconds the current motion has played.
+    pub fn elapsed_s(&self) -> f32 {
+        self.current.elapsed_s
+    }
+
+    /// Planned length of the current motion, seconds (infinite for swim and idle).
+    pub fn duration_s(&self) -> f32 {
+        self.current.duration_s
+    }
+
+    /// The swim wave's phase φ, radians in [0, 2π).
+    pub fn phase(&self) -> f32 {
+        self.phase
+    }
+
+    /// The current motion's turn weight I_p(t) of equation (7), in [0, 1] (0 outside turns).
+    pub fn turn_weight(&self) -> f32 {
+        self.current.ip(self.current.elapsed_s)
+    }
+
+    /// Weight of the current motion's body shape against the previous one's, in [0, 1]
+    /// (1 once the cross-fade is over).
+    pub fn blend_weight(&self) -> f32 {
+        match self.previous {
+            Some(_) => smoothstep(self.blend_elapsed_s / SHAPE_BLEND_S),
+            None => 1.0,
+        }
+    }
+
+    /// Sideways offset of the head from the root's travel line after the last step, length
+    /// units, positive to the fish's left (the head's recoil in front of the pivot).
+    pub fn head_lateral(&self) -> f32 {
+        self.head_lateral
+    }
+
+    /// Yaw of the head segment relative to `root.heading` after the last step, radians,
+    /// counter-clockwise seen from above. A renderer that wants the head's recoil rotates the root
+    /// joint by `heading + head_yaw` and offsets it by `head_lateral`; ignoring both keeps the
+    /// head on the heading and moves the recoil into the rest of the body.
+    pub fn head_yaw(&self) -> f32 {
+        self.head_yaw
+    }
+
+    fn begin(&mut self, request: Option<MotionRequest>, params: &MotionParams, speed: f32) {
+        self.previous = Some(self.current);
+        self.blend_elapsed_s = 0.0;
+        self.current = Active::start(request, speed, params);
+    }
+
+    /// Advances by `dt` seconds: updates `root` (locomotion) and writes the midline's lateral
+    /// displacement at each entry of `body.joints_x` into `lateral` and each driven joint's local
+    /// yaw (radians) into `yaw`. Panics only on mismatched slice lengths (a programming error).
+    ///
+    /// `dt` = 0 (or a NaN / negative `dt`, treated as 0) only recomputes the outputs. `params`
+    /// should have passed [`MotionParams::validate`]. Never allocates.
+    pub fn step(
+        &mut self,
+        dt: f32,
+        params: &MotionParams,
+        body: &Body,
+        root: &mut RootState,
+        lateral: &mut [f32],
+        yaw: &mut [f32],
+    ) {
+        assert_eq!(
+            lateral.len(),
+            body.joints_x.len(),
+            "lateral needs one entry per joints_x"
+        );
+        assert_eq!(
+            yaw.len(),
+            body.num_joints(),
+            "yaw needs one entry per driven joint"
+        );
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        if !root.speed.is_finite() || root.speed < 0.0 {
+            root.speed = 0.0;
+        }
+
+        // Transitions (Fig. 10): next request, interrupt, or the implicit continuation.
+        for _ in 0..MAX_TRANSITIONS_PER_STEP {
+            let cut = std::mem::take(&mut self.cut);
+            if cut || self.current.completed() || (self.current.yields() && !self.queue.is_empty())
+            {
+                let next = match self.queue.pop_front() {
+                    Some(request) => Some(request),
+                    None => self.current.continuation(),
+                };
+                if next.is_none() && self.current.request.is_none() {
+                    break;
+                }
+                self.begin(next, params, root.speed);
+            } else {
+                break;
+            }
+        }
+
+        // Locomotion of the root.
+        let a = &mut self.current;
+        let t0 = a.elapsed_s;
+        let t1 = t0 + dt;
+        a.elapsed_s = t1;
+        let v_start = root.speed;
+        let v_end = a.speed_at(t1).max(0.0);
+        let v = 0.5 * (v_start + v_end);
+        let dprog = a.progress(t1) - a.progress(t0);
+        let mut heading = root.heading;
+        let mut dy = 0.0;
+        match a.plan {
+            Plan::Turn { d, angle, .. } => {
+                // d = −1 (left) increases the heading.
+                heading -= d * angle * dprog;
+            }
+            Plan::Climb { height } => dy = height * dprog,
+            _ => {}
+        }
+        let heading_mid = 0.5 * (root.heading + heading);
+        let horizontal = if let Plan::Climb { .. } = a.plan {
+            if dt > 0.0 && v > 0.0 {
+                let vy = dy / dt;
+                root.pitch = (vy / v).clamp(-1.0, 1.0).asin();
+                (v * v - vy * vy).max(0.0).sqrt() * dt
+            } else {
+                0.0
+            }
+        } else {
+            root.pitch *= (-dt / PITCH_RELAX_S).exp();
+            v * root.pitch.cos() * dt
+        };
+        let (sh, ch) = heading_mid.sin_cos();
+        root.pos.x += ch * horizontal;
+        root.pos.z -= sh * horizontal;
+        root.pos.y += dy;
+        root.heading = wrap_angle(heading);
+        root.speed = v_end;
+        if !root.pos.is_finite() {
+            root.pos = glam::Vec3::ZERO;
+        }
+
+        // The wave's phase: φ advances by 2π·ω'/λ·dt and never runs backwards.
+        let omega_prime = wave::omega_prime(v, params.p, params.omega).max(0.0);
+        let dphase = TAU * omega_prime / params.lambda * dt;
+        if dphase.is_finite() {
+            self.phase = (self.phase + dphase).rem_euclid(TAU);
+        }
+
+        // Body shape: the current motion, cross-faded from the previous one.
+        let w = match self.previous.as_mut() {
+            Some(prev) => {
+                prev.elapsed_s += dt;
+                self.blend_elapsed_s += dt;
+                smoothstep(self.blend_elapsed_s / SHAPE_BLEND_S)
+            }
+            None => 1.0,
+        };
+        if w >= 1.0 {
+            self.previous = None;
+        }
+        let context = ShapeContext {
+            p: params.p,
+            l: params.l,
+            max_amp: params.max_amp,
+            lambda: params.lambda,
+            lambda_prime: params.lambda_prime(),
+            phase: self.phase,
+            gain: smoothstep(v_end / (FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l)),
+            tt: params.tt,
+            f: params.f,
+        };
+        let current = &self.current;
+        let previous = self.previous.as_ref();
+        let eval = |x: f32| {
+            let f_new = shape(current, &context, x);
+            let f = match previous {
+                Some(prev) => f_new * w + shape(prev, &context, x) * (1.0 - w),
+                None => f_new,
+            };
+            // lateral is positive to the left; the paper's F to the right.
+            let lat = -f;
+            if lat.is_finite() { lat } else { 0.0 }
+        };
+        let head = eval(0.0);
+        for (out, &x) in lateral.iter_mut().zip(body.joints_x.iter()) {
+            *out = eval(x);
+        }
+        self.head_lateral = head;
+        self.head_yaw = curve_to_yaw(params.l, &body.joints_x, &body.power, head, lateral, yaw);
+        for y in yaw.iter_mut() {
+            if !y.is_finite() {
+                *y = 0.0;
+            }
+        }
+        if !self.head_yaw.is_finite() {
+            self.head_yaw = 0.0;
+        }
+    }
+}
+
+impl Default for MotionPlayer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::Side;
+
+    fn run(
+        player: &mut MotionPlayer,
+        params: &MotionParams,
+        root: &mut RootState,
+        seconds: f32,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let body = Body::black_porgy();
+        let mut lateral = vec![0.0; 7];
+        let mut yaw = vec![0.0; 6];
+        let dt = 1.0 / 60.0;
+        let steps = (seconds / dt).round() as usize;
+        for _ in 0..steps {
+            player.step(dt, params, &body, root, &mut lateral, &mut yaw);
+        }
+        (lateral, yaw)
+    }
+
+    #[test]
+    fn test_progress_reaches_one_for_every_stroke_count() {
+        let params = MotionParams::default();
+        for angle in [0.3, 1.0, 1.6, 3.0] {
+            let a = Active::start(
+                Some(MotionRequest::Turn {
+                    kind: TurnKind::Serial,
+                    angle,
+                    side: Side::Left,
+                }),
+                50.0,
+                &params,
+            );
+            assert_eq!(a.progress(0.0), 0.0);
+            assert!((a.progress(a.duration_s) - 1.0).abs() < 1e-6);
+            // Monotone.
+            let mut last = 0.0;
+            for k in 0..=100 {
+                let g = a.progress(a.duration_s * k as f32 / 100.0);
+                assert!(g >= last - 1e-6);
+                last = g;
+            }
+        }
+    }
+
+    #[test]
+    fn test_steady_swim_advances_at_s() {
+        let params = MotionParams::default();
+        let mut player = MotionPlayer::new();
+        let mut root = RootState {
+            speed: 50.0,
+            ..RootState::default()
+        };
+        player.push(MotionRequest::Swim { speed: 50.0 }).unwrap();
+        run(&mut player, &params, &mut root, 1.0);
+        let x0 = root.pos.x;
+        run(&mut player, &params, &mut root, 2.0);
+        assert!(
+            ((root.pos.x - x0) - 100.0).abs() < 0.01,
+            "{}",
+            root.pos.x - x0
+        );
+        assert!(root.pos.z.abs() < 1e-4);
+        assert_eq!(player.current_name(), "swim");
+    }
+
+    #[test]
+    fn test_quick_turn_left_turns_ninety_degrees_in_tt() {
+        let params = MotionParams::default();
+        let mut player = MotionPlayer::new();
+        let mut root = RootState {
+            speed: 50.0,
+            ..RootState::default()
+        };
+        player
+            .push(MotionRequest::Turn {
+                kind: TurnKind::Quick,
+                angle: std::f32::consts::FRAC_PI_2,
+                side: Side::Left,
+            })
+            .unwrap();
+        run(&mut player, &params, &mut root, params.tt);
+        assert!(
+            (root.heading - std::f32::consts::FRAC_PI_2).abs() < 1e-3,
+            "{}",
+            root.heading
+        );
+    }
+}

@@ -1,0 +1,277 @@
+//! The paper's wave equations (2)–(7), one small function per symbol.
+//!
+//! Symbols and units (see `docs/motion.md` for every interpretation the paper leaves open):
+//! - `x`: position along the body from the head, length units (0 = head, `l` = tail tip).
+//! - `p`: pivot position as a fraction of the body length; `l`: body length, length units.
+//! - `x'` = x − p·l: position relative to the pivot, length units (negative in front of it).
+//! - `lambda` (λ): body wavelength, length units; `lambda_prime` (λ') the stretched front one.
+//! - `omega` (ω): dimensionless wave-speed factor of the species; `omega_prime` (ω') = s·p·ω the
+//!   body wave's phase speed, length units per second.
+//! - `phase` (φ): the wave's temporal phase, radians, integrated over time by the player
+//!   (φ = 2π·ω'·t/λ at constant speed), so a change of speed never makes the wave jump.
+//! - Displacements returned here are the paper's F, positive towards the fish's **right**
+//!   (so that d = +1, "right", bends the tail to the right); the player reports `lateral`
+//!   = −F, positive to the left, as the crate's conventions require.
+
+use std::f32::consts::{PI, TAU};
+
+/// Equation (2), the basic travelling wave F(x, t) = A·sin(2π/λ·(x − ω·t)).
+///
+/// `amplitude` (A) and `x`, `lambda` (λ) in length units, `t` in seconds, `omega` (ω) the phase
+/// speed in length units per second. Crests travel towards +x, i.e. from head to tail.
+pub fn f_basic(amplitude: f32, x: f32, t: f32, lambda: f32, omega: f32) -> f32 {
+    amplitude * (TAU / lambda * (x - omega * t)).sin()
+}
+
+/// x' = x − p·l: position relative to the pivot, length units.
+pub fn x_prime(x: f32, p: f32, l: f32) -> f32 {
+    x - p * l
+}
+
+/// A(x) = ((x − p·l)/l)·maxAmp: the amplitude envelope, length units.
+///
+/// Signed: negative in front of the pivot, zero at it, (1 − p)·maxAmp at the tail tip. Using the
+/// signed envelope for both F_f and F_b makes the body curve continuous, with a continuous
+/// slope, at the pivot.
+pub fn amplitude(x: f32, p: f32, l: f32, max_amp: f32) -> f32 {
+    (x - p * l) / l * max_amp
+}
+
+/// λ' = (132·p − 18.8)·λ: the stretched wavelength of the front wave F_f, length units.
+///
+/// Positive only for p > 18.8/132 ≈ 0.1424 ([`P_MIN`]); [`crate::motion::MotionParams::validate`]
+/// rejects smaller pivots.
+pub fn lambda_prime(p: f32, lambda: f32) -> f32 {
+    (132.0 * p - 18.8) * lambda
+}
+
+/// The smallest pivot for which λ' > 0: p must exceed 18.8 / 132.
+pub const P_MIN: f32 = 18.8 / 132.0;
+
+/// ω' = s·p·ω: the body wave's phase speed, length units per second.
+///
+/// `s` is the speed in length units per second, `p` the pivot fraction and `omega` (ω) the
+/// species' dimensionless wave-speed factor. (The paper prints both s·p·p and s·p·ω; we use
+/// s·p·ω, see `docs/motion.md`.) The tail-beat frequency is ω'/λ hertz.
+pub fn omega_prime(s: f32, p: f32, omega: f32) -> f32 {
+    s * p * omega
+}
+
+/// Tail-beat frequency of the swim wave, hertz: ω'/λ = s·p·ω/λ.
+pub fn tail_beat_hz(s: f32, p: f32, omega: f32, lambda: f32) -> f32 {
+    omega_prime(s, p, omega) / lambda
+}
+
+/// Equation (3), the front wave F_f = A(x)·sin(2π·x'/λ' − φ), for x' ≤ 0.
+///
+/// The paper prints F_f without an amplitude factor and with its own time term ω'·t/λ'. We
+/// scale it by the signed envelope A(x) (so it is zero at the pivot, meets F_b there with the same
+/// slope and shrinks with the body) and drive it with the back wave's phase φ (so head and tail
+/// beat at the same frequency, as in every fish). Returns length units.
+pub fn f_front(amplitude: f32, x_prime: f32, lambda_prime: f32, phase: f32) -> f32 {
+    amplitude * (TAU * x_prime / lambda_prime - phase).sin()
+}
+
+/// Equation (4), the back wave F_b = A(x)·sin(2π/λ·(x' − ω'·t)) = A(x)·sin(2π·x'/λ − φ),
+/// for x' ≥ 0. Returns length units; crests travel from the pivot to the tail.
+pub fn f_back(amplitude: f32, x_prime: f32, lambda: f32, phase: f32) -> f32 {
+    amplitude * (TAU * x_prime / lambda - phase).sin()
+}
+
+/// Equation (5), the normal-turn wave F_nt = A(x)·(sin(2π·x'/λ − φ) + d)·f.
+///
+/// `d` ∈ {−1, 0, 1} is the paper's side (−1 left, 1 right, 0 straight), `f` ∈ [1, 2] the
+/// amplitude weight. With d = ±1 the tail only ever swings to side d. Length units.
+pub fn f_nt(amplitude: f32, x_prime: f32, lambda: f32, phase: f32, d: f32, f: f32) -> f32 {
+    amplitude * ((TAU * x_prime / lambda - phase).sin() + d) * f
+}
+
+/// λ'' = 2·Tt: the period of the quick/serial turn wave, seconds (`tt` in seconds).
+///
+/// The paper writes it where a wavelength goes; read as a duration it agrees with ω'': one lobe
+/// of |sin| (half a period) lasts exactly Tt. The player turns it into a wavelength along the body
+/// by multiplying with the swim wave's phase speed ω' (see `docs/motion.md`).
+pub fn lambda_2(tt: f32) -> f32 {
+    2.0 * tt
+}
+
+/// ω'' = 0.5/Tt: the temporal frequency of the quick/serial turn wave, hertz (`tt` in seconds).
+pub fn omega_2(tt: f32) -> f32 {
+    0.5 / tt
+}
+
+/// Equation (6), the quick/serial-turn wave F_st = A(x)·d·|sin(2π·x'/Λ'' − 2π·ω''·t)|.
+///
+/// `wavelength` (Λ'') is the turn wave's length along the body, length units; `t` seconds since
+/// the stroke began; `tt` (Tt) seconds. Because of the |·| the body bends to side `d` only and
+/// returns straight once per Tt ("ends in one direction at once"). Length units.
+pub fn f_st(amplitude: f32, x_prime: f32, wavelength: f32, t: f32, tt: f32, d: f32) -> f32 {
+    amplitude
+        * d
+        * (TAU * x_prime / wavelength - TAU * omega_2(tt) * t)
+            .sin()
+            .abs()
+}
+
+/// The interpolation function of (7), I_p(t) = |sin(π·t/t_p)|, dimensionless in [0, 1].
+///
+/// `t` and `t_p` in seconds. Zero at the start and end of every stroke of length t_p, one in its
+/// middle, so a turn starts and ends in the swim shape.
+pub fn i_p(t: f32, t_p: f32) -> f32 {
+    (PI * t / t_p).sin().abs()
+}
+
+/// Equation (7), T_locomotion = S·(1 − I_p) + T·I_p: the swim wave `s_wave` blended with the turn
+/// wave `t_wave` by `ip` = I_p(t). Length units in, length units out.
+pub fn t_locomotion(s_wave: f32, t_wave: f32, ip: f32) -> f32 {
+    s_wave * (1.0 - ip) + t_wave * ip
+}
+
+/// The swim wave S(x, t) of (3)/(4): F_f in front of the pivot, F_b behind it. Length units.
+///
+/// `x` length units from the head; `gain` scales the whole wave (the player's speed gain).
+#[allow(clippy::too_many_arguments)]
+pub fn swim_wave(
+    x: f32,
+    p: f32,
+    l: f32,
+    max_amp: f32,
+    lambda: f32,
+    lambda_prime: f32,
+    phase: f32,
+    gain: f32,
+) -> f32 {
+    let xp = x_prime(x, p, l);
+    let a = amplitude(x, p, l, max_amp) * gain;
+    if xp < 0.0 {
+        f_front(a, xp, lambda_prime, phase)
+    } else {
+        f_back(a, xp, lambda, phase)
+    }
+}
+
+/// Smoothstep 3u² − 2u³ of `u` clamped to [0, 1]: the ramp every speed change and blend uses.
+pub fn smoothstep(u: f32) -> f32 {
+    let u = u.clamp(0.0, 1.0);
+    u * u * (3.0 - 2.0 * u)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f32, b: f32, tol: f32) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn test_f_basic_hand_values() {
+        // A = 2, λ = 4, ω = 1: at x = 1, t = 0 the argument is 2π/4·1 = π/2 → 2·1 = 2.
+        assert!(close(f_basic(2.0, 1.0, 0.0, 4.0, 1.0), 2.0, 1e-6));
+        // One second later the crest has moved one unit tail-wards: x = 2 now holds it.
+        assert!(close(f_basic(2.0, 2.0, 1.0, 4.0, 1.0), 2.0, 1e-6));
+        // x = 0, t = 1: argument −π/2 → −2.
+        assert!(close(f_basic(2.0, 0.0, 1.0, 4.0, 1.0), -2.0, 1e-6));
+    }
+
+    #[test]
+    fn test_pivot_symbols_hand_values() {
+        // Table 1, Ex1: p = 0.4, l = 50 → pivot at 20 length units.
+        assert!(close(x_prime(35.0, 0.4, 50.0), 15.0, 1e-5));
+        // A(50) = (50 − 20)/50 · 10 = 6; A(20) = 0; A(0) = −4.
+        assert!(close(amplitude(50.0, 0.4, 50.0, 10.0), 6.0, 1e-5));
+        assert!(close(amplitude(20.0, 0.4, 50.0, 10.0), 0.0, 1e-6));
+        assert!(close(amplitude(0.0, 0.4, 50.0, 10.0), -4.0, 1e-5));
+        // λ' = (132·0.4 − 18.8)·50 = 34·50 = 1700; p = 0.2 → 7.6·50 = 380.
+        assert!(close(lambda_prime(0.4, 50.0), 1700.0, 1e-2));
+        assert!(close(lambda_prime(0.2, 50.0), 380.0, 1e-2));
+        assert!(lambda_prime(P_MIN, 50.0).abs() < 1e-3);
+        assert!(lambda_prime(0.14, 50.0) < 0.0);
+        // ω' = 50·0.4·3.75 = 75 length units/s; tail beat 75/50 = 1.5 Hz.
+        assert!(close(omega_prime(50.0, 0.4, 3.75), 75.0, 1e-4));
+        assert!(close(tail_beat_hz(50.0, 0.4, 3.75, 50.0), 1.5, 1e-6));
+    }
+
+    #[test]
+    fn test_front_and_back_waves_hand_values() {
+        // F_b: A = 6, x' = 12.5, λ = 50, φ = 0 → 6·sin(π/2) = 6.
+        assert!(close(f_back(6.0, 12.5, 50.0, 0.0), 6.0, 1e-5));
+        // φ = π/2 turns it into 6·sin(0) = 0.
+        assert!(close(f_back(6.0, 12.5, 50.0, PI / 2.0), 0.0, 1e-5));
+        // (4) as printed, with ω'·t: φ = 2π·ω'·t/λ gives the same value.
+        let (w, t, lam) = (75.0, 0.1, 50.0);
+        let printed = 6.0 * (TAU / lam * (12.5 - w * t)).sin();
+        assert!(close(
+            f_back(6.0, 12.5, lam, TAU * w * t / lam),
+            printed,
+            1e-5
+        ));
+        // F_f: A = −4 at the head (x' = −20), λ' = 1700, φ = −π/2:
+        // −4·sin(2π·(−20)/1700 + π/2) = −4·cos(0.073921) = −3.98908.
+        assert!(close(
+            f_front(-4.0, -20.0, 1700.0, -PI / 2.0),
+            -3.98908,
+            1e-4
+        ));
+    }
+
+    #[test]
+    fn test_swim_wave_continuous_at_pivot() {
+        let (p, l, amp, lam) = (0.4, 50.0, 10.0, 50.0);
+        let lp = lambda_prime(p, lam);
+        for k in 0..16 {
+            let phase = k as f32 * 0.4;
+            let eps = 1e-3;
+            let before = swim_wave(20.0 - eps, p, l, amp, lam, lp, phase, 1.0);
+            let after = swim_wave(20.0 + eps, p, l, amp, lam, lp, phase, 1.0);
+            assert!(
+                close(before, after, 1e-3),
+                "jump at pivot: {before} vs {after}"
+            );
+            // Same slope on both sides: A'(x) = amp/l, multiplied by sin(−φ).
+            let slope = amp / l * (-phase).sin();
+            assert!(close((after - before) / (2.0 * eps), slope, 2e-2));
+        }
+    }
+
+    #[test]
+    fn test_turn_waves_hand_values() {
+        // F_nt: A = 6, sin term 1 (x' = 12.5, λ = 50, φ = 0), d = −1, f = 2 → 6·(1 − 1)·2 = 0.
+        assert!(close(f_nt(6.0, 12.5, 50.0, 0.0, -1.0, 2.0), 0.0, 1e-5));
+        // d = +1 → 6·2·2 = 24; at a trough (φ = π) the tail is back on the centre line.
+        assert!(close(f_nt(6.0, 12.5, 50.0, 0.0, 1.0, 2.0), 24.0, 1e-4));
+        assert!(close(f_nt(6.0, 12.5, 50.0, PI, 1.0, 2.0), 0.0, 1e-4));
+        // λ'' = 2·Tt, ω'' = 0.5/Tt: Tt = 2 s → 4 s and 0.25 Hz.
+        assert!(close(lambda_2(2.0), 4.0, 1e-6));
+        assert!(close(omega_2(2.0), 0.25, 1e-6));
+        // F_st at x' = 0, Tt = 2 s, t = 1 s: |sin(−2π·0.25·1)| = 1 → A·d = −6.
+        assert!(close(f_st(6.0, 0.0, 100.0, 1.0, 2.0, -1.0), -6.0, 1e-5));
+        // Never on the other side: sample a whole period.
+        for k in 0..40 {
+            let t = k as f32 * 0.1;
+            assert!(f_st(6.0, 7.0, 100.0, t, 2.0, -1.0) <= 0.0);
+            assert!(f_st(6.0, 7.0, 100.0, t, 2.0, 1.0) >= 0.0);
+        }
+    }
+
+    #[test]
+    fn test_interpolation_and_blend_hand_values() {
+        assert!(close(i_p(0.0, 2.0), 0.0, 1e-6));
+        assert!(close(i_p(1.0, 2.0), 1.0, 1e-6));
+        assert!(close(i_p(2.0, 2.0), 0.0, 1e-6));
+        // |·| makes the second stroke a second positive lobe: I_p(2.5, 2) = |sin(1.25π)| = 0.7071.
+        assert!(close(i_p(2.5, 2.0), std::f32::consts::FRAC_1_SQRT_2, 1e-5));
+        // (7): S = 2, T = 10, I_p = 0.25 → 2·0.75 + 10·0.25 = 4.
+        assert!(close(t_locomotion(2.0, 10.0, 0.25), 4.0, 1e-6));
+        assert!(close(t_locomotion(2.0, 10.0, 0.0), 2.0, 1e-6));
+        assert!(close(t_locomotion(2.0, 10.0, 1.0), 10.0, 1e-6));
+    }
+
+    #[test]
+    fn test_smoothstep_hand_values() {
+        assert_eq!(smoothstep(-1.0), 0.0);
+        assert_eq!(smoothstep(0.5), 0.5);
+        assert_eq!(smoothstep(2.0), 1.0);
+        assert!(close(smoothstep(0.25), 0.15625, 1e-6));
+    }
+}

@@ -1,0 +1,323 @@
+//! [`FishModel`]: one skinned mesh flattened for the runtime (skeleton, inverse bind poses and a
+//! single merged vertex/index list).
+
+use std::path::Path;
+
+use glam::{Mat4, Vec3};
+
+use super::SkinError;
+use super::gltf_scene::{GltfScene, skin_vertex};
+use crate::skeleton::{JointTransform, Skeleton};
+
+/// Vertex data of a skinned mesh in the skeleton's bind (rest) pose, all primitives merged.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SkinnedMesh {
+    /// Bind-shape positions (V_d of equation (1)), in the skeleton's model space.
+    pub positions: Vec<Vec3>,
+    /// Bind-shape unit normals, one per vertex (computed from the triangles when the file has none).
+    pub normals: Vec<Vec3>,
+    /// Linear RGBA per vertex: material base colour × vertex colour.
+    pub colors: Vec<[f32; 4]>,
+    /// Up to four joint indices per vertex, into the skeleton.
+    pub joints: Vec<[u16; 4]>,
+    /// The matching weights, summing to 1.
+    pub weights: Vec<[f32; 4]>,
+    /// Triangle list over all primitives.
+    pub indices: Vec<u32>,
+}
+
+impl SkinnedMesh {
+    /// Number of vertices.
+    pub fn num_vertices(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of triangles.
+    pub fn num_triangles(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// The first skinned mesh node of a glTF file's default scene, ready for the runtime.
+///
+/// The skeleton holds the skin's joints only, parent-first; a root joint's rest transform
+/// includes every non-joint ancestor node, so the skeleton's model space is the file's scene
+/// space. The file's bind pose is *flattened*: `mesh.positions` / `normals` are the rest-pose
+/// skinned shape (Σ w · global(joint) · IBM · v, the glTF definition, the mesh node's own
+/// transform ignored) and `inverse_bind_poses[j]` is the inverse of joint j's rest model matrix.
+/// So skinning with `palette = rest_models × inverse_bind_poses` reproduces `mesh.positions`,
+/// and any pose gives what the file's own bind data would give wherever the file's
+/// global(joint) · IBM agree across a vertex's joints (true for every well-formed export; a
+/// warning counts the vertices where it does not).
+#[derive(Debug, Clone)]
+pub struct FishModel {
+    /// The skin's joints, parent-first; names are the joint node names (or `joint_<i>`, i the
+    /// index in `skin.joints`).
+    pub skeleton: Skeleton,
+    /// Inverse bind pose (M_{n,d}⁻¹) by skeleton joint.
+    pub inverse_bind_poses: Vec<Mat4>,
+    /// The merged mesh in bind pose.
+    pub mesh: SkinnedMesh,
+    /// Things a person should know about the file (renormalized weights, dropped influences…).
+    pub warnings: Vec<String>,
+}
+
+impl FishModel {
+    /// Loads the first skinned mesh node (depth-first in the default scene) of a `.gltf`/`.glb`.
+    pub fn load(path: &Path) -> Result<FishModel, SkinError> {
+        let scene = GltfScene::load(path)?;
+        Self::from_scene(&scene)
+    }
+
+    /// Builds the model from a scene already read.
+    pub fn from_scene(scene: &GltfScene) -> Result<FishModel, SkinError> {
+        let path = &scene.path;
+        let mut warnings = scene.warnings.clone();
+        let mesh_nodes = scene.scene_mesh_nodes();
+        let Some(&node_index) = mesh_nodes.iter().find(|&&n| scene.nodes[n].skin.is_some()) else {
+            let morph_only = mesh_nodes.iter().any(|&n| {
+                scene.nodes[n]
+                    .mesh
+                    .and_then(|m| scene.meshes.get(m))
+                    .is_some_and(|m| m.primitives.iter().any(|p| p.has_morph_targets))
+            });
+            let detail = if mesh_nodes.is_empty() {
+                "the default scene has no mesh".to_string()
+            } else if morph_only {
+                "its meshes are deformed by morph targets only, which shoal does not play; \
+                 rig it with `shoal asset rig`"
+                    .to_string()
+            } else {
+                format!(
+                    "none of its {} mesh nodes has a skin; rig it with `shoal asset rig`",
+                    mesh_nodes.len()
+                )
+            };
+            return Err(SkinError::NoSkin {
+                path: path.clone(),
+                detail,
+            });
+        };
+        let node = &scene.nodes[node_index];
+        let invalid = |problem: String| SkinError::Invalid {
+            path: path.clone(),
+            problem,
+        };
+        let (Some(mesh_index), Some(skin_index)) = (node.mesh, node.skin) else {
+            return Err(invalid(format!("node {node_index} lost its mesh or skin")));
+        };
+        let skin = scene
+            .skins
+            .get(skin_index)
+            .ok_or_else(|| invalid(format!("node {node_index} names missing skin {skin_index}")))?;
+        let mesh = scene
+            .meshes
+            .get(mesh_index)
+            .ok_or_else(|| invalid(format!("node {node_index} names missing mesh {mesh_index}")))?;
+        if node.local_matrix != Mat4::IDENTITY || node.parent.is_some() {
+            warnings.push(format!(
+                "{}: the skinned mesh node {node_index}'s own transform is ignored (glTF skinning rule)",
+                path.display()
+            ));
+        }
+
+        // Joint hierarchy: each joint's parent is its nearest ancestor that is a joint of this
+        // skin; its rest local is the product of the node transforms in between.
+        let num = skin.joints.len();
+        let mut joint_of_node = vec![None; scene.nodes.len()];
+        for (i, &n) in skin.joints.iter().enumerate() {
+            if n >= scene.nodes.len() {
+                return Err(invalid(format!(
+                    "skin {skin_index} joint {i} is missing node {n}"
+                )));
+            }
+            if joint_of_node[n].is_some() {
+                return Err(invalid(format!("skin {skin_index} lists node {n} twice")));
+            }
+            joint_of_node[n] = Some(i);
+        }
+        let mut parents = Vec::with_capacity(num);
+        let mut names = Vec::with_capacity(num);
+        let mut rests = Vec::with_capacity(num);
+        for (i, &n) in skin.joints.iter().enumerate() {
+            names.push(
+                scene.nodes[n]
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("joint_{i}")),
+            );
+            let mut chain = scene.nodes[n].local_matrix;
+            let mut direct = true;
+            let mut at = scene.nodes[n].parent;
+            let mut parent = None;
+            while let Some(a) = at {
+                if let Some(j) = joint_of_node[a] {
+                    parent = Some(j);
+                    break;
+                }
+                chain = scene.nodes[a].local_matrix * chain;
+                direct = false;
+                at = scene.nodes[a].parent;
+            }
+            parents.push(parent);
+            rests.push(if direct {
+                scene.nodes[n].local
+            } else {
+                JointTransform::from_mat4(chain)
+            });
+        }
+        let (skeleton, order) =
+            Skeleton::from_unordered(&parents, &names, &rests).map_err(|source| {
+                SkinError::Skeleton {
+                    path: path.clone(),
+                    source,
+                }
+            })?;
+        let mut new_of_old = vec![0u16; num];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old] = new as u16;
+        }
+
+        // The file's rest palette, global(joint) · IBM, by file joint index.
+        let globals = scene.globals_from(&scene.rest_locals());
+        let bind_palette: Vec<Mat4> = skin
+            .joints
+            .iter()
+            .zip(&skin.inverse_bind_matrices)
+            .map(|(&n, ibm)| globals[n] * *ibm)
+            .collect();
+        let mut extent = 0.0f32;
+        let mut model_mismatch = 0.0f32;
+        for (new, &old) in order.iter().enumerate() {
+            let g = globals[skin.joints[old]];
+            let r = skeleton.rest_models()[new];
+            model_mismatch = model_mismatch.max(
+                (g - r)
+                    .abs()
+                    .to_cols_array()
+                    .into_iter()
+                    .fold(0.0, f32::max),
+            );
+        }
+
+        let mut out = SkinnedMesh::default();
+        let mut inconsistent = 0usize;
+        let mut computed_normals = false;
+        let mut morph = false;
+        for prim in &mesh.primitives {
+            let (Some(joints), Some(weights)) = (&prim.joints, &prim.weights) else {
+                return Err(invalid(format!(
+                    "node {node_index} is skinned but mesh {mesh_index} primitive {} has no JOINTS_0/WEIGHTS_0",
+                    prim.index
+                )));
+            };
+            morph |= prim.has_morph_targets;
+            let base = out.positions.len() as u32;
+            let normals_in = match &prim.normals {
+                Some(n) => n.clone(),
+                None => {
+                    computed_normals = true;
+                    vertex_normals(&prim.positions, &prim.indices)
+                }
+            };
+            for v in 0..prim.positions.len() {
+                let Some((p, n, _)) = skin_vertex(
+                    &bind_palette,
+                    joints[v],
+                    weights[v],
+                    prim.positions[v],
+                    normals_in[v],
+                ) else {
+                    return Err(SkinError::Accessor {
+                        path: path.clone(),
+                        accessor: 0,
+                        what: format!("mesh {mesh_index} primitive {} JOINTS", prim.index),
+                        problem: format!(
+                            "vertex {v} uses joint {:?} but skin {skin_index} has {num} joints",
+                            joints[v]
+                        ),
+                    });
+                };
+                // Do the influencing joints agree where this vertex sits at rest?
+                for k in 0..4 {
+                    if weights[v][k] > 0.0 {
+                        let q = bind_palette[usize::from(joints[v][k])]
+                            .transform_point3(prim.positions[v]);
+                        if q.distance(p) > 1e-4 * (1.0 + p.length()) {
+                            inconsistent += 1;
+                            break;
+                        }
+                    }
+                }
+                extent = extent.max(p.abs().max_element());
+                out.positions.push(p);
+                out.normals.push(n);
+                out.colors.push(prim.colors[v]);
+                let j = joints[v];
+                out.joints.push([
+                    new_of_old[usize::from(j[0])],
+                    new_of_old[usize::from(j[1])],
+                    new_of_old[usize::from(j[2])],
+                    new_of_old[usize::from(j[3])],
+                ]);
+                out.weights.push(weights[v]);
+            }
+            out.indices.extend(prim.indices.iter().map(|i| i + base));
+        }
+        let file = path.display();
+        if inconsistent > 0 {
+            warnings.push(format!(
+                "{file}: at {inconsistent} vertices the joints' global·IBM disagree at rest; \
+                 the bind shape is their weighted blend"
+            ));
+        }
+        if computed_normals {
+            warnings.push(format!(
+                "{file}: mesh {mesh_index} has no normals; computed from faces"
+            ));
+        }
+        if morph {
+            warnings.push(format!(
+                "{file}: mesh {mesh_index} morph targets are ignored"
+            ));
+        }
+        if model_mismatch > 1e-4 * (1.0 + extent) {
+            warnings.push(format!(
+                "{file}: some joint rest transforms have shear, which the skeleton's T·R·S drops (max error {model_mismatch})"
+            ));
+        }
+        let inverse_bind_poses = skeleton.rest_models().iter().map(|m| m.inverse()).collect();
+        Ok(FishModel {
+            skeleton,
+            inverse_bind_poses,
+            mesh: out,
+            warnings,
+        })
+    }
+
+    /// The skinning palette of the rest pose (identity up to rounding).
+    pub fn rest_palette(&self) -> Vec<Mat4> {
+        self.skeleton
+            .rest_models()
+            .iter()
+            .zip(&self.inverse_bind_poses)
+            .map(|(m, i)| *m * *i)
+            .collect()
+    }
+}
+
+/// Area-weighted vertex normals of a triangle list (zero where a vertex has no area).
+pub fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for tri in indices.chunks_exact(3) {
+        let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        if a >= positions.len() || b >= positions.len() || c >= positions.len() {
+            continue;
+        }
+        let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        normals[a] += n;
+        normals[b] += n;
+        normals[c] += n;
+    }
+    normals.iter().map(|n| n.normalize_or_zero()).collect()
+}
