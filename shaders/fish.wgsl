@@ -1,4 +1,4 @@
-// fish.wgsl — GPU-skinned, instanced fish (one draw per species).
+// fish.wgsl — GPU-skinned, instanced fish (one draw per species) and their planar shadows.
 //
 // Bindings (group 0):
 //   @binding(0) globals: Globals (uniform, from common.wgsl)
@@ -70,4 +70,32 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
         color = color + vec3<f32>(1.0, 0.8, 0.2) * (0.25 + rim * 1.2);
     }
     return vec4<f32>(apply_fog(color, in.world_pos), 1.0);
+}
+
+// Planar shadows: the same skinned fish squashed onto the sand along the light direction, drawn
+// with a multiplicative blend (the sand is darkened, never replaced). Fainter the higher the
+// fish swims, so the shadow also reads as a depth cue.
+struct ShadowOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) shade: f32,
+};
+
+@vertex
+fn vs_shadow(in: VertexIn) -> ShadowOut {
+    let m = skin_matrix(in.palette_offset, in.joints, in.weights);
+    let world = (m * vec4<f32>(in.position, 1.0)).xyz;
+    let floor_y = globals.tank_min_fog.y + 0.3;
+    let l = globals.light_dir.xyz;
+    let height = max(world.y - floor_y, 0.0);
+    let on_floor = world - l * (height / max(l.y, 0.2));
+    var out: ShadowOut;
+    out.clip = globals.view_proj * vec4<f32>(on_floor.x, floor_y, on_floor.z, 1.0);
+    let tank_h = max(globals.tank_max_caustic.y - globals.tank_min_fog.y, 1.0);
+    out.shade = mix(0.55, 0.9, clamp(height / tank_h, 0.0, 1.0));
+    return out;
+}
+
+@fragment
+fn fs_shadow(in: ShadowOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(vec3<f32>(in.shade), 1.0);
 }

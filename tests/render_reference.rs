@@ -209,7 +209,8 @@ fn skinned_fish_closeup_with_skeleton_overlay() {
     check("fish_closeup", &img);
 }
 
-/// A grid of 64 instanced fish with tints, one selected: one draw call for all of them.
+/// A grid of 64 instanced fish with tints, one selected: one draw call for all of them (and one
+/// for all their shadows).
 #[test]
 fn instanced_school_is_one_draw_call() {
     let gpu = gpu();
@@ -245,14 +246,14 @@ fn instanced_school_is_one_draw_call() {
         look: Look::default(),
     };
     let img = render(&gpu, &mut renderer, &input);
-    // Background + floor + one fish draw + tank edges, however many fish.
-    assert_eq!(renderer.timings().num_draw_calls, 4);
+    // Background + floor + one shadow draw + one fish draw + tank edges, however many fish.
+    assert_eq!(renderer.timings().num_draw_calls, 5);
     let one = FrameInput {
         instances: &instances[..1],
         ..input
     };
     let _ = render(&gpu, &mut renderer, &one);
-    assert_eq!(renderer.timings().num_draw_calls, 4);
+    assert_eq!(renderer.timings().num_draw_calls, 5);
     check("instanced_school", &img);
 }
 

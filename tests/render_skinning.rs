@@ -137,3 +137,46 @@ fn skin_read_back_rejects_a_short_palette() {
     let err = renderer.skin_positions(&gpu, id, &palette, 0).unwrap_err();
     assert!(err.to_string().contains("palette"), "{err}");
 }
+
+/// The same comparison against the skin layer's CPU reference job (eq. 1 in `skin::lbs`).
+#[test]
+fn gpu_skinning_matches_the_skin_layers_cpu_job() {
+    use shoal::skin::LinearBlendSkinningJob;
+    let fish = TestFish::demo();
+    let nj = fish.num_joints();
+    let yaws: Vec<f32> = (0..nj).map(|j| -0.2 * (j as f32 * 0.7).cos()).collect();
+    let mut palette = vec![Mat4::IDENTITY; nj];
+    let root =
+        Mat4::from_rotation_translation(Quat::from_rotation_y(-2.0), Vec3::new(-50.0, 20.0, 70.0));
+    fish.palette(root, &yaws, &mut palette);
+
+    let positions: Vec<Vec3> = fish.positions.iter().map(|p| Vec3::from(*p)).collect();
+    let normals: Vec<Vec3> = fish.normals.iter().map(|n| Vec3::from(*n)).collect();
+    let mut cpu_positions = vec![Vec3::ZERO; positions.len()];
+    let mut cpu_normals = vec![Vec3::ZERO; positions.len()];
+    LinearBlendSkinningJob {
+        palette: &palette,
+        positions_in: &positions,
+        normals_in: &normals,
+        joints: &fish.joints,
+        weights: &fish.weights,
+        positions_out: &mut cpu_positions,
+        normals_out: &mut cpu_normals,
+    }
+    .run()
+    .unwrap();
+
+    let gpu = gpu();
+    let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    let id = renderer.upload_mesh(&gpu, &fish.upload()).unwrap();
+    let skinned = renderer.skin_positions(&gpu, id, &palette, 0).unwrap();
+    let max_err = skinned
+        .iter()
+        .zip(&cpu_positions)
+        .map(|(g, c)| (*g - *c).length())
+        .fold(0.0f32, f32::max);
+    assert!(
+        max_err < 1e-3,
+        "max GPU vs skin::LinearBlendSkinningJob difference {max_err}"
+    );
+}

@@ -168,6 +168,8 @@ pub struct Look {
     pub caustic_strength: f32,
     /// Direction towards the light (need not be normalised).
     pub light_dir: Vec3,
+    /// Draw planar fish shadows on the sand (one extra instanced draw per species).
+    pub shadows: bool,
 }
 
 impl Default for Look {
@@ -178,6 +180,7 @@ impl Default for Look {
             fog_density_per_unit: 0.0008,
             caustic_strength: 1.0,
             light_dir: Vec3::new(0.3, 1.0, 0.2),
+            shadows: true,
         }
     }
 }

@@ -19,7 +19,8 @@ pub struct RenderTimings {
     pub upload_ms: f32,
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
-    /// Number of draw calls in the scene pass (background, floor, one per species, lines).
+    /// Number of draw calls in the scene pass (background, floor, one per species and one per
+    /// species' shadows, tank edges, overlays).
     pub num_draw_calls: u32,
 }
 
@@ -122,6 +123,7 @@ struct Pipelines {
     background: wgpu::RenderPipeline,
     floor: wgpu::RenderPipeline,
     fish: wgpu::RenderPipeline,
+    shadows: wgpu::RenderPipeline,
     lines_fogged: wgpu::RenderPipeline,
     lines_overlay: wgpu::RenderPipeline,
     skin_readback: wgpu::ComputePipeline,
@@ -626,8 +628,20 @@ impl Renderer {
             pass.draw(0..6, 0..1);
             draws += 2;
 
-            pass.set_pipeline(&self.pipelines.fish);
             pass.set_vertex_buffer(1, self.instances.buffer.slice(..));
+            if input.look.shadows {
+                pass.set_pipeline(&self.pipelines.shadows);
+                for (mesh, &(begin, end)) in self.meshes.iter().zip(&self.scratch_ranges) {
+                    if end == begin {
+                        continue;
+                    }
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..mesh.num_indices, 0, begin..end);
+                    draws += 1;
+                }
+            }
+            pass.set_pipeline(&self.pipelines.fish);
             for (mesh, &(begin, end)) in self.meshes.iter().zip(&self.scratch_ranges) {
                 if end == begin {
                     continue;
@@ -995,6 +1009,43 @@ fn build_pipelines(
         depth(true, wgpu::CompareFunction::Less),
         &opaque,
     );
+    // Multiply the floor by the shadow's shade; depth tested against the floor, not written.
+    let multiply = [Some(wgpu::ColorTargetState {
+        format: color_format,
+        blend: Some(wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::Src,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent::OVER,
+        }),
+        write_mask: wgpu::ColorWrites::ALL,
+    })];
+    let shadows = simple(
+        "fish shadow pipeline",
+        &fish_mod,
+        "vs_shadow",
+        "fs_shadow",
+        &[
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &vertex_attrs,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &instance_attrs,
+            }),
+        ],
+        wgpu::PrimitiveState {
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth(false, wgpu::CompareFunction::LessEqual),
+        &multiply,
+    );
     let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
     let line_buffers = [Some(wgpu::VertexBufferLayout {
         array_stride: std::mem::size_of::<LineVertex>() as u64,
@@ -1043,6 +1094,7 @@ fn build_pipelines(
         background,
         floor,
         fish,
+        shadows,
         lines_fogged,
         lines_overlay,
         skin_readback,

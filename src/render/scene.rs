@@ -10,7 +10,7 @@ use rand::{Rng, SeedableRng};
 
 use super::testmesh::TestFish;
 use super::{Camera, FishInstance, FrameInput, Look, MeshId, MeshUpload, OverlayLine, TankBounds};
-use crate::motion::{MotionParams, MotionRequest, Side, TurnKind};
+use crate::motion::{Body, MotionParams, MotionPlayer, MotionRequest, RootState, Side, TurnKind};
 
 /// Where a fish is, for picking and the follow camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -158,31 +158,25 @@ impl DemoSceneConfig {
     }
 }
 
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct DemoFish {
-    pos: Vec3,
-    heading: f32,
-    pitch: f32,
-    speed: f32,
-    target_speed: f32,
-    accel_per_s: f32,
-    phase: f32,
-    turn_left_rad: f32,
-    turn_rate: f32,
-    turn_kind: Option<TurnKind>,
-    target_y: Option<f32>,
+    player: MotionPlayer,
+    root: RootState,
+    lateral: Vec<f32>,
+    yaw: Vec<f32>,
     wander_s: f32,
     tint: f32,
-    motion: &'static str,
 }
 
-/// A self-contained aquarium: procedural porgy-like fish swimming with a travelling sine wave
-/// (amplitude, wavelength and frequency from [`MotionParams`]), wandering and turning away from
-/// the walls. Deterministic for a given config.
+/// A self-contained aquarium on the real motion layer: procedural porgy-like fish, each with a
+/// [`MotionPlayer`] (eq. 2–7) fed by a tiny built-in behaviour (wander with normal turns, serial
+/// turns away from walls, ascend/descend back to mid-water). Deterministic for a given config.
+/// Stands in for the world and Lua layers until they plug into [`SceneDriver`].
 #[derive(Debug)]
 pub struct DemoScene {
     config: DemoSceneConfig,
     mesh: TestFish,
+    body: Body,
     params: MotionParams,
     fish: Vec<DemoFish>,
     palettes: Vec<Mat4>,
@@ -195,29 +189,22 @@ pub struct DemoScene {
     step_ms: f32,
 }
 
-/// The demo's motion parameters (Table 1-like values for a 50-unit porgy).
+/// The demo's motion parameters: the black porgy preset at the procedural fish's length.
 pub fn demo_params() -> MotionParams {
-    MotionParams {
-        p: 0.2,
-        s: 40.0,
-        l: 50.0,
-        max_amp: 7.0,
-        lambda: 55.0,
-        omega: TAU * 1.6,
-        tt: 0.8,
-        f: 1.5,
-        turn_angle: PI / 2.0,
-    }
+    MotionParams::BLACK_PORGY
 }
 
 impl DemoScene {
     /// Builds the scene.
     pub fn new(config: DemoSceneConfig) -> Self {
         let mesh = TestFish::demo();
+        let nj = mesh.num_joints();
+        // The mesh's joints 1..nj sit at k/nj of the body: the motion layer's driven joints.
+        let body = Body::evenly_spaced(nj);
         let mut rng = rand_pcg::Pcg32::seed_from_u64(config.seed);
-        let params = demo_params();
+        let params = demo_params().with_length(mesh.length);
         let t = config.tank;
-        let margin = Vec3::new(40.0, 25.0, 40.0).min(t.size() * 0.25);
+        let margin = Vec3::new(60.0, 30.0, 60.0).min(t.size() * 0.3);
         let fish = (0..config.fish)
             .map(|_| {
                 let pos = Vec3::new(
@@ -225,32 +212,32 @@ impl DemoScene {
                     rng.random_range(t.min.y + margin.y..t.max.y - margin.y),
                     rng.random_range(t.min.z + margin.z..t.max.z - margin.z),
                 );
-                let speed = params.s * rng.random_range(0.7..1.2);
+                let speed = params.s * rng.random_range(0.6..1.1);
+                let mut player = MotionPlayer::with_phase(rng.random_range(0.0..TAU));
+                // In range by construction; a rejected request would only leave the fish idle.
+                let _ = player.push(MotionRequest::Swim { speed });
                 DemoFish {
-                    pos,
-                    heading: rng.random_range(0.0..TAU),
-                    pitch: 0.0,
-                    speed,
-                    target_speed: speed,
-                    accel_per_s: params.s,
-                    phase: rng.random_range(0.0..TAU),
-                    turn_left_rad: 0.0,
-                    turn_rate: 0.0,
-                    turn_kind: None,
-                    target_y: None,
-                    wander_s: rng.random_range(1.0..4.0),
+                    player,
+                    root: RootState {
+                        pos,
+                        heading: rng.random_range(0.0..TAU),
+                        pitch: 0.0,
+                        speed,
+                    },
+                    lateral: vec![0.0; body.joints_x.len()],
+                    yaw: vec![0.0; body.num_joints()],
+                    wander_s: rng.random_range(1.0..5.0),
                     tint: rng.random_range(0.85..1.15),
-                    motion: "swim",
                 }
             })
             .collect();
-        let nj = mesh.num_joints();
         let mut scene = Self {
             palettes: vec![Mat4::IDENTITY; config.fish * nj],
             instances: Vec::with_capacity(config.fish),
             yaws: vec![0.0; nj],
             config,
             mesh,
+            body,
             params,
             fish,
             rng,
@@ -259,6 +246,18 @@ impl DemoScene {
             log: Vec::new(),
             step_ms: 0.0,
         };
+        // Settle every body into its wave before the first frame.
+        for f in &mut scene.fish {
+            let mut root = f.root;
+            f.player.step(
+                0.0,
+                &scene.params,
+                &scene.body,
+                &mut root,
+                &mut f.lateral,
+                &mut f.yaw,
+            );
+        }
         scene.update_pose();
         scene
     }
@@ -268,58 +267,23 @@ impl DemoScene {
         &self.mesh
     }
 
-    fn forward(f: &DemoFish) -> Vec3 {
-        Vec3::new(
-            f.heading.cos() * f.pitch.cos(),
-            f.pitch.sin(),
-            -f.heading.sin() * f.pitch.cos(),
-        )
-    }
-
-    fn root(f: &DemoFish) -> Mat4 {
+    /// Root transform of a fish including the head's recoil (see `MotionPlayer::head_yaw`).
+    fn root_matrix(f: &DemoFish) -> Mat4 {
+        let r = &f.root;
         Mat4::from_rotation_translation(
-            Quat::from_rotation_y(f.heading) * Quat::from_rotation_z(f.pitch),
-            f.pos,
+            Quat::from_rotation_y(r.heading + f.player.head_yaw()) * Quat::from_rotation_z(r.pitch),
+            r.pos + r.left() * f.player.head_lateral(),
         )
-    }
-
-    /// Local joint yaws of a travelling wave y(x, t) = A(x)·sin(2πx/λ − φ), A(x) growing from
-    /// the pivot p·l to maxAmp at the tail.
-    fn wave_yaws(params: &MotionParams, length: f32, phase: f32, amp_scale: f32, yaws: &mut [f32]) {
-        let n = yaws.len();
-        let seg = length / n as f32;
-        let mut prev = 0.0;
-        for (j, yaw) in yaws.iter_mut().enumerate() {
-            // Slope of the midline over bone j (from joint j to j+1).
-            let lateral = |x: f32| {
-                let a = ((x - params.p * length) / length).max(0.0) * params.max_amp * amp_scale;
-                a * (TAU * x / params.lambda.max(1.0) - phase).sin()
-            };
-            let x0 = j as f32 * seg;
-            let slope = (lateral(x0 + seg) - lateral(x0)) / seg;
-            let angle = slope.atan();
-            *yaw = angle - prev;
-            prev = angle;
-        }
     }
 
     fn update_pose(&mut self) {
         let nj = self.mesh.num_joints();
         self.instances.clear();
         for (i, f) in self.fish.iter().enumerate() {
-            let amp = (f.speed / self.params.s.max(1e-3)).clamp(0.25, 1.6);
-            Self::wave_yaws(&self.params, self.mesh.length, f.phase, amp, &mut self.yaws);
-            if let Some(kind) = f.turn_kind {
-                // Bend the whole body into the turn (F_nt/F_st stand-in).
-                let bend = f.turn_rate.signum()
-                    * if kind == TurnKind::Normal { 0.1 } else { 0.18 }
-                    * self.params.f;
-                for y in self.yaws.iter_mut().skip(1) {
-                    *y += bend;
-                }
-            }
+            self.yaws[0] = 0.0;
+            self.yaws[1..].copy_from_slice(&f.yaw);
             self.mesh.palette(
-                Self::root(f),
+                Self::root_matrix(f),
                 &self.yaws,
                 &mut self.palettes[i * nj..(i + 1) * nj],
             );
@@ -332,6 +296,66 @@ impl DemoScene {
             });
         }
     }
+
+    /// The built-in behaviour: keep off the walls, floor and surface; wander otherwise.
+    fn behave(&mut self, dt: f32) {
+        let tank = self.config.tank;
+        let p = self.params;
+        let len = self.mesh.length;
+        for f in &mut self.fish {
+            f.wander_s -= dt;
+            let name = f.player.current_name();
+            let busy = f.player.queue_len() > 0 || !matches!(name, "swim" | "idle");
+            if busy || f.root.speed <= 0.0 && name == "idle" {
+                continue;
+            }
+            let r = &f.root;
+            let ahead = r.pos + r.forward() * (len * 2.5);
+            let inset = len * 0.8;
+            let outside = ahead.x < tank.min.x + inset
+                || ahead.x > tank.max.x - inset
+                || ahead.z < tank.min.z + inset
+                || ahead.z > tank.max.z - inset;
+            let request = if outside {
+                let to_center = tank.center() - r.pos;
+                let desired = (-to_center.z).atan2(to_center.x);
+                let delta = (desired - r.heading + PI).rem_euclid(TAU) - PI;
+                let side = if delta >= 0.0 {
+                    Side::Left
+                } else {
+                    Side::Right
+                };
+                Some(MotionRequest::Turn {
+                    kind: TurnKind::Serial,
+                    angle: delta.abs().clamp(0.5, PI),
+                    side,
+                })
+            } else if r.pos.y < tank.min.y + len * 0.8 {
+                Some(MotionRequest::Ascend { height: len })
+            } else if r.pos.y > tank.max.y - len * 0.8 {
+                Some(MotionRequest::Descend { depth: len })
+            } else if f.wander_s <= 0.0 {
+                f.wander_s = self.rng.random_range(3.0..8.0);
+                let side = if self.rng.random_bool(0.5) {
+                    Side::Left
+                } else {
+                    Side::Right
+                };
+                Some(MotionRequest::Turn {
+                    kind: TurnKind::Normal,
+                    angle: self.rng.random_range(0.3..1.0) * p.turn_angle,
+                    side,
+                })
+            } else {
+                None
+            };
+            if let Some(request) = request
+                && let Err(e) = f.player.push(request)
+            {
+                self.log.push(format!("demo behaviour: {e}"));
+            }
+        }
+    }
 }
 
 impl SceneDriver for DemoScene {
@@ -341,95 +365,25 @@ impl SceneDriver for DemoScene {
 
     fn step(&mut self, dt_s: f32) {
         let start = Instant::now();
-        let dt = dt_s.clamp(0.0, 0.25);
+        let dt = if dt_s.is_finite() {
+            dt_s.clamp(0.0, 0.25)
+        } else {
+            0.0
+        };
         self.time_s += dt;
+        self.behave(dt);
         let tank = self.config.tank;
-        let p = self.params;
-        let len = self.mesh.length;
         for f in &mut self.fish {
-            // Speed towards target.
-            let dv = (f.target_speed - f.speed).clamp(-f.accel_per_s * dt, f.accel_per_s * dt);
-            f.speed += dv;
-            if (f.target_speed - f.speed).abs() < 1e-3 {
-                f.motion = if f.target_speed == 0.0 {
-                    "idle"
-                } else if f.turn_kind.is_none() && f.target_y.is_none() {
-                    "swim"
-                } else {
-                    f.motion
-                };
-            }
-            // Tail beat: frequency follows speed; a quick turn beats hard.
-            let beat = (f.speed / p.s.max(1e-3)).clamp(0.2, 2.0)
-                + if f.turn_kind == Some(TurnKind::Quick) {
-                    1.0
-                } else {
-                    0.0
-                };
-            f.phase = (f.phase + p.omega * beat * dt).rem_euclid(TAU * 64.0);
-            // Turning.
-            if f.turn_kind.is_some() {
-                let step = f.turn_rate * dt;
-                if step.abs() >= f.turn_left_rad.abs() {
-                    f.heading += f.turn_left_rad;
-                    f.turn_left_rad = 0.0;
-                    f.turn_kind = None;
-                    if f.target_speed > 0.0 {
-                        f.motion = "swim";
-                    }
-                } else {
-                    f.heading += step;
-                    f.turn_left_rad -= step;
-                }
-            }
-            // Ascend/descend.
-            if let Some(y) = f.target_y {
-                let dy = y - f.pos.y;
-                f.pitch = (dy * 0.02).clamp(-0.5, 0.5);
-                if dy.abs() < 1.0 {
-                    f.target_y = None;
-                }
-            } else {
-                f.pitch *= (1.0 - 2.0 * dt).max(0.0);
-            }
-            // Stay in the tank: turn away from walls ahead, wander otherwise.
-            let fwd = Self::forward(f);
-            let ahead = f.pos + fwd * (len * 2.0 + f.speed);
-            let inset = len * 0.6;
-            let outside = ahead.x < tank.min.x + inset
-                || ahead.x > tank.max.x - inset
-                || ahead.z < tank.min.z + inset
-                || ahead.z > tank.max.z - inset;
-            f.wander_s -= dt;
-            if f.turn_kind.is_none() && f.speed > 0.0 && (outside || f.wander_s <= 0.0) {
-                let to_center = tank.center() - f.pos;
-                let desired = (-to_center.z).atan2(to_center.x);
-                let mut delta = (desired - f.heading + PI).rem_euclid(TAU) - PI;
-                if !outside {
-                    delta = self.rng.random_range(-1.0..1.0);
-                }
-                f.turn_kind = Some(if outside {
-                    TurnKind::Serial
-                } else {
-                    TurnKind::Normal
-                });
-                f.turn_left_rad = delta;
-                f.turn_rate = delta.signum() * p.turn_angle / p.tt.max(0.05) * 0.7;
-                f.motion = if outside {
-                    "serial_turn"
-                } else {
-                    "normal_turn"
-                };
-                f.wander_s = self.rng.random_range(2.0..6.0);
-            }
-            if f.target_y.is_none()
-                && (f.pos.y < tank.min.y + len * 0.5 || f.pos.y > tank.max.y - len * 0.5)
-            {
-                f.target_y = Some(tank.center().y);
-            }
-            let fwd = Self::forward(f);
-            f.pos += fwd * f.speed * dt;
-            f.pos = f.pos.clamp(tank.min, tank.max);
+            f.player.step(
+                dt,
+                &self.params,
+                &self.body,
+                &mut f.root,
+                &mut f.lateral,
+                &mut f.yaw,
+            );
+            // The demo has no collision: keep roots inside the tank.
+            f.root.pos = f.root.pos.clamp(tank.min, tank.max);
         }
         self.update_pose();
         self.step_ms = start.elapsed().as_secs_f32() * 1e3;
@@ -472,7 +426,7 @@ impl SceneDriver for DemoScene {
     fn fish_info(&self, fish: usize) -> Option<FishInfo> {
         let f = self.fish.get(fish)?;
         Some(FishInfo {
-            center: f.pos - Self::forward(f) * self.mesh.length * 0.5,
+            center: f.root.pos - f.root.forward() * self.mesh.length * 0.5,
             radius: self.mesh.bounding_radius(),
         })
     }
@@ -485,7 +439,7 @@ impl SceneDriver for DemoScene {
     }
 
     fn species_names(&self) -> Vec<String> {
-        vec!["procedural porgy".into()]
+        vec!["procedural porgy (black porgy motion)".into()]
     }
 
     fn species_of(&self, fish: usize) -> Option<usize> {
@@ -500,108 +454,46 @@ impl SceneDriver for DemoScene {
         if species != 0 {
             return Err(format!("no species {species}"));
         }
-        let fields = [
-            ("p", params.p),
-            ("s", params.s),
-            ("l", params.l),
-            ("maxAmp", params.max_amp),
-            ("lambda", params.lambda),
-            ("omega", params.omega),
-            ("Tt", params.tt),
-            ("f", params.f),
-            ("turn angle", params.turn_angle),
-        ];
-        if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_finite() || *v < 0.0) {
-            return Err(format!("{name} = {v} must be a finite number ≥ 0"));
-        }
-        let old_s = self.params.s;
+        params.validate().map_err(|e| e.to_string())?;
         self.params = params;
-        for f in &mut self.fish {
-            if f.target_speed > 0.0 && old_s > 0.0 {
-                f.target_speed *= params.s / old_s;
-            }
-        }
         Ok(())
     }
 
     fn request_motion(&mut self, fish: usize, request: MotionRequest) -> Result<(), String> {
-        let p = self.params;
         let f = self
             .fish
             .get_mut(fish)
             .ok_or_else(|| format!("no fish {fish}"))?;
-        match request {
-            MotionRequest::Swim { speed } => {
-                f.target_speed = speed.max(0.0);
-                f.accel_per_s = p.s;
-                f.motion = "swim";
-            }
-            MotionRequest::Accelerate { speed, duration } => {
-                f.accel_per_s = (speed - f.speed).abs() / duration.max(0.05);
-                f.target_speed = speed.max(0.0);
-                f.motion = "accelerate";
-            }
-            MotionRequest::Stop { duration } => {
-                f.accel_per_s = f.speed / duration.max(0.05);
-                f.target_speed = 0.0;
-                f.motion = "stop";
-            }
-            MotionRequest::Turn { kind, angle, side } => {
-                let sign = -side.d();
-                f.turn_kind = Some(kind);
-                f.turn_left_rad = sign * angle;
-                f.turn_rate = sign * angle / p.tt.max(0.05);
-                f.motion = match kind {
-                    TurnKind::Normal => "normal_turn",
-                    TurnKind::Quick => "quick_turn",
-                    TurnKind::Serial => "serial_turn",
-                };
-                if kind == TurnKind::Quick {
-                    f.target_speed = f.target_speed.min(p.s * 0.3);
-                }
-            }
-            MotionRequest::Ascend { height } => {
-                f.target_y = Some((f.pos.y + height).min(self.config.tank.max.y - 20.0));
-                f.motion = "ascend";
-            }
-            MotionRequest::Descend { depth } => {
-                f.target_y = Some((f.pos.y - depth).max(self.config.tank.min.y + 20.0));
-                f.motion = "descend";
-            }
-        }
-        let _ = Side::Left;
-        Ok(())
+        f.player.interrupt(request).map_err(|e| e.to_string())
     }
 
     fn body_wave(&self, fish: usize, out: &mut Vec<[f64; 2]>) {
         out.clear();
         let Some(f) = self.fish.get(fish) else { return };
-        let n = 40;
-        let len = self.mesh.length;
-        let amp = (f.speed / self.params.s.max(1e-3)).clamp(0.25, 1.6);
-        for i in 0..=n {
-            let x = len * i as f32 / n as f32;
-            let a = ((x - self.params.p * len) / len).max(0.0) * self.params.max_amp * amp;
-            let y = a * (TAU * x / self.params.lambda.max(1.0) - f.phase).sin();
-            out.push([f64::from(x / len), f64::from(y)]);
+        out.push([0.0, f64::from(f.player.head_lateral())]);
+        for (x, l) in self.body.joints_x.iter().zip(&f.lateral) {
+            out.push([f64::from(*x), f64::from(*l)]);
         }
     }
 
     fn inspect(&self, fish: usize, out: &mut Vec<(String, String)>) {
         out.clear();
         let Some(f) = self.fish.get(fish) else { return };
+        let r = &f.root;
         out.push(("species".into(), "procedural porgy".into()));
-        out.push(("motion".into(), f.motion.into()));
-        out.push(("speed".into(), format!("{:.1} units/s", f.speed)));
+        out.push(("motion".into(), f.player.current_name().into()));
+        out.push(("queued".into(), f.player.queue_len().to_string()));
+        out.push(("speed".into(), format!("{:.1} units/s", r.speed)));
         out.push((
             "heading".into(),
-            format!("{:.0}°", f.heading.to_degrees().rem_euclid(360.0)),
+            format!("{:.0}°", r.heading.to_degrees().rem_euclid(360.0)),
         ));
+        out.push(("pitch".into(), format!("{:.0}°", r.pitch.to_degrees())));
         out.push((
             "position".into(),
-            format!("{:.0}, {:.0}, {:.0}", f.pos.x, f.pos.y, f.pos.z),
+            format!("{:.0}, {:.0}, {:.0}", r.pos.x, r.pos.y, r.pos.z),
         ));
-        out.push(("behaviour".into(), "(demo scene: none)".into()));
+        out.push(("behaviour".into(), "built-in demo wander".into()));
     }
 
     fn overlay_lines(&self, toggles: OverlayToggles, out: &mut Vec<OverlayLine>) {
@@ -630,27 +522,33 @@ impl SceneDriver for DemoScene {
                 }
             }
             if toggles.midline {
-                let up = Vec3::Y * 0.5;
-                for j in 0..nj {
-                    let a = joint(j) + up;
-                    let b = if j + 1 < nj { joint(j + 1) } else { tail } + up;
+                // The motion layer's midline: lateral offsets from the travel line.
+                let r = &f.root;
+                let point = |x: f32, lat: f32| {
+                    r.pos - r.forward() * x * self.mesh.length + r.left() * lat + Vec3::Y * 0.5
+                };
+                let mut prev = point(0.0, f.player.head_lateral());
+                for (x, lat) in self.body.joints_x.iter().zip(&f.lateral) {
+                    let next = point(*x, *lat);
                     out.push(OverlayLine {
-                        a,
-                        b,
+                        a: prev,
+                        b: next,
                         color: [0.2, 1.0, 1.0, 1.0],
                     });
+                    prev = next;
                 }
             }
             if toggles.velocity {
-                let fwd = Self::forward(f);
+                let r = &f.root;
                 out.push(OverlayLine {
-                    a: f.pos,
-                    b: f.pos + fwd * f.speed,
+                    a: r.pos,
+                    b: r.pos + r.forward() * r.speed,
                     color: [0.3, 1.0, 0.3, 1.0],
                 });
+                let h = Vec3::new(r.heading.cos(), 0.0, -r.heading.sin());
                 out.push(OverlayLine {
-                    a: f.pos,
-                    b: f.pos + fwd * 20.0 + Vec3::Y * 0.01,
+                    a: r.pos,
+                    b: r.pos + h * 20.0,
                     color: [1.0, 1.0, 1.0, 1.0],
                 });
             }
@@ -661,8 +559,8 @@ impl SceneDriver for DemoScene {
                     let a0 = TAU * k as f32 / n as f32;
                     let a1 = TAU * (k + 1) as f32 / n as f32;
                     out.push(OverlayLine {
-                        a: f.pos + Vec3::new(a0.cos(), 0.0, a0.sin()) * r,
-                        b: f.pos + Vec3::new(a1.cos(), 0.0, a1.sin()) * r,
+                        a: f.root.pos + Vec3::new(a0.cos(), 0.0, a0.sin()) * r,
+                        b: f.root.pos + Vec3::new(a1.cos(), 0.0, a1.sin()) * r,
                         color: [1.0, 0.4, 1.0, 0.6],
                     });
                 }

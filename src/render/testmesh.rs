@@ -65,8 +65,8 @@ impl TestFish {
             let w = length * 0.07 * s.powf(0.6) * head + length * 0.006;
             (h, w)
         };
-        let dark = [0.035, 0.04, 0.05];
-        let silver = [0.42, 0.45, 0.5];
+        let dark = [0.018, 0.022, 0.028];
+        let silver = [0.5, 0.52, 0.56];
         let fin = [0.05, 0.055, 0.065];
         // Body rings; ring 0 collapses to the snout tip.
         for i in 0..rings {
@@ -78,7 +78,7 @@ impl TestFish {
                 let p = Vec3::new(-u * length, h * cos, w * sin);
                 // Dark back, silver flanks and belly, faint vertical bands.
                 let top = smoothstep(-0.2, 0.75, cos);
-                let band = 0.85 + 0.15 * (u * 38.0).sin();
+                let band = 0.9 + 0.1 * (u * 38.0).sin();
                 let mut c = lerp3(silver, dark, top);
                 c = [c[0] * band, c[1] * band, c[2] * band];
                 // Eye: a dark disc high on the head, both sides.
