@@ -204,7 +204,7 @@ impl DemoScene {
         let mut rng = rand_pcg::Pcg32::seed_from_u64(config.seed);
         let params = demo_params().with_length(mesh.length);
         let t = config.tank;
-        let margin = Vec3::new(60.0, 30.0, 60.0).min(t.size() * 0.3);
+        let margin = Vec3::new(90.0, 40.0, 90.0).min(t.size() * 0.3);
         let fish = (0..config.fish)
             .map(|_| {
                 let pos = Vec3::new(
@@ -305,10 +305,6 @@ impl DemoScene {
         for f in &mut self.fish {
             f.wander_s -= dt;
             let name = f.player.current_name();
-            let busy = f.player.queue_len() > 0 || !matches!(name, "swim" | "idle");
-            if busy || f.root.speed <= 0.0 && name == "idle" {
-                continue;
-            }
             let r = &f.root;
             let ahead = r.pos + r.forward() * (len * 2.5);
             let inset = len * 0.8;
@@ -316,6 +312,12 @@ impl DemoScene {
                 || ahead.x > tank.max.x - inset
                 || ahead.z < tank.min.z + inset
                 || ahead.z > tank.max.z - inset;
+            let turning = name.ends_with("turn");
+            let busy = f.player.queue_len() > 0 || !matches!(name, "swim" | "idle");
+            // A wall ahead cuts short a climb; anything else waits for the current motion.
+            if (busy && !(outside && !turning)) || (r.speed <= 0.0 && name == "idle") {
+                continue;
+            }
             let request = if outside {
                 let to_center = tank.center() - r.pos;
                 let desired = (-to_center.z).atan2(to_center.x);
@@ -325,8 +327,18 @@ impl DemoScene {
                 } else {
                     Side::Right
                 };
+                // Close to the wall: a quick (halting, small-radius) turn; else a serial one.
+                let near = len * 1.5;
+                let close = r.pos.x < tank.min.x + near
+                    || r.pos.x > tank.max.x - near
+                    || r.pos.z < tank.min.z + near
+                    || r.pos.z > tank.max.z - near;
                 Some(MotionRequest::Turn {
-                    kind: TurnKind::Serial,
+                    kind: if close {
+                        TurnKind::Quick
+                    } else {
+                        TurnKind::Serial
+                    },
                     angle: delta.abs().clamp(0.5, PI),
                     side,
                 })
@@ -349,9 +361,12 @@ impl DemoScene {
             } else {
                 None
             };
-            if let Some(request) = request
-                && let Err(e) = f.player.push(request)
-            {
+            let result = match request {
+                Some(request) if busy => f.player.interrupt(request),
+                Some(request) => f.player.push(request),
+                None => Ok(()),
+            };
+            if let Err(e) = result {
                 self.log.push(format!("demo behaviour: {e}"));
             }
         }
@@ -574,5 +589,46 @@ impl SceneDriver for DemoScene {
 
     fn stage_timings_ms(&self) -> Vec<(&'static str, f32)> {
         vec![("simulation", self.step_ms)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fish heading straight at a wall turns back into the tank instead of pressing on it.
+    #[test]
+    fn demo_fish_turns_away_from_the_wall() {
+        let mut scene = DemoScene::new(DemoSceneConfig {
+            fish: 1,
+            ..DemoSceneConfig::default()
+        });
+        let tank = scene.config.tank;
+        scene.fish[0].root.pos = Vec3::new(tank.max.x - 150.0, 120.0, 0.0);
+        scene.fish[0].root.heading = 0.0;
+        let mut max_x = f32::MIN;
+        let mut trace = Vec::new();
+        for i in 0..600 {
+            scene.step(1.0 / 60.0);
+            let r = scene.fish[0].root;
+            max_x = max_x.max(r.pos.x);
+            if i % 30 == 0 {
+                trace.push((
+                    scene.fish[0].player.current_name(),
+                    r.pos.x,
+                    r.heading,
+                    r.speed,
+                ));
+            }
+        }
+        let r = scene.fish[0].root;
+        assert!(
+            max_x < tank.max.x - 5.0,
+            "pressed on the wall: max x {max_x}\n{trace:?}"
+        );
+        assert!(
+            r.pos.x < tank.max.x - 100.0,
+            "did not come back: {r:?}\n{trace:?}"
+        );
     }
 }
