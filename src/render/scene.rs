@@ -315,7 +315,8 @@ impl DemoScene {
             let turning = name.ends_with("turn");
             let busy = f.player.queue_len() > 0 || !matches!(name, "swim" | "idle");
             // A wall ahead cuts short a climb; anything else waits for the current motion.
-            if (busy && !(outside && !turning)) || (r.speed <= 0.0 && name == "idle") {
+            let wall_cut = outside && !turning;
+            if (busy && !wall_cut) || (r.speed <= 0.0 && name == "idle") {
                 continue;
             }
             let request = if outside {
