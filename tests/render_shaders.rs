@@ -69,7 +69,8 @@ fn broken_shader_is_reported_and_previous_pipeline_keeps_drawing() {
     match &err {
         RenderError::Shader { file, message } => {
             assert_eq!(file, "fish.wgsl");
-            assert!(!message.is_empty());
+            // The message maps the composed text's lines back to files.
+            assert!(message.contains("fish.wgsl = lines "), "{message}");
         }
         other => panic!("expected a shader error, got {other}"),
     }

@@ -124,6 +124,7 @@ struct UiState {
     dragged: bool,
     last_frame: Instant,
     watcher: Option<ShaderWatcher>,
+    shader_error: Option<String>,
     scratch_log: Vec<String>,
 }
 
@@ -148,6 +149,7 @@ impl UiState {
             dragged: false,
             last_frame: Instant::now(),
             watcher: None,
+            shader_error: None,
             scratch_log: Vec::new(),
         }
     }
@@ -373,12 +375,22 @@ impl App {
             && w.changed()
         {
             let dir = w.dir().to_owned();
-            let msg = match ShaderSources::load_dir(&dir) {
-                Ok(sources) => match ws.renderer.reload_shaders(&ws.gpu, sources) {
-                    Ok(()) => "shaders reloaded".to_owned(),
-                    Err(e) => format!("{e}\n(keeping the previous pipelines)"),
-                },
-                Err(e) => format!("cannot read shaders: {e}"),
+            let result = ShaderSources::load_dir(&dir)
+                .map_err(|e| format!("cannot read shaders: {e}"))
+                .and_then(|sources| {
+                    ws.renderer
+                        .reload_shaders(&ws.gpu, sources)
+                        .map_err(|e| e.to_string())
+                });
+            let msg = match result {
+                Ok(()) => {
+                    self.ui.shader_error = None;
+                    "shaders reloaded".to_owned()
+                }
+                Err(e) => {
+                    self.ui.shader_error = Some(e.clone());
+                    format!("{e}\n(keeping the previous pipelines)")
+                }
             };
             self.ui.log(msg);
         }
@@ -577,6 +589,12 @@ fn mean_max(times: &VecDeque<FrameTimes>, f: impl Fn(&FrameTimes) -> f32) -> (f3
 /// The tuning panel.
 fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
     ui.heading("shoal");
+    if let Some(err) = &st.shader_error {
+        ui.colored_label(
+            egui::Color32::from_rgb(255, 110, 90),
+            format!("shader error (previous pipelines still drawing):\n{err}"),
+        );
+    }
     egui::CollapsingHeader::new("Time")
         .default_open(true)
         .show(ui, |ui| {

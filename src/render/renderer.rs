@@ -876,7 +876,10 @@ fn build_pipelines(
                 None => Ok(m),
                 Some(e) => Err(RenderError::Shader {
                     file: file.to_owned(),
-                    message: e.to_string(),
+                    message: format!(
+                        "{e}\n(the compiled text joins files: {})",
+                        sources.line_map(file, common, skinning)
+                    ),
                 }),
             }
         };

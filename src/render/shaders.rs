@@ -76,17 +76,41 @@ impl ShaderSources {
             .unwrap_or("")
     }
 
+    /// Where each file's lines sit in [`ShaderSources::compose`]'s output, for error messages,
+    /// e.g. `common.wgsl = lines 1–60, fish.wgsl = lines 61–140`.
+    pub fn line_map(&self, file: &str, with_common: bool, with_skinning: bool) -> String {
+        let mut parts = Vec::new();
+        let mut first = 1;
+        let mut add = |name: &str| {
+            let n = self.get(name).lines().count().max(1);
+            parts.push(format!("{name} = lines {first}–{}", first + n - 1));
+            first += n;
+        };
+        if with_common {
+            add("common.wgsl");
+        }
+        add(file);
+        if with_skinning {
+            add("skinning.wgsl");
+        }
+        parts.join(", ")
+    }
+
     /// `common.wgsl` + `file` (+ `skinning.wgsl` when `skinning`), ready to compile.
     pub fn compose(&self, file: &str, with_common: bool, with_skinning: bool) -> String {
         let mut s = String::new();
+        let mut push = |text: &str| {
+            s.push_str(text);
+            if !text.ends_with('\n') {
+                s.push('\n');
+            }
+        };
         if with_common {
-            s.push_str(self.get("common.wgsl"));
-            s.push('\n');
+            push(self.get("common.wgsl"));
         }
-        s.push_str(self.get(file));
+        push(self.get(file));
         if with_skinning {
-            s.push('\n');
-            s.push_str(self.get("skinning.wgsl"));
+            push(self.get("skinning.wgsl"));
         }
         s
     }
@@ -178,5 +202,26 @@ impl ShaderWatcher {
             any = true;
         }
         any
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_map_matches_the_composed_text() {
+        let s = ShaderSources::embedded();
+        let text = s.compose("fish.wgsl", true, true);
+        let map = s.line_map("fish.wgsl", true, true);
+        // Find fish.wgsl's first line in the composed text and check the map says so.
+        let first_fish_line = s.get("fish.wgsl").lines().next().unwrap();
+        let at = text.lines().position(|l| l == first_fish_line).unwrap() + 1;
+        assert!(
+            map.contains(&format!("fish.wgsl = lines {at}–")),
+            "{map} (fish at {at})"
+        );
+        let total = text.lines().count();
+        assert!(map.ends_with(&format!("–{total}")), "{map} (total {total})");
     }
 }
