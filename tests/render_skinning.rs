@@ -180,3 +180,29 @@ fn gpu_skinning_matches_the_skin_layers_cpu_job() {
         "max GPU vs skin::LinearBlendSkinningJob difference {max_err}"
     );
 }
+
+/// A skin-layer `SkinnedMesh` uploads through `MeshUpload::from_skinned_mesh` unchanged.
+#[test]
+fn skinned_mesh_from_the_skin_layer_uploads_and_skins() {
+    let fish = TestFish::demo();
+    let mesh = shoal::skin::SkinnedMesh {
+        positions: fish.positions.iter().map(|p| Vec3::from(*p)).collect(),
+        normals: fish.normals.iter().map(|n| Vec3::from(*n)).collect(),
+        colors: fish.colors.clone(),
+        joints: fish.joints.clone(),
+        weights: fish.weights.clone(),
+        indices: fish.indices.clone(),
+    };
+    let upload = MeshUpload::from_skinned_mesh("porgy stand-in", &mesh);
+    assert_eq!(upload.positions, &fish.positions[..]);
+    assert_eq!(upload.normals, &fish.normals[..]);
+    let gpu = gpu();
+    let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    let id = renderer.upload_mesh(&gpu, &upload).unwrap();
+    let shift = Mat4::from_translation(Vec3::new(0.0, 5.0, 0.0));
+    let palette = vec![shift; fish.num_joints()];
+    let skinned = renderer.skin_positions(&gpu, id, &palette, 0).unwrap();
+    for (g, p) in skinned.iter().zip(&mesh.positions) {
+        assert!((*g - (*p + Vec3::Y * 5.0)).length() < 1e-4);
+    }
+}

@@ -96,6 +96,21 @@ pub struct MeshUpload<'a> {
     pub indices: &'a [u32],
 }
 
+impl<'a> MeshUpload<'a> {
+    /// Borrows a skin layer mesh (e.g. `FishModel::load("assets/black_porgy.glb")?.mesh`).
+    pub fn from_skinned_mesh(label: &'a str, mesh: &'a crate::skin::SkinnedMesh) -> Self {
+        Self {
+            label,
+            positions: bytemuck::cast_slice(&mesh.positions),
+            normals: bytemuck::cast_slice(&mesh.normals),
+            colors: &mesh.colors,
+            joints: &mesh.joints,
+            weights: &mesh.weights,
+            indices: &mesh.indices,
+        }
+    }
+}
+
 /// A mesh uploaded to a [`Renderer`]; index of the upload, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct MeshId(pub u32);

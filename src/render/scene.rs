@@ -1,6 +1,21 @@
 //! The seam between the simulation and the renderer/window: [`SceneDriver`], and [`DemoScene`],
-//! a self-contained scene (procedural fish, travelling-sine swimming) used until the world
-//! layer plugs in.
+//! a self-contained scene (procedural fish on the real motion layer) used until the world layer
+//! plugs in.
+//!
+//! Plugging in the world (a sketch for the integrator): wrap the simulation in a struct that
+//! owns the `FishModel` of every species and a `Vec<FishInstance>` rebuilt after each tick, and
+//! implement [`SceneDriver`]:
+//! - `meshes()` → `MeshUpload::from_skinned_mesh(name, &model.mesh)` per species, in
+//!   `SpeciesId` order (so `MeshId(species.0 as u32)`);
+//! - `step(dt)` → the fixed-tick simulation (accumulate `dt`, run `TICK_HZ` ticks), then rebuild
+//!   the instances: one per `fish_ids()` entry, `palette_offset = palette_range(id).start`;
+//! - `frame_input()` → `palettes: world.palettes()`, the instances, the tank and `world.time()`;
+//! - `fish_info(i)` → root position and the species' body length for picking;
+//! - `motion_params` / `set_motion_params` → the species' `SpeciesDesc.motion` (validated);
+//! - `request_motion` → `world.request(id, request, true)`;
+//! - `body_wave` → `world.lateral(id)` against the rig's `body.joints_x`;
+//! - `inspect` → species, `current_motion`, `behavior_of`, intention and percepts from the host;
+//! - `drain_log` → script errors; `stage_timings_ms` → `world.counters()`.
 
 use std::f32::consts::{PI, TAU};
 use std::time::Instant;
