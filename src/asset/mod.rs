@@ -1,1 +1,27 @@
-//! placeholder: filled in by the asset work
+//! Assets the aquarium ships with, built by code: the procedural black porgy and eel
+//! ([`FishPlan`]), and the auto-rigger that gives a static fish mesh a vertebral chain
+//! ([`rig`]).
+//!
+//! Generated files are deterministic GLBs (same bytes every run) that pass the Khronos glTF
+//! validator with no errors or warnings; `assets/black_porgy.glb` and `assets/eel.glb` are
+//! committed, and a test regenerates them and compares bytes.
+
+mod fish;
+mod glb;
+pub mod preview;
+pub mod rig;
+mod rigged;
+
+pub use fish::{DRIVEN_JOINTS, FishPlan, JOINT_NAMES, MedianFin, Profile, chain_blend, smoothstep};
+pub use glb::GlbBuilder;
+pub use rigged::{Influences, MaterialSet, RiggedMesh};
+
+/// The generated black porgy as GLB bytes (what `shoal asset porgy` writes).
+pub fn black_porgy_glb() -> Vec<u8> {
+    FishPlan::black_porgy().to_glb()
+}
+
+/// The generated eel as GLB bytes (what `shoal asset eel` writes).
+pub fn eel_glb() -> Vec<u8> {
+    FishPlan::eel().to_glb()
+}

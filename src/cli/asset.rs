@@ -1,12 +1,183 @@
-//! `shoal asset` (placeholder until its issue lands).
+//! `shoal asset`: build the generated fish (`porgy`, `eel`) or rig a static fish mesh (`rig`).
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 /// Arguments of `shoal asset`.
-#[derive(Debug, Default, clap::Args)]
-pub struct Args {}
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub what: What,
+}
+
+/// What to build.
+#[derive(Debug, clap::Subcommand)]
+pub enum What {
+    /// Generate the black porgy (30 joints, ~5,700 triangles) as a GLB.
+    Porgy {
+        /// Output file.
+        #[arg(long, default_value = "assets/black_porgy.glb")]
+        out: PathBuf,
+    },
+    /// Generate the eel (same 30-joint layout, long slender body) as a GLB.
+    Eel {
+        /// Output file.
+        #[arg(long, default_value = "assets/eel.glb")]
+        out: PathBuf,
+    },
+    /// Give a static fish mesh (.gltf/.glb) a vertebral chain and smooth skin weights.
+    Rig(RigArgs),
+    /// Draw a skinned fish (side view above, top view below) to a PNG, optionally bent.
+    Preview {
+        /// The skinned model (.gltf or .glb).
+        #[arg(long)]
+        model: PathBuf,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// Yaw (radians) applied to every driven joint `spine_*`; positive bends left.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        yaw: f32,
+        /// Panel size in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+    },
+}
+
+/// Arguments of `shoal asset rig`.
+#[derive(Debug, clap::Args)]
+pub struct RigArgs {
+    /// The static mesh (.gltf or .glb).
+    #[arg(long = "in")]
+    pub input: PathBuf,
+    /// The rigged GLB to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of vertebral joints in the chain (root included; at least 2).
+    #[arg(long, default_value_t = 7)]
+    pub joints: usize,
+    /// The body's long axis: auto (principal axis of the vertices), x, y or z.
+    #[arg(long, default_value = "auto")]
+    pub axis: String,
+    /// Which end of the long axis is the head: auto (the blunter, thicker end), + or -.
+    #[arg(long, default_value = "auto", allow_hyphen_values = true)]
+    pub head: String,
+}
+
+fn write(out: &PathBuf, bytes: &[u8]) -> anyhow::Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))
+}
 
 /// Runs `shoal asset`.
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`shoal asset` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    match args.what {
+        What::Porgy { out } => {
+            let bytes = crate::asset::black_porgy_glb();
+            write(&out, &bytes)?;
+            println!("wrote {} ({} bytes)", out.display(), bytes.len());
+        }
+        What::Eel { out } => {
+            let bytes = crate::asset::eel_glb();
+            write(&out, &bytes)?;
+            println!("wrote {} ({} bytes)", out.display(), bytes.len());
+        }
+        What::Rig(rig) => {
+            let axis = crate::asset::rig::Axis::parse(&rig.axis)?;
+            let head = crate::asset::rig::HeadEnd::parse(&rig.head)?;
+            let opts = crate::asset::rig::RigOptions {
+                num_joints: rig.joints,
+                axis,
+                head,
+            };
+            let rigged = crate::asset::rig::rig_file(&rig.input, &opts)?;
+            for w in &rigged.warnings {
+                eprintln!("warning: {w}");
+            }
+            write(&rig.out, &rigged.glb)?;
+            println!(
+                "wrote {} ({} joints: {}; long axis {:?}, head at the {} end)",
+                rig.out.display(),
+                rigged.joint_names.len(),
+                rigged.joint_names.join(", "),
+                rigged.axis,
+                if rigged.head_positive { "+" } else { "-" }
+            );
+        }
+        What::Preview {
+            model,
+            out,
+            yaw,
+            size,
+        } => {
+            let img = preview(&model, yaw, size)?;
+            img.save(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!("wrote {}", out.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Skins `model` with every `spine_*` joint yawed by `yaw` and draws side and top views.
+pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<image::RgbImage> {
+    use crate::asset::preview::{View, render_views};
+    use glam::{Mat4, Vec3};
+    let fish = crate::skin::FishModel::load(model)?;
+    let mut spines: Vec<(u32, String)> = fish
+        .skeleton
+        .names()
+        .iter()
+        .filter_map(|n| Some((n.strip_prefix("spine_")?.parse().ok()?, n.clone())))
+        .collect();
+    spines.sort();
+    anyhow::ensure!(
+        !spines.is_empty(),
+        "{}: no joints named spine_1, spine_2, …; rig it with `shoal asset rig`",
+        model.display()
+    );
+    let mut desc = crate::species::SpeciesDesc::black_porgy();
+    desc.vertebral_joints = spines.into_iter().map(|(_, n)| n).collect();
+    let rig = crate::species::SpeciesRig::bind(&desc, &fish)?;
+    let n = fish.skeleton.num_joints();
+    let mut locals = fish.skeleton.rest_locals().to_vec();
+    rig.pose(&vec![yaw; rig.num_driven()], &mut locals);
+    let mut models = vec![Mat4::IDENTITY; n];
+    fish.skeleton
+        .local_to_model(Mat4::IDENTITY, &locals, &mut models)
+        .run()?;
+    let mut palette = vec![Mat4::IDENTITY; n];
+    crate::skin::palette(&models, &fish.inverse_bind_poses, &mut palette)?;
+    let mut positions = vec![Vec3::ZERO; fish.mesh.num_vertices()];
+    crate::skin::LinearBlendSkinningJob {
+        palette: &palette,
+        positions_in: &fish.mesh.positions,
+        normals_in: &[],
+        joints: &fish.mesh.joints,
+        weights: &fish.mesh.weights,
+        positions_out: &mut positions,
+        normals_out: &mut [],
+    }
+    .run()?;
+    let f = rig.model_forward;
+    let u = rig.model_up;
+    let right = f.cross(u);
+    let views = [
+        View { right: -f, up: u },
+        View {
+            right: -f,
+            up: right,
+        },
+    ];
+    Ok(render_views(
+        &positions,
+        &fish.mesh.colors,
+        &fish.mesh.indices,
+        &views,
+        size,
+    ))
 }

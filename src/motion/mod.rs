@@ -25,11 +25,13 @@ use glam::Vec3;
 pub mod body;
 mod player;
 pub mod presets;
+pub mod record;
 pub mod wave;
 
 pub use body::{MidlinePoseJob, power_after_fig5};
 pub use player::MotionPlayer;
 pub use presets::Preset;
+pub use record::{Recording, record_preset};
 
 /// Which way a turn goes: the paper's `d` (−1 left, 1 right; 0 "front" is not a turn).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

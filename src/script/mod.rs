@@ -1,1 +1,33 @@
-//! placeholder: filled in by the script work
+//! Script host: the paper's perception, intention and behaviour layers (section 3.1) as Lua.
+//!
+//! The paper's architecture puts three decision layers above the motion layer: *perception*
+//! (vision and body sensors), *intention* (which goal wins given what is perceived and the
+//! fish's drives) and *behaviour* (a sequence of motions reaching that goal: feed-hunting,
+//! crowding, escape). In shoal those layers are Lua modules in `scripts/behaviors/` that
+//! designers edit while the aquarium runs; everything below them is Rust.
+//!
+//! - [`sandbox`]: the Lua state — trimmed standard library, `require` confined to `scripts/`,
+//!   text-only chunks, an instruction budget per call and a memory limit.
+//! - [`host`]: one state for all fish, modules loaded once per file, per-fish tables with their
+//!   `memory`, one protected call per decision, error formatting and deduplication ([`log`]).
+//! - [`api`]: the `shoal` table scripts program against (documented for editors in
+//!   `scripts/types/shoal.lua`).
+//! - [`scene`]: species and scene files read through serde.
+//! - [`reload`]: the directory watcher behind hot reload.
+//! - [`sim`]: [`Simulation`], the fixed-tick loop tying scripts to the [`crate::world`].
+
+pub mod api;
+pub mod error;
+pub mod host;
+pub mod log;
+pub mod reload;
+pub mod sandbox;
+pub mod scene;
+pub mod sim;
+
+pub use error::ScriptError;
+pub use host::ScriptHost;
+pub use log::{LogEntry, LogLevel};
+pub use sandbox::Limits;
+pub use scene::SceneDesc;
+pub use sim::{ReloadEvent, Simulation};

@@ -65,6 +65,10 @@ pub struct ScenePrimitive {
     pub normals: Option<Vec<Vec3>>,
     /// Linear RGBA per vertex: material base colour × COLOR_0 (white when absent).
     pub colors: Vec<[f32; 4]>,
+    /// COLOR_0 as stored (linear RGBA), if present.
+    pub vertex_colors: Option<Vec<[f32; 4]>>,
+    /// TEXCOORD_0, if present.
+    pub uvs: Option<Vec<[f32; 2]>>,
     /// Up to four influences per vertex, indices into the skin's joint list.
     pub joints: Option<Vec<[u16; 4]>>,
     /// The matching weights, summing to 1.
@@ -357,18 +361,34 @@ impl GltfScene {
         };
         let base = prim.material().pbr_metallic_roughness().base_color_factor();
         let mut colors = vec![base; n];
+        let mut vertex_colors = None;
         if let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) {
             let raw = RawAccessor::new(&acc, buffers, &self.path, &format!("{label} COLOR_0"))?;
             same_count(&raw, "COLOR_0")?;
             if raw.dims != 3 && raw.dims != 4 {
                 return Err(raw.error("must be VEC3 or VEC4"));
             }
-            for (i, c) in colors.iter_mut().enumerate() {
-                for (k, ch) in c.iter_mut().enumerate().take(raw.dims) {
-                    *ch *= raw.float(i, k);
+            let mut vc = vec![[1.0f32; 4]; n];
+            for (i, (c, v)) in colors.iter_mut().zip(vc.iter_mut()).enumerate() {
+                for k in 0..raw.dims {
+                    v[k] = raw.float(i, k);
+                    c[k] *= v[k];
                 }
             }
+            vertex_colors = Some(vc);
         }
+        let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
+            None => None,
+            Some(acc) => {
+                let raw =
+                    RawAccessor::new(&acc, buffers, &self.path, &format!("{label} TEXCOORD_0"))?;
+                same_count(&raw, "TEXCOORD_0")?;
+                if raw.dims != 2 {
+                    return Err(raw.error("must be VEC2"));
+                }
+                Some((0..n).map(|i| [raw.float(i, 0), raw.float(i, 1)]).collect())
+            }
+        };
         // Skinning attributes: every set, merged, four strongest kept.
         let mut sets = Vec::new();
         for set in 0.. {
@@ -453,6 +473,8 @@ impl GltfScene {
             positions,
             normals,
             colors,
+            vertex_colors,
+            uvs,
             joints,
             weights,
             indices,

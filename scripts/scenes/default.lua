@@ -1,0 +1,32 @@
+-- The default aquarium: a school of black porgies crowding in mid-water, food dropped in from the
+-- surface every few seconds (hungry porgies break off to eat it), two eels wandering near the
+-- floor, and a barracuda patrolling that hunts porgies and scatters the school as it passes.
+-- Edit and save: the panel offers to restart the scene.
+return {
+  -- 20 x 8 x 12 porgy body lengths; y is up, the surface is max.y.
+  tank = { min = { -500, 0, -300 }, max = { 500, 400, 300 } },
+
+  fish = {
+    { species = "black_porgy", count = 30, behavior = "school",
+      region = { min = { -200, 150, -120 }, max = { 200, 260, 120 } } },
+    { species = "black_porgy", count = 4, behavior = "forage",
+      region = { min = { -350, 100, -200 }, max = { 350, 300, 200 } } },
+    { species = "eel", count = 2, behavior = "wander",
+      region = { min = { -400, 30, -200 }, max = { 400, 80, 200 } } },
+    { species = "barracuda", count = 1, behavior = "predator",
+      pos = { -420, 200, 0 }, heading = 0 },
+  },
+
+  food = { { 0, 380, 0 } },
+  food_drops = { every = 5, count = 3, start = 3,
+                 region = { min = { -300, 370, -200 }, max = { 300, 385, 200 } } },
+
+  obstacles = {
+    { pos = { 250, 60, -120 }, radius = 60 },
+    { pos = { -280, 40, 150 }, radius = 45 },
+  },
+
+  currents = {
+    { pos = { 0, 200, 0 }, radius = 150, velocity = { 8, 0, 0 } },
+  },
+}

@@ -1,0 +1,258 @@
+---@meta
+-- LuaLS definitions of the shoal scripting API (https://luals.github.io/). Point your editor's
+-- Lua language server at scripts/ (or add scripts/types to `workspace.library`) to get completion
+-- and type checks in behaviour, species and scene files.
+--
+-- Conventions: angles in radians (use math.rad(90)); heading is counter-clockwise seen from
+-- above, 0 = +x; a bearing is relative to the fish's heading, positive to its left; depth is
+-- world units below the surface (tank max.y); speeds in world units per second (a black porgy is
+-- 50 units long and cruises at 50). Every function acts on the fish whose behaviour is running
+-- and raises an error when called anywhere else (e.g. at a module's top level).
+--
+-- The tables returned by see, nearest and body are reused by the next call of the same
+-- function: copy the fields you want to keep, or keep the id.
+
+---A behaviour module: return either `tick` or the three layers of the paper's section 3.1.
+---@class shoal.Behavior
+---@field tick? fun(fish: shoal.Fish): string?        # one decision; the return value is the intention
+---@field perceive? fun(fish: shoal.Fish): table?     # perception layer: summarise what the fish senses
+---@field intend? fun(fish: shoal.Fish, percepts: table?): string?  # intention layer: pick a goal
+---@field behave? fun(fish: shoal.Fish, intention: string?, percepts: table?)  # behaviour layer: issue motions
+
+---The table a behaviour gets for its fish. It persists for the fish's life, across reloads.
+---@class shoal.Fish
+---@field id integer          # the fish's index (stable while it lives)
+---@field generation integer  # together with id, the fish's handle
+---@field species string      # species name
+---@field behavior string     # behaviour module name
+---@field memory table        # per-fish memory: persists across ticks and script reloads
+---@field intention? string   # last intention (set by the host; shown in the inspector)
+---@field percepts? table     # last value perceive returned (set by the host; shown in the inspector)
+
+---One thing the fish sees.
+---@class shoal.Percept
+---@field kind "fish"|"food"|"obstacle"|"predator"
+---@field species? string     # species name (fish and predators)
+---@field id integer          # fish index, food id or obstacle id
+---@field distance number     # from the fish's head (to an obstacle's surface), world units
+---@field bearing number      # radians, relative to heading, + = left, in (-pi, pi]
+---@field elevation number    # radians, + = above
+---@field x number
+---@field y number
+---@field z number
+---@field heading number      # of the seen fish, radians (0 otherwise)
+---@field speed number        # of the seen fish, units/s (0 otherwise)
+
+---The body sensor.
+---@class shoal.Body
+---@field x number
+---@field y number
+---@field z number
+---@field depth number        # below the surface
+---@field to_floor number
+---@field to_surface number
+---@field to_wall number      # to the nearest side wall
+---@field wall_x number       # inward normal of that wall
+---@field wall_y number
+---@field wall_z number
+---@field contact boolean     # touched a wall, floor, surface or rock in the last motion step
+---@field speed number
+---@field heading number
+---@field pitch number
+---@field motion string       # "swim", "accelerate", "stop", "normal_turn", "quick_turn", "serial_turn", "ascend", "descend", "idle"
+---@field queue integer       # motion requests waiting behind the current one
+
+---The fish's species data.
+---@class shoal.Species
+---@field name string
+---@field length number       # body length l, world units
+---@field cruise_speed number # s, units/s
+---@field max_speed number
+---@field view_range number   # world units
+---@field view_angle number   # full opening of the view cone, radians
+---@field turn_time number    # Tt, seconds
+---@field predator boolean
+
+---@class shoal
+shoal = {}
+
+-- Perception ---------------------------------------------------------------------------------
+
+---Everything in the fish's view cone and range, nearest first.
+---@param kind? "fish"|"food"|"obstacle"|"predator"  only this kind
+---@param max? integer  at most this many (default 32)
+---@return shoal.Percept[]
+function shoal.see(kind, max) end
+
+---The nearest thing of a kind in view (optionally of one species), or nil.
+---@param kind "fish"|"food"|"obstacle"|"predator"
+---@param species? string
+---@return shoal.Percept?
+function shoal.nearest(kind, species) end
+
+---The body sensor.
+---@return shoal.Body
+function shoal.body() end
+
+---The fish's species data.
+---@return shoal.Species
+function shoal.species() end
+
+---Simulated time, seconds.
+---@return number
+function shoal.time() end
+
+---The motion now playing and how many requests wait behind it.
+---@return string name
+---@return integer queued
+function shoal.motion() end
+
+---The fish's own seeded random generator (runs are reproducible). Like math.random:
+---no argument → float in [0, 1); (m) → integer in [1, m]; (m, n) → integer in [m, n].
+---@param m? integer
+---@param n? integer
+---@return number
+function shoal.random(m, n) end
+
+-- Motion requests (paper section 3.5). Each is queued behind the current motion unless `now` is
+-- true, which interrupts it (blending from the current body shape).
+
+---Swim steadily at `speed`.
+---@param speed number
+---@param now? boolean
+function shoal.swim(speed, now) end
+
+---Change speed to `speed` over `duration` seconds, then keep swimming.
+---@param speed number
+---@param duration number
+---@param now? boolean
+function shoal.accelerate(speed, duration, now) end
+
+---Come to rest over `duration` seconds (default 1).
+---@param duration? number
+---@param now? boolean
+function shoal.stop(duration, now) end
+
+---Turn by `angle` radians (> 0) to a side.
+---@param kind "normal"|"quick"|"serial"
+---@param angle number
+---@param side "left"|"right"
+---@param now? boolean
+function shoal.turn(kind, angle, side, now) end
+
+---Normal turn: tail to one side only; the fish keeps swimming.
+---@param angle number
+---@param side "left"|"right"
+---@param now? boolean
+function shoal.normal_turn(angle, side, now) end
+
+---Quick turn: turn while halting, small radius, in about Tt.
+---@param angle number
+---@param side "left"|"right"
+---@param now? boolean
+function shoal.quick_turn(angle, side, now) end
+
+---Serial turn: turn while still swimming forward.
+---@param angle number
+---@param side "left"|"right"
+---@param now? boolean
+function shoal.serial_turn(angle, side, now) end
+
+---Rise by `height` world units.
+---@param height number
+---@param now? boolean
+function shoal.ascend(height, now) end
+
+---Sink by `depth` world units.
+---@param depth number
+---@param now? boolean
+function shoal.descend(depth, now) end
+
+---Steer towards a heading, a depth and a speed (default: cruise speed): the host picks the turn
+---kind, ascend/descend and accelerate. Calling it every decision with the same wish does not
+---restart the motion. Takes a steering helper's results directly: shoal.steer(shoal.seek(x, y, z)).
+---@param heading number
+---@param depth number
+---@param speed? number
+function shoal.steer(heading, depth, speed) end
+
+---Eat a food pellet if it is within reach of the mouth and not eaten yet.
+---@param food integer  a food percept's id
+---@return boolean ate
+function shoal.eat(food) end
+
+-- Steering helpers (computed in Rust). Each returns a desired heading, depth and speed, or nil
+-- when it has nothing to say (no neighbours, nothing to avoid).
+
+---Towards a point.
+---@param x number
+---@param y number
+---@param z number
+---@param speed? number  default: cruise speed
+---@return number? heading, number? depth, number? speed
+function shoal.seek(x, y, z, speed) end
+
+---Away from a point.
+---@param x number
+---@param y number
+---@param z number
+---@param speed? number  default: max speed
+---@return number? heading, number? depth, number? speed
+function shoal.flee(x, y, z, speed) end
+
+---Towards a point, slowing down within `slow_radius` (default 2 body lengths).
+---@param x number
+---@param y number
+---@param z number
+---@param slow_radius? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.arrive(x, y, z, slow_radius, speed) end
+
+---A small random change of heading (up to `max_turn` radians, default 0.6) and depth (up to
+---`max_depth_change`, default half a body length), drawn from the fish's own generator.
+---@param max_turn? number
+---@param max_depth_change? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.wander(max_turn, max_depth_change, speed) end
+
+---Away from fish closer than `radius` (default 1 body length).
+---@param radius? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.separation(radius, speed) end
+
+---The mean heading of same-species fish within `radius` (default 3 body lengths).
+---@param radius? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.alignment(radius, speed) end
+
+---Towards the centre of same-species fish within `radius` (default 4 body lengths).
+---@param radius? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.cohesion(radius, speed) end
+
+---Around the rock ahead within `lookahead` (default 3 body lengths), keeping `clearance`
+---(default half a body length); nil when the way is clear.
+---@param lookahead? number
+---@param clearance? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.avoid_obstacles(lookahead, clearance, speed) end
+
+---Back into the tank when within `margin` (default 2 body lengths) of a wall, the floor or the
+---surface; nil otherwise.
+---@param margin? number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.avoid_walls(margin, speed) end
+
+---Weighted mix of steering wishes: groups of heading, depth, speed, weight. Groups whose heading
+---is nil are skipped; nil when no group remains. Keep helper results in locals first (a call in
+---the middle of an argument list gives only its first value).
+---@param ... number?
+---@return number? heading, number? depth, number? speed
+function shoal.blend(...) end

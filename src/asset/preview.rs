@@ -1,0 +1,105 @@
+//! A CPU preview of a skinned fish: side and top orthographic views, flat-shaded triangles with
+//! a z-buffer. For checking shape, fins and bending by eye (`shoal asset preview`); the real
+//! renderer is `crate::render`.
+
+use glam::{Vec3, Vec4};
+use image::{Rgb, RgbImage};
+
+/// One orthographic view: screen right and up directions (unit, perpendicular); depth is
+/// `right × up` (towards the viewer).
+#[derive(Debug, Clone, Copy)]
+pub struct View {
+    /// Screen-right direction in model space.
+    pub right: Vec3,
+    /// Screen-up direction in model space.
+    pub up: Vec3,
+}
+
+/// Draws `views` side by side vertically (one panel each, `size` × `size` pixels) of the mesh
+/// given by `positions`, vertex `colors` (linear RGBA) and a triangle list. All panels share one
+/// scale so sizes compare.
+pub fn render_views(
+    positions: &[Vec3],
+    colors: &[[f32; 4]],
+    indices: &[u32],
+    views: &[View],
+    size: u32,
+) -> RgbImage {
+    let mut img = RgbImage::from_pixel(size, size * views.len() as u32, Rgb([24, 40, 64]));
+    let centre = positions.iter().copied().sum::<Vec3>() / positions.len().max(1) as f32;
+    let radius = positions
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(1e-6f32, f32::max);
+    let scale = 0.48 * size as f32 / radius;
+    let light = Vec3::new(0.3, 0.8, 0.5).normalize();
+    for (panel, view) in views.iter().enumerate() {
+        let depth_dir = view.right.cross(view.up);
+        let mut zbuf = vec![f32::NEG_INFINITY; (size * size) as usize];
+        let project = |p: Vec3| -> Vec3 {
+            let d = p - centre;
+            Vec3::new(
+                size as f32 * 0.5 + d.dot(view.right) * scale,
+                size as f32 * 0.5 - d.dot(view.up) * scale,
+                d.dot(depth_dir),
+            )
+        };
+        for tri in indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+            if a >= positions.len() || b >= positions.len() || c >= positions.len() {
+                continue;
+            }
+            let n = (positions[b] - positions[a])
+                .cross(positions[c] - positions[a])
+                .normalize_or_zero();
+            let shade = 0.35 + 0.65 * n.dot(light).abs();
+            let col = (Vec4::from(colors[a]) + Vec4::from(colors[b]) + Vec4::from(colors[c])) / 3.0;
+            let rgb = Rgb([
+                to_srgb8(col.x * shade),
+                to_srgb8(col.y * shade),
+                to_srgb8(col.z * shade),
+            ]);
+            let (pa, pb, pc) = (
+                project(positions[a]),
+                project(positions[b]),
+                project(positions[c]),
+            );
+            let area = (pb.x - pa.x) * (pc.y - pa.y) - (pb.y - pa.y) * (pc.x - pa.x);
+            if area.abs() < 1e-9 {
+                continue;
+            }
+            let x0 = pa.x.min(pb.x).min(pc.x).floor().max(0.0) as u32;
+            let x1 = pa.x.max(pb.x).max(pc.x).ceil().min(size as f32 - 1.0) as u32;
+            let y0 = pa.y.min(pb.y).min(pc.y).floor().max(0.0) as u32;
+            let y1 = pa.y.max(pb.y).max(pc.y).ceil().min(size as f32 - 1.0) as u32;
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                    let w0 = ((pb.x - px) * (pc.y - py) - (pb.y - py) * (pc.x - px)) / area;
+                    let w1 = ((pc.x - px) * (pa.y - py) - (pc.y - py) * (pa.x - px)) / area;
+                    let w2 = 1.0 - w0 - w1;
+                    if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                        continue;
+                    }
+                    let z = w0 * pa.z + w1 * pb.z + w2 * pc.z;
+                    let zi = (y * size + x) as usize;
+                    if z > zbuf[zi] {
+                        zbuf[zi] = z;
+                        img.put_pixel(x, y + panel as u32 * size, rgb);
+                    }
+                }
+            }
+        }
+    }
+    img
+}
+
+fn to_srgb8(linear: f32) -> u8 {
+    let c = linear.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}

@@ -1,0 +1,600 @@
+//! Auto-rigging a static fish mesh (`shoal asset rig`): find the body's long axis, decide which
+//! end is the head, lay a vertebral chain along it and compute smooth skin weights.
+//!
+//! - **Long axis** (`--axis auto`): the principal axis of the vertex cloud (largest eigenvector
+//!   of its covariance, by power iteration), snapped to an asset axis when within 15° of one;
+//!   or a named asset axis.
+//! - **Head end** (`--head auto`): the end whose last 20% of length has the larger cross-section
+//!   (product of the two perpendicular standard deviations). A fish's tail end is a thin
+//!   peduncle plus a tall but flat caudal fin, so its cross-section is small; the head is thick
+//!   in both directions. Override with `--head +` / `--head -` (towards +axis / −axis).
+//! - **Chain**: `root` at 12% of the length from the snout, then `spine_1` … `spine_{n−1}`
+//!   evenly from 30% to 85%, and a leaf `tail_end` at the tail tip (so `--joints 7` gives the
+//!   paper's seven segments and six driven joints). Each joint sits on the midline of its
+//!   cross-section slab.
+//! - **Weights**: by position along the axis, each vertex belongs to the chain joint whose
+//!   segment holds it, handed over to the next by a smoothstep within ±35% of the shorter
+//!   neighbouring segment around each joint (at most two influences, summing to 1).
+//! - **Materials**: the first material's base colour factor and texture (embedded in the GLB),
+//!   metallic/roughness factors, alpha mode and double-sidedness are kept, with TEXCOORD_0.
+//!   Normal and metallic-roughness textures are dropped (a warning says so).
+//!
+//! The mesh is baked into scene space (every mesh node's global transform applied), so the rig's
+//! model space is the source file's scene space.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Vec3};
+use serde_json::{Value, json};
+
+use super::fish::chain_blend;
+use super::rigged::{Influences, MaterialSet, RiggedMesh};
+use crate::skin::{GltfScene, SkinError};
+
+/// Why rigging failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RigError {
+    /// The input could not be read as glTF.
+    #[error(transparent)]
+    Load(#[from] SkinError),
+    /// An option is out of range.
+    #[error("{0}")]
+    Option(String),
+    /// The mesh cannot be rigged.
+    #[error("{}: {problem}", path.display())]
+    Mesh {
+        /// The input file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Which axis the body lies along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    /// The principal axis of the vertices.
+    Auto,
+    /// Asset X.
+    X,
+    /// Asset Y.
+    Y,
+    /// Asset Z.
+    Z,
+}
+
+impl Axis {
+    /// Parses `auto`, `x`, `y` or `z`.
+    pub fn parse(s: &str) -> Result<Self, RigError> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(Self::Auto),
+            "x" => Ok(Self::X),
+            "y" => Ok(Self::Y),
+            "z" => Ok(Self::Z),
+            _ => Err(RigError::Option(format!(
+                "--axis {s:?}: expected auto, x, y or z"
+            ))),
+        }
+    }
+}
+
+/// Which end of the long axis is the head.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeadEnd {
+    /// The thicker end.
+    Auto,
+    /// Towards +axis.
+    Positive,
+    /// Towards −axis.
+    Negative,
+}
+
+impl HeadEnd {
+    /// Parses `auto`, `+` or `-`.
+    pub fn parse(s: &str) -> Result<Self, RigError> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "+" => Ok(Self::Positive),
+            "-" => Ok(Self::Negative),
+            _ => Err(RigError::Option(format!(
+                "--head {s:?}: expected auto, + or -"
+            ))),
+        }
+    }
+}
+
+/// Rigging options.
+#[derive(Debug, Clone, Copy)]
+pub struct RigOptions {
+    /// Vertebral chain joints, root included (≥ 2); a leaf `tail_end` is added.
+    pub num_joints: usize,
+    /// Long-axis choice.
+    pub axis: Axis,
+    /// Head-end choice.
+    pub head: HeadEnd,
+}
+
+impl Default for RigOptions {
+    fn default() -> Self {
+        Self {
+            num_joints: 7,
+            axis: Axis::Auto,
+            head: HeadEnd::Auto,
+        }
+    }
+}
+
+/// A rigged fish.
+#[derive(Debug, Clone)]
+pub struct Rigged {
+    /// The GLB file.
+    pub glb: Vec<u8>,
+    /// The mesh and skeleton written.
+    pub mesh: RiggedMesh,
+    /// Chain joint names, head to tail (root, spine_1 …, tail_end).
+    pub joint_names: Vec<String>,
+    /// The driven joints (spine_1 …), head to tail: a species' `vertebral_joints`.
+    pub driven_joints: Vec<String>,
+    /// Unit long axis, pointing from tail to head.
+    pub axis: Vec3,
+    /// Whether the head is at the +axis end of the chosen axis before orienting.
+    pub head_positive: bool,
+    /// Things a person should know.
+    pub warnings: Vec<String>,
+}
+
+/// Rigs a `.gltf` / `.glb` file.
+pub fn rig_file(path: &Path, opts: &RigOptions) -> Result<Rigged, RigError> {
+    let scene = GltfScene::load(path)?;
+    rig_scene(&scene, opts)
+}
+
+/// Rigs a scene already read.
+pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigError> {
+    if opts.num_joints < 2 || opts.num_joints > 64 {
+        return Err(RigError::Option(format!(
+            "--joints {}: expected 2 to 64 chain joints",
+            opts.num_joints
+        )));
+    }
+    let path = scene.path.clone();
+    let mesh_err = |problem: String| RigError::Mesh {
+        path: path.clone(),
+        problem,
+    };
+    let mut warnings = scene.warnings.clone();
+    // Bake every mesh node of the default scene into scene space.
+    let globals = scene.globals_from(&scene.rest_locals());
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut colors = Vec::new();
+    let mut uvs: Vec<[f32; 2]> = Vec::new();
+    let mut all_uvs = true;
+    let mut indices = Vec::new();
+    let mut material = None;
+    for node in scene.scene_mesh_nodes() {
+        let Some(mesh) = scene.nodes[node].mesh.and_then(|m| scene.meshes.get(m)) else {
+            continue;
+        };
+        if scene.nodes[node].skin.is_some() {
+            warnings.push(format!(
+                "{}: node {node} is already skinned; its bind shape is rigged afresh",
+                path.display()
+            ));
+        }
+        let g = globals[node];
+        let normal_m = Mat3::from_mat4(g).inverse().transpose();
+        for prim in &mesh.primitives {
+            if material.is_none() {
+                material = prim.material;
+            } else if prim.material != material {
+                warnings.push(format!(
+                    "{}: several materials; the rig keeps the first one only",
+                    path.display()
+                ));
+            }
+            let base = positions.len() as u32;
+            let local_normals = match &prim.normals {
+                Some(n) => n.clone(),
+                None => crate::skin::vertex_normals(&prim.positions, &prim.indices),
+            };
+            for (v, p) in prim.positions.iter().enumerate() {
+                positions.push(g.transform_point3(*p));
+                normals.push((normal_m * local_normals[v]).normalize_or(Vec3::Y));
+                colors.push(prim.vertex_colors.as_ref().map_or([1.0; 4], |c| c[v]));
+            }
+            match &prim.uvs {
+                Some(u) => uvs.extend(u),
+                None => all_uvs = false,
+            }
+            if g.determinant() < 0.0 {
+                for t in prim.indices.chunks_exact(3) {
+                    indices.extend([t[0] + base, t[2] + base, t[1] + base]);
+                }
+            } else {
+                indices.extend(prim.indices.iter().map(|i| i + base));
+            }
+        }
+    }
+    if positions.len() < 4 || indices.is_empty() {
+        return Err(mesh_err(
+            "the default scene has no triangle mesh to rig".into(),
+        ));
+    }
+    if positions.len() > u32::MAX as usize / 2 {
+        return Err(mesh_err("mesh too large".into()));
+    }
+
+    // Long axis.
+    let n = positions.len() as f32;
+    let centroid = positions.iter().copied().sum::<Vec3>() / n;
+    let mut axis = match opts.axis {
+        Axis::X => Vec3::X,
+        Axis::Y => Vec3::Y,
+        Axis::Z => Vec3::Z,
+        Axis::Auto => crate::species::snap_to_asset_axis(principal_axis(&positions, centroid)),
+    };
+    let along: Vec<f32> = positions
+        .iter()
+        .map(|p| (*p - centroid).dot(axis))
+        .collect();
+    let (tmin, tmax) = along
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &t| {
+            (a.min(t), b.max(t))
+        });
+    let length = tmax - tmin;
+    if length.is_nan() || length <= 1e-9 {
+        return Err(mesh_err(
+            "the mesh has no extent along its long axis".into(),
+        ));
+    }
+    // Perpendicular frame for the cross-section measure.
+    let (u, w) = perpendicular_frame(axis);
+    let section = |lo: f32, hi: f32| -> f32 {
+        let mut s = [0.0f64; 5];
+        for (p, &t) in positions.iter().zip(&along) {
+            if t >= lo && t <= hi {
+                let d = *p - centroid;
+                let (a, b) = (f64::from(d.dot(u)), f64::from(d.dot(w)));
+                s[0] += 1.0;
+                s[1] += a;
+                s[2] += a * a;
+                s[3] += b;
+                s[4] += b * b;
+            }
+        }
+        if s[0] < 2.0 {
+            return 0.0;
+        }
+        let va = s[2] / s[0] - (s[1] / s[0]).powi(2);
+        let vb = s[4] / s[0] - (s[3] / s[0]).powi(2);
+        (va.max(0.0).sqrt() * vb.max(0.0).sqrt()) as f32
+    };
+    let head_positive = match opts.head {
+        HeadEnd::Positive => true,
+        HeadEnd::Negative => false,
+        HeadEnd::Auto => {
+            let plus = section(tmax - 0.2 * length, tmax);
+            let minus = section(tmin, tmin + 0.2 * length);
+            plus >= minus
+        }
+    };
+    if !head_positive {
+        axis = -axis;
+    }
+    // Now `axis` points from tail to head; f = fraction of length from the snout.
+    let head_t = if head_positive { tmax } else { -tmin };
+    let fractions: Vec<f32> = positions
+        .iter()
+        .map(|p| ((head_t - (*p - centroid).dot(axis)) / length).clamp(0.0, 1.0))
+        .collect();
+
+    // Chain: root, spine_1.., tail_end.
+    let driven = opts.num_joints - 1;
+    let mut chain_f = vec![0.12f32];
+    for k in 0..driven {
+        let t = if driven == 1 {
+            0.5
+        } else {
+            k as f32 / (driven - 1) as f32
+        };
+        chain_f.push(0.30 + 0.55 * t);
+    }
+    let mut names = vec!["root".to_string()];
+    names.extend((1..=driven).map(|k| format!("spine_{k}")));
+    names.push("tail_end".into());
+    let mut joint_positions = Vec::new();
+    for &f in chain_f.iter().chain(std::iter::once(&1.0f32)) {
+        // Midline: mean perpendicular offset of the vertices in a slab around f.
+        let half = 0.04;
+        let mut sum = Vec3::ZERO;
+        let mut count = 0.0f32;
+        for (p, &pf) in positions.iter().zip(&fractions) {
+            if (pf - f).abs() <= half {
+                let d = *p - centroid;
+                sum += d - axis * d.dot(axis);
+                count += 1.0;
+            }
+        }
+        let offset = if count > 0.0 { sum / count } else { Vec3::ZERO };
+        let t = head_t - f * length;
+        joint_positions.push(centroid + axis * t + offset);
+    }
+    let parents: Vec<Option<usize>> = (0..names.len())
+        .map(|j| if j == 0 { None } else { Some(j - 1) })
+        .collect();
+    let chain: Vec<(u16, f32)> = chain_f
+        .iter()
+        .enumerate()
+        .map(|(j, &f)| (j as u16, f))
+        .collect();
+    let mut pairs = Vec::new();
+    let influences: Vec<Influences> = fractions
+        .iter()
+        .map(|&f| {
+            pairs.clear();
+            chain_blend(&chain, f, 0.35, |j, w| pairs.push((j, w)));
+            Influences::from_pairs(&pairs, 0)
+        })
+        .collect();
+
+    let name = scene
+        .nodes
+        .iter()
+        .find_map(|n| n.mesh.and(n.name.clone()))
+        .unwrap_or_else(|| "fish".into());
+    let rigged = RiggedMesh {
+        name: sanitize(&name),
+        joint_names: names.clone(),
+        joint_parents: parents,
+        joint_positions,
+        positions,
+        normals,
+        colors,
+        uvs: if all_uvs && !uvs.is_empty() {
+            Some(uvs)
+        } else {
+            None
+        },
+        influences,
+        indices,
+    };
+    let materials = copy_material(scene, material, rigged.uvs.is_some(), &mut warnings)?;
+    let glb = rigged.to_glb(&materials, "shoal asset rig");
+    Ok(Rigged {
+        glb,
+        joint_names: names.clone(),
+        driven_joints: names[1..names.len() - 1].to_vec(),
+        mesh: rigged,
+        axis,
+        head_positive,
+        warnings,
+    })
+}
+
+fn sanitize(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Largest-variance direction of the points (power iteration on the covariance, deterministic).
+fn principal_axis(points: &[Vec3], centroid: Vec3) -> Vec3 {
+    let mut c = [[0.0f64; 3]; 3];
+    for p in points {
+        let d = (*p - centroid).to_array();
+        for i in 0..3 {
+            for j in 0..3 {
+                c[i][j] += f64::from(d[i]) * f64::from(d[j]);
+            }
+        }
+    }
+    // Start from the bounding box's longest extent.
+    let (lo, hi) = points
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    let ext = hi - lo;
+    let mut v = if ext.x >= ext.y && ext.x >= ext.z {
+        [1.0f64, 0.1, 0.1]
+    } else if ext.y >= ext.z {
+        [0.1, 1.0, 0.1]
+    } else {
+        [0.1, 0.1, 1.0]
+    };
+    for _ in 0..64 {
+        let mut next = [0.0f64; 3];
+        for i in 0..3 {
+            next[i] = c[i][0] * v[0] + c[i][1] * v[1] + c[i][2] * v[2];
+        }
+        let len = (next[0] * next[0] + next[1] * next[1] + next[2] * next[2]).sqrt();
+        if len.is_nan() || len <= 0.0 {
+            break;
+        }
+        v = [next[0] / len, next[1] / len, next[2] / len];
+    }
+    let a = Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32).normalize_or(Vec3::X);
+    // Deterministic sign: largest component positive.
+    let m = a.abs().max_element();
+    if (a.x.abs() == m && a.x < 0.0)
+        || (a.y.abs() == m && a.y < 0.0)
+        || (a.z.abs() == m && a.z < 0.0)
+    {
+        -a
+    } else {
+        a
+    }
+}
+
+/// Two unit vectors perpendicular to `axis` and each other.
+fn perpendicular_frame(axis: Vec3) -> (Vec3, Vec3) {
+    let helper = if axis.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+    let u = (helper - axis * helper.dot(axis)).normalize();
+    (u, axis.cross(u))
+}
+
+/// Copies the first material's base colour (factor and texture) and scalar PBR factors.
+fn copy_material(
+    scene: &GltfScene,
+    material: Option<usize>,
+    have_uvs: bool,
+    warnings: &mut Vec<String>,
+) -> Result<MaterialSet, RigError> {
+    let default = MaterialSet::pbr("rigged", [1.0, 1.0, 1.0, 1.0], 0.0, 0.6);
+    let Some(index) = material else {
+        return Ok(default);
+    };
+    let bytes = std::fs::read(&scene.path).map_err(|source| SkinError::Io {
+        path: scene.path.clone(),
+        source,
+    })?;
+    let Ok(gltf) = gltf::Gltf::from_slice(&bytes) else {
+        return Ok(default);
+    };
+    let Some(mat) = gltf.document.materials().nth(index) else {
+        return Ok(default);
+    };
+    let pbr = mat.pbr_metallic_roughness();
+    let mut pbr_json = json!({
+        "baseColorFactor": pbr.base_color_factor(),
+        "metallicFactor": pbr.metallic_factor(),
+        "roughnessFactor": pbr.roughness_factor(),
+    });
+    let mut m = json!({
+        "name": mat.name().unwrap_or("rigged"),
+        "doubleSided": mat.double_sided(),
+    });
+    match mat.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => {}
+        gltf::material::AlphaMode::Mask => {
+            m["alphaMode"] = json!("MASK");
+            m["alphaCutoff"] = json!(mat.alpha_cutoff().unwrap_or(0.5));
+        }
+        gltf::material::AlphaMode::Blend => m["alphaMode"] = json!("BLEND"),
+    }
+    if mat.normal_texture().is_some()
+        || pbr.metallic_roughness_texture().is_some()
+        || mat.occlusion_texture().is_some()
+        || mat.emissive_texture().is_some()
+    {
+        warnings.push(format!(
+            "{}: only the base colour texture is kept; normal, metallic-roughness, occlusion and emissive textures are dropped",
+            scene.path.display()
+        ));
+    }
+    let mut set = MaterialSet {
+        materials: Value::Null,
+        textures: json!([]),
+        samplers: json!([]),
+        images: Vec::new(),
+        material: 0,
+    };
+    if let Some(info) = pbr.base_color_texture() {
+        let tex = info.texture();
+        let image = tex.source();
+        let loaded = if !have_uvs || info.tex_coord() != 0 {
+            Err("the texture needs TEXCOORD_0 on every primitive".to_string())
+        } else {
+            read_image(scene, &gltf, &image)
+        };
+        match loaded {
+            Ok((data, mime)) => {
+                set.images.push((data, mime));
+                let s = tex.sampler();
+                let mut sampler = json!({});
+                if let Some(f) = s.mag_filter() {
+                    sampler["magFilter"] = json!(f.as_gl_enum());
+                }
+                if let Some(f) = s.min_filter() {
+                    sampler["minFilter"] = json!(f.as_gl_enum());
+                }
+                sampler["wrapS"] = json!(s.wrap_s().as_gl_enum());
+                sampler["wrapT"] = json!(s.wrap_t().as_gl_enum());
+                set.samplers = json!([sampler]);
+                set.textures = json!([{"sampler": 0, "source": 0}]);
+                pbr_json["baseColorTexture"] = json!({"index": 0});
+            }
+            Err(why) => warnings.push(format!(
+                "{}: base colour texture dropped: {why}",
+                scene.path.display()
+            )),
+        }
+    }
+    m["pbrMetallicRoughness"] = pbr_json;
+    set.materials = json!([m]);
+    Ok(set)
+}
+
+fn read_image(
+    scene: &GltfScene,
+    gltf: &gltf::Gltf,
+    image: &gltf::Image,
+) -> Result<(Vec<u8>, String), String> {
+    match image.source() {
+        gltf::image::Source::Uri { uri, mime_type } => {
+            if uri.starts_with("data:") {
+                return Err("data-URI images are not copied".into());
+            }
+            let decoded = percent_decode(uri);
+            let base = scene.path.parent().unwrap_or(Path::new("."));
+            let file = base.join(&decoded);
+            let data = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
+            let mime = mime_type.map(str::to_string).or_else(|| mime_of(&decoded));
+            let mime = mime.ok_or_else(|| format!("{uri}: unknown image type"))?;
+            Ok((data, mime))
+        }
+        gltf::image::Source::View { view, mime_type } => {
+            let base = scene.path.parent();
+            let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())
+                .map_err(|e| e.to_string())?;
+            let buf = buffers
+                .get(view.buffer().index())
+                .ok_or("image buffer missing")?;
+            let end = view.offset().checked_add(view.length()).ok_or("bad view")?;
+            let data = buf
+                .0
+                .get(view.offset()..end)
+                .ok_or("image view out of bounds")?;
+            Ok((data.to_vec(), mime_type.to_string()))
+        }
+    }
+}
+
+fn mime_of(name: &str) -> Option<String> {
+    let lower = name.to_ascii_lowercase();
+    if lower.ends_with(".png") {
+        Some("image/png".into())
+    } else if lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
+        Some("image/jpeg".into())
+    } else {
+        None
+    }
+}
+
+fn percent_decode(s: &str) -> String {
+    let hex = |b: u8| (b as char).to_digit(16);
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}

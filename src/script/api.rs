@@ -1,0 +1,681 @@
+//! The `shoal` table: everything a behaviour script can ask of the world.
+//!
+//! Perception (`see`, `nearest`, `body`) is answered by the world's sensors over its spatial grid;
+//! motion requests (`swim`, `turn`, `steer`, …) go to the fish's motion player; the steering
+//! helpers (`seek`, `separation`, …) are computed in Rust and return a desired
+//! `heading, depth, speed` triple (or nothing). Every function acts on the fish whose behaviour is
+//! running; called at any other time (say, at a module's top level) it raises an error.
+//!
+//! Conventions (see `scripts/types/shoal.lua`, the LuaLS definitions, for every signature):
+//! angles in radians (`math.rad(90)`), heading counter-clockwise seen from above with 0 = +x,
+//! bearings positive to the fish's left; depth in world units below the surface; speeds in world
+//! units per second; `side` is `"left"` or `"right"`.
+//!
+//! To keep a decision cheap the tables returned by `see`, `nearest` and `body` are reused on the
+//! next call of the same function: copy what you want to keep (or keep the `id`).
+
+use std::time::Instant;
+
+use glam::Vec3;
+use mlua::{AnyUserData, Lua, LuaString, Table, Value, Variadic};
+use rand::Rng;
+
+use crate::motion::{MotionRequest, Side, TurnKind};
+use crate::world::steer::Steer;
+use crate::world::{FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
+
+/// Registry key under which the scoped world userdata lives while behaviours run.
+pub const WORLD_KEY: &str = "shoal.world";
+
+/// Default number of percepts `shoal.see` returns.
+pub const DEFAULT_SEE_MAX: usize = 32;
+
+/// Field names, interned once so filling a table does not hash strings.
+struct Keys {
+    kind: LuaString,
+    species: LuaString,
+    id: LuaString,
+    distance: LuaString,
+    bearing: LuaString,
+    elevation: LuaString,
+    x: LuaString,
+    y: LuaString,
+    z: LuaString,
+    heading: LuaString,
+    speed: LuaString,
+    kind_fish: LuaString,
+    kind_food: LuaString,
+    kind_obstacle: LuaString,
+    kind_predator: LuaString,
+}
+
+/// Per-call context of the API, kept as Lua app data.
+pub struct Ctx {
+    /// The fish whose behaviour is running, if any.
+    pub fish: Option<FishId>,
+    /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
+    pub perception_ns: u64,
+    percepts: Vec<Percept>,
+    keys: Keys,
+    species_names: Vec<Option<LuaString>>,
+    species_tables: Vec<Option<Table>>,
+    see_out: Table,
+    see_pool: Vec<Table>,
+    nearest_out: Table,
+    body_out: Table,
+}
+
+impl Ctx {
+    /// Forgets cached species names and tables (after a species changed).
+    pub fn invalidate_species(&mut self) {
+        self.species_names.clear();
+        self.species_tables.clear();
+    }
+}
+
+fn rt(msg: impl Into<String>) -> mlua::Error {
+    mlua::Error::RuntimeError(msg.into())
+}
+
+fn outside(name: &str) -> mlua::Error {
+    rt(format!(
+        "shoal.{name} can only be called while a fish's behaviour runs (from tick, perceive, intend or behave)"
+    ))
+}
+
+/// Runs `f` with the world and the current fish.
+fn with_world<R>(
+    lua: &Lua,
+    name: &str,
+    f: impl FnOnce(&mut World, FishId) -> mlua::Result<R>,
+) -> mlua::Result<R> {
+    let fish = lua
+        .app_data_ref::<Ctx>()
+        .and_then(|c| c.fish)
+        .ok_or_else(|| outside(name))?;
+    let Value::UserData(ud) = lua.named_registry_value::<Value>(WORLD_KEY)? else {
+        return Err(outside(name));
+    };
+    let ud: AnyUserData = ud;
+    ud.borrow_mut_scoped::<World, _>(|world| f(world, fish))
+        .map_err(|_| outside(name))?
+}
+
+fn world_err(name: &str, e: crate::world::WorldError) -> mlua::Error {
+    rt(format!("shoal.{name}: {e}"))
+}
+
+fn species_name(lua: &Lua, ctx: &mut Ctx, world: &World, s: SpeciesId) -> mlua::Result<LuaString> {
+    let i = usize::from(s.0);
+    if ctx.species_names.len() <= i {
+        ctx.species_names.resize(i + 1, None);
+    }
+    if let Some(n) = &ctx.species_names[i] {
+        return Ok(n.clone());
+    }
+    let n = lua.create_string(&world.species(s).desc.name)?;
+    ctx.species_names[i] = Some(n.clone());
+    Ok(n)
+}
+
+fn kind_key(keys: &Keys, k: PerceptKind) -> &LuaString {
+    match k {
+        PerceptKind::Fish => &keys.kind_fish,
+        PerceptKind::Food => &keys.kind_food,
+        PerceptKind::Obstacle => &keys.kind_obstacle,
+        PerceptKind::Predator => &keys.kind_predator,
+    }
+}
+
+fn parse_kind(s: &[u8]) -> Option<PerceptKind> {
+    Some(match s {
+        b"fish" => PerceptKind::Fish,
+        b"food" => PerceptKind::Food,
+        b"obstacle" => PerceptKind::Obstacle,
+        b"predator" => PerceptKind::Predator,
+        _ => return None,
+    })
+}
+
+fn fill_percept(
+    lua: &Lua,
+    ctx: &mut Ctx,
+    world: &World,
+    t: &Table,
+    p: &Percept,
+) -> mlua::Result<()> {
+    let species = match p.species {
+        Some(s) => Value::String(species_name(lua, ctx, world, s)?),
+        None => Value::Nil,
+    };
+    let id = p
+        .fish
+        .map(|f| f.index)
+        .or(p.food.map(|f| f.0))
+        .or(p.obstacle.map(|o| o.0));
+    let k = &ctx.keys;
+    t.raw_set(&k.kind, kind_key(k, p.kind))?;
+    t.raw_set(&k.species, species)?;
+    t.raw_set(&k.id, id)?;
+    t.raw_set(&k.distance, p.distance)?;
+    t.raw_set(&k.bearing, p.bearing)?;
+    t.raw_set(&k.elevation, p.elevation)?;
+    t.raw_set(&k.x, p.pos.x)?;
+    t.raw_set(&k.y, p.pos.y)?;
+    t.raw_set(&k.z, p.pos.z)?;
+    t.raw_set(&k.heading, p.heading)?;
+    t.raw_set(&k.speed, p.speed)?;
+    Ok(())
+}
+
+fn parse_side(name: &str, s: &LuaString) -> mlua::Result<Side> {
+    match s.as_bytes().as_ref() {
+        b"left" => Ok(Side::Left),
+        b"right" => Ok(Side::Right),
+        other => Err(rt(format!(
+            "shoal.{name}: side must be \"left\" or \"right\", got \"{}\"",
+            String::from_utf8_lossy(other)
+        ))),
+    }
+}
+
+fn parse_turn(name: &str, s: &LuaString) -> mlua::Result<TurnKind> {
+    match s.as_bytes().as_ref() {
+        b"normal" => Ok(TurnKind::Normal),
+        b"quick" => Ok(TurnKind::Quick),
+        b"serial" => Ok(TurnKind::Serial),
+        other => Err(rt(format!(
+            "shoal.{name}: kind must be \"normal\", \"quick\" or \"serial\", got \"{}\"",
+            String::from_utf8_lossy(other)
+        ))),
+    }
+}
+
+fn request(lua: &Lua, name: &str, r: MotionRequest, now: Option<bool>) -> mlua::Result<()> {
+    with_world(lua, name, |w, f| {
+        w.request(f, r, now.unwrap_or(false))
+            .map_err(|e| world_err(name, e))
+    })
+}
+
+/// `heading, depth, speed`, or three nils.
+type Triple = (Option<f32>, Option<f32>, Option<f32>);
+
+fn triple(s: Option<Steer>) -> Triple {
+    match s {
+        Some(s) => (Some(s.heading), Some(s.depth), Some(s.speed)),
+        None => (None, None, None),
+    }
+}
+
+/// Cruise speed `s` and body length `l` of the fish's species.
+fn cruise_and_length(w: &World, f: FishId) -> (f32, f32) {
+    w.species_of(f)
+        .map(|s| {
+            let d = &w.species(s).desc;
+            (d.motion.s, d.motion.l)
+        })
+        .unwrap_or((1.0, 1.0))
+}
+
+fn finite_arg(name: &str, what: &str, v: f32) -> mlua::Result<f32> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(rt(format!(
+            "shoal.{name}: {what} is {v}: must be a finite number"
+        )))
+    }
+}
+
+fn timed<R>(lua: &Lua, f: impl FnOnce() -> R) -> R {
+    let start = Instant::now();
+    let r = f();
+    let ns = start.elapsed().as_nanos() as u64;
+    if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+        c.perception_ns += ns;
+    }
+    r
+}
+
+/// Creates the `shoal` global and the API context.
+pub fn register(lua: &Lua) -> mlua::Result<()> {
+    let key = |s: &str| lua.create_string(s);
+    let keys = Keys {
+        kind: key("kind")?,
+        species: key("species")?,
+        id: key("id")?,
+        distance: key("distance")?,
+        bearing: key("bearing")?,
+        elevation: key("elevation")?,
+        x: key("x")?,
+        y: key("y")?,
+        z: key("z")?,
+        heading: key("heading")?,
+        speed: key("speed")?,
+        kind_fish: key("fish")?,
+        kind_food: key("food")?,
+        kind_obstacle: key("obstacle")?,
+        kind_predator: key("predator")?,
+    };
+    lua.set_app_data(Ctx {
+        fish: None,
+        perception_ns: 0,
+        percepts: Vec::with_capacity(64),
+        keys,
+        species_names: Vec::new(),
+        species_tables: Vec::new(),
+        see_out: lua.create_table()?,
+        see_pool: Vec::new(),
+        nearest_out: lua.create_table()?,
+        body_out: lua.create_table()?,
+    });
+
+    let shoal = lua.create_table()?;
+
+    // ---- perception ---------------------------------------------------------------------
+    shoal.set(
+        "see",
+        lua.create_function(|lua, (kind, max): (Option<LuaString>, Option<usize>)| {
+            let kind = match &kind {
+                Some(k) => Some(parse_kind(&k.as_bytes()).ok_or_else(|| {
+                    rt("shoal.see: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
+                })?),
+                None => None,
+            };
+            let max = max.unwrap_or(DEFAULT_SEE_MAX);
+            with_world(lua, "see", |w, f| {
+                let start = Instant::now();
+                let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside("see"))?;
+                let ctx = &mut *ctx;
+                w.vision(f, &mut ctx.percepts);
+                let out = ctx.see_out.clone();
+                let mut n = 0usize;
+                let percepts = std::mem::take(&mut ctx.percepts);
+                for p in percepts
+                    .iter()
+                    .filter(|p| kind.is_none_or(|k| p.kind == k))
+                    .take(max)
+                {
+                    if ctx.see_pool.len() <= n {
+                        ctx.see_pool.push(lua.create_table_with_capacity(0, 11)?);
+                    }
+                    let t = ctx.see_pool[n].clone();
+                    fill_percept(lua, ctx, w, &t, p)?;
+                    out.raw_set(n + 1, t)?;
+                    n += 1;
+                }
+                ctx.percepts = percepts;
+                let old = out.raw_len();
+                for i in n + 1..=old {
+                    out.raw_set(i, Value::Nil)?;
+                }
+                ctx.perception_ns += start.elapsed().as_nanos() as u64;
+                Ok(out)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "nearest",
+        lua.create_function(|lua, (kind, species): (LuaString, Option<LuaString>)| {
+            let kind = parse_kind(&kind.as_bytes()).ok_or_else(|| {
+                rt("shoal.nearest: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
+            })?;
+            with_world(lua, "nearest", |w, f| {
+                let start = Instant::now();
+                let mut ctx = lua
+                    .app_data_mut::<Ctx>()
+                    .ok_or_else(|| outside("nearest"))?;
+                let ctx = &mut *ctx;
+                w.vision(f, &mut ctx.percepts);
+                let want = match &species {
+                    Some(s) => w.species_by_name(&s.to_str()?),
+                    None => None,
+                };
+                if species.is_some() && want.is_none() {
+                    return Ok(Value::Nil);
+                }
+                let found = ctx
+                    .percepts
+                    .iter()
+                    .find(|p| p.kind == kind && (want.is_none() || p.species == want))
+                    .copied();
+                let r = match found {
+                    Some(p) => {
+                        let t = ctx.nearest_out.clone();
+                        fill_percept(lua, ctx, w, &t, &p)?;
+                        Value::Table(t)
+                    }
+                    None => Value::Nil,
+                };
+                ctx.perception_ns += start.elapsed().as_nanos() as u64;
+                Ok(r)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "body",
+        lua.create_function(|lua, ()| {
+            with_world(lua, "body", |w, f| {
+                let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
+                let t = lua
+                    .app_data_ref::<Ctx>()
+                    .map(|c| c.body_out.clone())
+                    .ok_or_else(|| outside("body"))?;
+                t.raw_set("x", b.pos.x)?;
+                t.raw_set("y", b.pos.y)?;
+                t.raw_set("z", b.pos.z)?;
+                t.raw_set("depth", b.depth)?;
+                t.raw_set("to_floor", b.to_floor)?;
+                t.raw_set("to_surface", b.to_surface)?;
+                t.raw_set("to_wall", b.to_wall)?;
+                t.raw_set("wall_x", b.wall_normal.x)?;
+                t.raw_set("wall_y", b.wall_normal.y)?;
+                t.raw_set("wall_z", b.wall_normal.z)?;
+                t.raw_set("contact", b.contact)?;
+                t.raw_set("speed", b.speed)?;
+                t.raw_set("heading", b.heading)?;
+                t.raw_set("pitch", b.pitch)?;
+                t.raw_set("motion", w.current_motion(f).unwrap_or("idle"))?;
+                t.raw_set("queue", w.queue_len(f).unwrap_or(0))?;
+                Ok(t)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "species",
+        lua.create_function(|lua, ()| {
+            with_world(lua, "species", |w, f| {
+                let s = w.species_of(f).ok_or_else(|| outside("species"))?;
+                let i = usize::from(s.0);
+                let mut ctx = lua
+                    .app_data_mut::<Ctx>()
+                    .ok_or_else(|| outside("species"))?;
+                if ctx.species_tables.len() <= i {
+                    ctx.species_tables.resize(i + 1, None);
+                }
+                if let Some(t) = &ctx.species_tables[i] {
+                    return Ok(t.clone());
+                }
+                let d = &w.species(s).desc;
+                let t = lua.create_table()?;
+                t.raw_set("name", d.name.as_str())?;
+                t.raw_set("length", d.motion.l)?;
+                t.raw_set("cruise_speed", d.motion.s)?;
+                t.raw_set("max_speed", d.max_speed)?;
+                t.raw_set("view_range", d.view_range)?;
+                t.raw_set("view_angle", d.view_angle_deg.to_radians())?;
+                t.raw_set("turn_time", d.motion.tt)?;
+                t.raw_set("predator", d.predator)?;
+                ctx.species_tables[i] = Some(t.clone());
+                Ok(t)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "time",
+        lua.create_function(|lua, ()| with_world(lua, "time", |w, _| Ok(w.time())))?,
+    )?;
+    shoal.set(
+        "motion",
+        lua.create_function(|lua, ()| {
+            with_world(lua, "motion", |w, f| {
+                Ok((
+                    w.current_motion(f).unwrap_or("idle"),
+                    w.queue_len(f).unwrap_or(0),
+                ))
+            })
+        })?,
+    )?;
+    shoal.set(
+        "random",
+        lua.create_function(|lua, (m, n): (Option<i64>, Option<i64>)| {
+            with_world(lua, "random", |w, f| {
+                let rng = w.rng_mut(f).ok_or_else(|| outside("random"))?;
+                Ok(match (m, n) {
+                    (None, _) => Value::Number(rng.random::<f64>()),
+                    (Some(m), None) if m >= 1 => Value::Integer(rng.random_range(1..=m)),
+                    (Some(m), Some(n)) if m <= n => Value::Integer(rng.random_range(m..=n)),
+                    _ => return Err(rt("shoal.random: empty interval")),
+                })
+            })
+        })?,
+    )?;
+
+    // ---- motion requests ------------------------------------------------------------------
+    shoal.set(
+        "swim",
+        lua.create_function(|lua, (speed, now): (f32, Option<bool>)| {
+            request(lua, "swim", MotionRequest::Swim { speed }, now)
+        })?,
+    )?;
+    shoal.set(
+        "accelerate",
+        lua.create_function(|lua, (speed, duration, now): (f32, f32, Option<bool>)| {
+            request(
+                lua,
+                "accelerate",
+                MotionRequest::Accelerate { speed, duration },
+                now,
+            )
+        })?,
+    )?;
+    shoal.set(
+        "stop",
+        lua.create_function(|lua, (duration, now): (Option<f32>, Option<bool>)| {
+            let duration = duration.unwrap_or(1.0);
+            request(lua, "stop", MotionRequest::Stop { duration }, now)
+        })?,
+    )?;
+    shoal.set(
+        "turn",
+        lua.create_function(
+            |lua, (kind, angle, side, now): (LuaString, f32, LuaString, Option<bool>)| {
+                let kind = parse_turn("turn", &kind)?;
+                let side = parse_side("turn", &side)?;
+                request(lua, "turn", MotionRequest::Turn { kind, angle, side }, now)
+            },
+        )?,
+    )?;
+    for (name, kind) in [
+        ("normal_turn", TurnKind::Normal),
+        ("quick_turn", TurnKind::Quick),
+        ("serial_turn", TurnKind::Serial),
+    ] {
+        shoal.set(
+            name,
+            lua.create_function(
+                move |lua, (angle, side, now): (f32, LuaString, Option<bool>)| {
+                    let side = parse_side(name, &side)?;
+                    request(lua, name, MotionRequest::Turn { kind, angle, side }, now)
+                },
+            )?,
+        )?;
+    }
+    shoal.set(
+        "ascend",
+        lua.create_function(|lua, (height, now): (f32, Option<bool>)| {
+            request(lua, "ascend", MotionRequest::Ascend { height }, now)
+        })?,
+    )?;
+    shoal.set(
+        "descend",
+        lua.create_function(|lua, (depth, now): (f32, Option<bool>)| {
+            request(lua, "descend", MotionRequest::Descend { depth }, now)
+        })?,
+    )?;
+    shoal.set(
+        "steer",
+        lua.create_function(
+            |lua, (heading, depth, speed): (Option<f32>, Option<f32>, Option<f32>)| {
+                let (Some(h), Some(d)) = (heading, depth) else {
+                    return Err(rt(
+                        "shoal.steer: heading and depth are required (a steering helper returned nothing?)",
+                    ));
+                };
+                with_world(lua, "steer", |w, f| {
+                    let speed = speed.unwrap_or_else(|| cruise_and_length(w, f).0);
+                    w.steer_to(f, h, d, speed).map_err(|e| world_err("steer", e))
+                })
+            },
+        )?,
+    )?;
+    shoal.set(
+        "eat",
+        lua.create_function(|lua, food: u32| {
+            with_world(lua, "eat", |w, f| Ok(w.try_eat(f, FoodId(food))))
+        })?,
+    )?;
+
+    // ---- steering helpers -----------------------------------------------------------------
+    shoal.set(
+        "seek",
+        lua.create_function(|lua, (x, y, z, speed): (f32, f32, f32, Option<f32>)| {
+            with_world(lua, "seek", |w, f| {
+                let speed = speed.unwrap_or_else(|| cruise_and_length(w, f).0);
+                Ok(triple(w.steer_seek(f, Vec3::new(x, y, z), speed)))
+            })
+        })?,
+    )?;
+    shoal.set(
+        "flee",
+        lua.create_function(|lua, (x, y, z, speed): (f32, f32, f32, Option<f32>)| {
+            with_world(lua, "flee", |w, f| {
+                let speed = speed.unwrap_or_else(|| {
+                    w.species_of(f)
+                        .map(|s| w.species(s).desc.max_speed)
+                        .unwrap_or(1.0)
+                });
+                Ok(triple(w.steer_flee(f, Vec3::new(x, y, z), speed)))
+            })
+        })?,
+    )?;
+    shoal.set(
+        "arrive",
+        lua.create_function(
+            |lua, (x, y, z, slow_radius, speed): (f32, f32, f32, Option<f32>, Option<f32>)| {
+                with_world(lua, "arrive", |w, f| {
+                    let (s, l) = cruise_and_length(w, f);
+                    let r = finite_arg("arrive", "slow_radius", slow_radius.unwrap_or(2.0 * l))?;
+                    Ok(triple(w.steer_arrive(
+                        f,
+                        Vec3::new(x, y, z),
+                        r,
+                        speed.unwrap_or(s),
+                    )))
+                })
+            },
+        )?,
+    )?;
+    shoal.set(
+        "wander",
+        lua.create_function(
+            |lua, (max_turn, max_depth_change, speed): (Option<f32>, Option<f32>, Option<f32>)| {
+                with_world(lua, "wander", |w, f| {
+                    let (s, l) = cruise_and_length(w, f);
+                    Ok(triple(w.steer_wander(
+                        f,
+                        max_turn.unwrap_or(0.6),
+                        max_depth_change.unwrap_or(0.5 * l),
+                        speed.unwrap_or(s),
+                    )))
+                })
+            },
+        )?,
+    )?;
+    type Neighbourly = fn(&World, FishId, f32, f32) -> Option<Steer>;
+    for (name, default_lengths, f) in [
+        ("separation", 1.0f32, World::steer_separation as Neighbourly),
+        ("alignment", 3.0, World::steer_alignment as Neighbourly),
+        ("cohesion", 4.0, World::steer_cohesion as Neighbourly),
+    ] {
+        shoal.set(
+            name,
+            lua.create_function(move |lua, (radius, speed): (Option<f32>, Option<f32>)| {
+                with_world(lua, name, |w, fish| {
+                    let (s, l) = cruise_and_length(w, fish);
+                    let r = finite_arg(name, "radius", radius.unwrap_or(default_lengths * l))?;
+                    Ok(triple(timed(lua, || f(w, fish, r, speed.unwrap_or(s)))))
+                })
+            })?,
+        )?;
+    }
+    shoal.set(
+        "avoid_obstacles",
+        lua.create_function(
+            |lua, (lookahead, clearance, speed): (Option<f32>, Option<f32>, Option<f32>)| {
+                with_world(lua, "avoid_obstacles", |w, f| {
+                    let (s, l) = cruise_and_length(w, f);
+                    Ok(triple(timed(lua, || {
+                        w.steer_avoid_obstacles(
+                            f,
+                            lookahead.unwrap_or(3.0 * l),
+                            clearance.unwrap_or(0.5 * l),
+                            speed.unwrap_or(s),
+                        )
+                    })))
+                })
+            },
+        )?,
+    )?;
+    shoal.set(
+        "avoid_walls",
+        lua.create_function(|lua, (margin, speed): (Option<f32>, Option<f32>)| {
+            with_world(lua, "avoid_walls", |w, f| {
+                let (s, l) = cruise_and_length(w, f);
+                Ok(triple(timed(lua, || {
+                    w.steer_avoid_walls(f, margin.unwrap_or(2.0 * l), speed.unwrap_or(s))
+                })))
+            })
+        })?,
+    )?;
+    shoal.set(
+        "blend",
+        lua.create_function(|_, args: Variadic<Value>| {
+            let num = |v: &Value| v.as_number().or(v.as_integer().map(|i| i as f64));
+            if !args.len().is_multiple_of(4) {
+                return Err(rt(format!(
+                    "shoal.blend: expects groups of heading, depth, speed, weight; got {} values",
+                    args.len()
+                )));
+            }
+            let (mut hx, mut hy, mut depth, mut speed, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for g in args.chunks_exact(4) {
+                let (Some(h), Some(d), Some(s)) = (num(&g[0]), num(&g[1]), num(&g[2])) else {
+                    continue;
+                };
+                let wgt = num(&g[3]).unwrap_or(0.0).max(0.0);
+                hx += wgt * h.cos();
+                hy += wgt * h.sin();
+                depth += wgt * d;
+                speed += wgt * s;
+                total += wgt;
+            }
+            if total <= 0.0 {
+                return Ok((None, None, None));
+            }
+            let heading = if hx * hx + hy * hy > 1e-12 {
+                hy.atan2(hx)
+            } else {
+                0.0
+            };
+            Ok((Some(heading), Some(depth / total), Some(speed / total)))
+        })?,
+    )?;
+
+    lua.globals().set("shoal", shoal)?;
+    Ok(())
+}
+
+/// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).
+pub fn registered_names(lua: &Lua) -> mlua::Result<Vec<String>> {
+    let shoal: Table = lua.globals().get("shoal")?;
+    let mut names: Vec<String> = shoal
+        .pairs::<String, Value>()
+        .filter_map(|kv| kv.ok())
+        .filter(|(_, v)| v.is_function())
+        .map(|(k, _)| k)
+        .collect();
+    names.sort();
+    Ok(names)
+}

@@ -1,0 +1,480 @@
+//! The script host: one Lua state for every fish, behaviour modules loaded once per file, a
+//! per-fish table (with its `memory`) kept in the Lua registry, and one protected call per fish
+//! decision.
+//!
+//! A behaviour module is a Lua file in `scripts/behaviors/` returning a table with either the
+//! three layers of the paper's section 3.1
+//!
+//! ```lua
+//! local M = {}
+//! function M.perceive(fish) ... return percepts end          -- perception layer
+//! function M.intend(fish, percepts) ... return "flee" end    -- intention layer
+//! function M.behave(fish, intention, percepts) ... end       -- behaviour layer: motion requests
+//! return M
+//! ```
+//!
+//! or a single `tick(fish)` (whose return value, if any, is taken as the intention). The host
+//! stores what `perceive` returned in `fish.percepts` and the intention in `fish.intention`, so
+//! the inspector panel shows them. `fish.memory` persists across ticks and reloads.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+use mlua::{Function, Lua, LuaSerdeExt, Table, Value};
+
+use super::error::{ScriptError, describe};
+use super::log::{LogLevel, ScriptLog};
+use super::sandbox::{self, Abort, Budget, LOADED_KEY, Limits, ScriptRoot};
+use crate::world::FishId;
+
+/// Registry key of the table of per-fish tables (fish index → fish table).
+const FISH_KEY: &str = "shoal.fish";
+
+/// Runs one decision: the layers of a module for one fish. Host-private: scripts never see it.
+const DRIVER: &str = r#"
+return function(mod, fish)
+  local tick = mod.tick
+  if tick then
+    local i = tick(fish)
+    if i ~= nil then fish.intention = i end
+    return
+  end
+  local perceive, intend, behave = mod.perceive, mod.intend, mod.behave
+  local p, i
+  if perceive then p = perceive(fish) end
+  fish.percepts = p
+  if intend then i = intend(fish, p) end
+  fish.intention = i
+  if behave then behave(fish, i, p) end
+end
+"#;
+
+/// Index of a loaded behaviour module in the host.
+pub type ModuleIndex = usize;
+
+/// A behaviour module: its file and the last version that loaded.
+#[derive(Debug)]
+struct Module {
+    /// Behaviour name (`forage`).
+    name: String,
+    /// Canonical path of its file.
+    path: PathBuf,
+    /// The module table of the last good load; `None` if it never loaded.
+    table: Option<Table>,
+}
+
+/// What a reload did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Reloaded {
+    /// These behaviour modules now run their new code.
+    Modules(Vec<String>),
+    /// The file failed to load; the last good version keeps running. The message names file:line.
+    Failed(String),
+    /// The file is not a behaviour module nor required by one.
+    NotAModule,
+}
+
+/// One Lua state shared by all fish.
+pub struct ScriptHost {
+    lua: Lua,
+    budget: Rc<Budget>,
+    limits: Limits,
+    root: ScriptRoot,
+    driver: Function,
+    fish_tables: Table,
+    modules: Vec<Module>,
+    by_name: HashMap<String, ModuleIndex>,
+    /// Current load failures: file (as displayed) → message. Cleared when the file loads.
+    load_errors: BTreeMap<String, String>,
+    /// The last error of each fish (by index), for the inspector.
+    fish_errors: HashMap<u32, String>,
+    /// Every distinct error message, in order, for tests and `shoal test`.
+    error_history: Vec<String>,
+}
+
+impl ScriptHost {
+    /// A host for the scripts under `scripts_dir` (the `scripts/` directory).
+    pub fn new(scripts_dir: &Path, limits: Limits) -> Result<Self, ScriptError> {
+        let (lua, budget) = sandbox::new_state(scripts_dir, limits)?;
+        let root = ScriptRoot::new(scripts_dir)?;
+        let lua_err = |e: mlua::Error| ScriptError::Lua(describe(&e));
+        let driver: Function = lua
+            .load(DRIVER)
+            .set_name("=shoal driver")
+            .eval()
+            .map_err(lua_err)?;
+        let fish_tables = lua.create_table().map_err(lua_err)?;
+        lua.set_named_registry_value(FISH_KEY, &fish_tables)
+            .map_err(lua_err)?;
+        Ok(Self {
+            lua,
+            budget,
+            limits,
+            root,
+            driver,
+            fish_tables,
+            modules: Vec::new(),
+            by_name: HashMap::new(),
+            load_errors: BTreeMap::new(),
+            fish_errors: HashMap::new(),
+            error_history: Vec::new(),
+        })
+    }
+
+    /// The Lua state (for registering the `shoal` API and scoped world access).
+    pub fn lua(&self) -> &Lua {
+        &self.lua
+    }
+
+    /// The script root.
+    pub fn root(&self) -> &ScriptRoot {
+        &self.root
+    }
+
+    /// The limits the state runs under.
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// Records a message in the console log (once per distinct message).
+    pub fn log(&mut self, level: LogLevel, message: &str, fish: Option<FishId>, time_s: f64) {
+        let new = self
+            .lua
+            .app_data_mut::<ScriptLog>()
+            .map(|mut l| l.push(level, message, fish, time_s))
+            .unwrap_or(false);
+        if new && level == LogLevel::Error {
+            self.error_history.push(message.to_owned());
+        }
+    }
+
+    /// Takes the console entries logged since the last call.
+    pub fn drain_log(&mut self) -> Vec<super::log::LogEntry> {
+        self.lua
+            .app_data_mut::<ScriptLog>()
+            .map(|mut l| l.drain())
+            .unwrap_or_default()
+    }
+
+    /// How often `message` was logged (repeats included).
+    pub fn log_count(&self, message: &str) -> u64 {
+        self.lua
+            .app_data_ref::<ScriptLog>()
+            .map(|l| l.count(message))
+            .unwrap_or(0)
+    }
+
+    /// Every distinct error logged so far, oldest first.
+    pub fn error_messages(&self) -> &[String] {
+        &self.error_history
+    }
+
+    /// Files that currently fail to load (display name → message), shown until fixed.
+    pub fn load_errors(&self) -> &BTreeMap<String, String> {
+        &self.load_errors
+    }
+
+    /// The module running behaviour `name` (`scripts/behaviors/<name>.lua`), loading it on first
+    /// use. `None` if it never loaded (the error is logged and kept in [`Self::load_errors`]).
+    pub fn module(&mut self, name: &str, time_s: f64) -> Option<ModuleIndex> {
+        if let Some(&i) = self.by_name.get(name) {
+            return self.modules[i].table.is_some().then_some(i);
+        }
+        let i = self.modules.len();
+        let path = match self.root.resolve_module(&format!("behaviors/{name}")) {
+            Ok(p) => p,
+            Err(why) => {
+                let msg = format!("behaviour '{name}': {why}");
+                self.log(LogLevel::Error, &msg, None, time_s);
+                self.load_errors.insert(format!("behaviors/{name}"), msg);
+                self.by_name.insert(name.to_owned(), i);
+                self.modules.push(Module {
+                    name: name.to_owned(),
+                    path: self.root.dir.join("behaviors").join(format!("{name}.lua")),
+                    table: None,
+                });
+                return None;
+            }
+        };
+        self.by_name.insert(name.to_owned(), i);
+        self.modules.push(Module {
+            name: name.to_owned(),
+            path,
+            table: None,
+        });
+        self.load_module(i, time_s);
+        self.modules[i].table.is_some().then_some(i)
+    }
+
+    /// (Re)loads module `i`; on failure keeps the previous table and records the error.
+    fn load_module(&mut self, i: ModuleIndex, time_s: f64) -> bool {
+        let path = self.modules[i].path.clone();
+        let display = self.root.display_of(&path);
+        match self.compile_module(&path, &display) {
+            Ok(t) => {
+                self.modules[i].table = Some(t);
+                if self.load_errors.remove(&display).is_some() {
+                    self.log(
+                        LogLevel::Info,
+                        &format!("{display}: loads again"),
+                        None,
+                        time_s,
+                    );
+                }
+                if let Some(mut l) = self.lua.app_data_mut::<ScriptLog>() {
+                    l.forget_file(&display);
+                }
+                true
+            }
+            Err(msg) => {
+                self.log(LogLevel::Error, &msg, None, time_s);
+                self.load_errors.insert(display, msg);
+                false
+            }
+        }
+    }
+
+    fn compile_module(&self, path: &Path, display: &str) -> Result<Table, String> {
+        let f = sandbox::load_file(&self.lua, path).map_err(|e| e.to_string())?;
+        self.budget.arm(self.limits.instructions_per_load);
+        let v: Value = f.call(()).map_err(|e| self.after_error(&e))?;
+        let Value::Table(t) = v else {
+            return Err(format!(
+                "{display}: a behaviour must return a table with tick(fish) or perceive/intend/behave functions (got {})",
+                v.type_name()
+            ));
+        };
+        let has = |k: &str| matches!(t.raw_get::<Value>(k), Ok(Value::Function(_)));
+        if !(has("tick") || has("behave") || has("intend") || has("perceive")) {
+            return Err(format!(
+                "{display}: a behaviour must return a table with tick(fish) or perceive/intend/behave functions"
+            ));
+        }
+        Ok(t)
+    }
+
+    /// Formats an error from a call, collecting garbage after a memory error so the next call
+    /// has room again.
+    fn after_error(&self, e: &mlua::Error) -> String {
+        let msg = describe(e);
+        if matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted() == Some(Abort::Memory)
+        {
+            let _ = self.lua.gc_collect();
+        }
+        msg
+    }
+
+    /// Reloads what `path` (a changed file under `scripts/`) affects: the behaviour module of that
+    /// file, or — for a file loaded with `require` — every behaviour module (so they pick up the
+    /// new library). Live fish keep their tables and memory.
+    pub fn reload_path(&mut self, path: &Path, time_s: f64) -> Reloaded {
+        let real = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        if let Some(i) = self.modules.iter().position(|m| m.path == real) {
+            let name = self.modules[i].name.clone();
+            return if self.load_module(i, time_s) {
+                Reloaded::Modules(vec![name])
+            } else {
+                Reloaded::Failed(self.load_errors[&self.root.display_of(&real)].clone())
+            };
+        }
+        let key = real.to_string_lossy().into_owned();
+        let required = self
+            .lua
+            .named_registry_value::<Table>(LOADED_KEY)
+            .ok()
+            .filter(|t| t.contains_key(key.as_str()).unwrap_or(false));
+        let Some(loaded) = required else {
+            return Reloaded::NotAModule;
+        };
+        // Check the library compiles before dropping the cached version.
+        let display = self.root.display_of(&real);
+        if let Err(e) = sandbox::load_file(&self.lua, &real) {
+            let msg = e.to_string();
+            self.log(LogLevel::Error, &msg, None, time_s);
+            self.load_errors.insert(display, msg.clone());
+            return Reloaded::Failed(msg);
+        }
+        let old: Value = loaded.raw_get(key.as_str()).unwrap_or(Value::Nil);
+        let _ = loaded.raw_set(key.as_str(), Value::Nil);
+        self.load_errors.remove(&display);
+        let mut names = Vec::new();
+        let mut failed = None;
+        for i in 0..self.modules.len() {
+            if self.load_module(i, time_s) {
+                names.push(self.modules[i].name.clone());
+            } else if failed.is_none() {
+                failed =
+                    Some(self.load_errors[&self.root.display_of(&self.modules[i].path)].clone());
+            }
+        }
+        if let Some(msg) = failed {
+            // Keep the library the old modules were built against.
+            if loaded
+                .raw_get::<Value>(key.as_str())
+                .map(|v| v.is_nil())
+                .unwrap_or(true)
+            {
+                let _ = loaded.raw_set(key.as_str(), old);
+            }
+            return Reloaded::Failed(msg);
+        }
+        Reloaded::Modules(names)
+    }
+
+    /// The fish's table, created (with an empty `memory`) the first time the fish runs or when
+    /// its slot now holds a new fish.
+    pub fn fish_table(
+        &self,
+        id: FishId,
+        species: &str,
+        behavior: &str,
+    ) -> Result<Table, ScriptError> {
+        let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
+        if let Some(t) = self.existing_fish_table(id) {
+            return Ok(t);
+        }
+        let t = self.lua.create_table().map_err(err)?;
+        t.raw_set("id", id.index).map_err(err)?;
+        t.raw_set("generation", id.generation).map_err(err)?;
+        t.raw_set("species", species).map_err(err)?;
+        t.raw_set("behavior", behavior).map_err(err)?;
+        t.raw_set("memory", self.lua.create_table().map_err(err)?)
+            .map_err(err)?;
+        self.fish_tables.raw_set(id.index, &t).map_err(err)?;
+        Ok(t)
+    }
+
+    /// The fish's table if it has run (or been created) already.
+    pub fn existing_fish_table(&self, id: FishId) -> Option<Table> {
+        match self.fish_tables.raw_get::<Value>(id.index) {
+            Ok(Value::Table(t)) if t.raw_get::<u32>("generation").ok() == Some(id.generation) => {
+                Some(t)
+            }
+            _ => None,
+        }
+    }
+
+    /// Forgets a fish's table (when it is despawned).
+    pub fn forget_fish(&mut self, id: FishId) {
+        if self.existing_fish_table(id).is_some() {
+            let _ = self.fish_tables.raw_set(id.index, Value::Nil);
+        }
+        self.fish_errors.remove(&id.index);
+    }
+
+    /// Runs one decision of module `module` for the fish whose table is `fish`, within the
+    /// per-call instruction budget. An error is logged once (file:line), remembered for the
+    /// inspector and returned; the fish keeps whatever motion it had.
+    pub fn run(
+        &mut self,
+        module: ModuleIndex,
+        id: FishId,
+        fish: &Table,
+        time_s: f64,
+    ) -> Result<(), String> {
+        let Some(table) = self.modules.get(module).and_then(|m| m.table.as_ref()) else {
+            return Ok(());
+        };
+        self.budget.arm(self.limits.instructions_per_call);
+        match self.driver.call::<()>((table, fish)) {
+            Ok(()) => Ok(()),
+            Err(e) => {
+                let mut msg = self.after_error(&e);
+                if !super::error::has_location(&msg) && !msg.starts_with(&self.root.display) {
+                    // Errors without a position (out of memory) at least name the file.
+                    let file = self.root.display_of(&self.modules[module].path);
+                    msg = format!("{file}: {msg}");
+                }
+                self.log(LogLevel::Error, &msg, Some(id), time_s);
+                if self.fish_errors.get(&id.index) != Some(&msg) {
+                    self.fish_errors.insert(id.index, msg.clone());
+                }
+                Err(msg)
+            }
+        }
+    }
+
+    /// The last error a fish's script raised, if any.
+    pub fn fish_error(&self, id: FishId) -> Option<&str> {
+        self.fish_errors.get(&id.index).map(String::as_str)
+    }
+
+    /// A fish's memory table as JSON (functions and other non-data values become null).
+    pub fn memory_json(&self, id: FishId) -> serde_json::Value {
+        let Some(t) = self.existing_fish_table(id) else {
+            return serde_json::Value::Null;
+        };
+        match t.raw_get::<Value>("memory") {
+            Ok(v) => value_to_json(&v, 0),
+            Err(_) => serde_json::Value::Null,
+        }
+    }
+
+    /// Runs a snippet of Lua in a fresh sandboxed environment (for the console and tests),
+    /// within the per-load budget. Returns the value converted to JSON.
+    pub fn eval(&self, name: &str, code: &str) -> Result<serde_json::Value, String> {
+        let env = sandbox::module_env(&self.lua).map_err(|e| describe(&e))?;
+        let f = self
+            .lua
+            .load(code)
+            .set_name(format!("@{name}"))
+            .set_mode(mlua::chunk::ChunkMode::Text)
+            .set_environment(env)
+            .into_function()
+            .map_err(|e| describe(&e))?;
+        self.budget.arm(self.limits.instructions_per_load);
+        let v: Value = f.call(()).map_err(|e| self.after_error(&e))?;
+        Ok(value_to_json(&v, 0))
+    }
+
+    /// Runs a data file (species, scene) in a fresh sandboxed environment within the per-load
+    /// budget and returns its value.
+    pub fn load_data_file(&self, path: &Path) -> Result<Value, ScriptError> {
+        let f = sandbox::load_file(&self.lua, path)?;
+        self.budget.arm(self.limits.instructions_per_load);
+        f.call::<Value>(())
+            .map_err(|e| ScriptError::Lua(self.after_error(&e)))
+    }
+
+    /// Converts a Lua value to JSON through mlua's serde support (for species and scene data).
+    pub fn from_lua<T: serde::de::DeserializeOwned>(&self, v: Value) -> mlua::Result<T> {
+        self.lua.from_value(v)
+    }
+}
+
+/// A Lua value as JSON, tables up to a few levels deep; arrays stay arrays.
+pub fn value_to_json(v: &Value, depth: usize) -> serde_json::Value {
+    use serde_json::Value as J;
+    match v {
+        Value::Nil => J::Null,
+        Value::Boolean(b) => J::Bool(*b),
+        Value::Integer(i) => J::from(*i),
+        Value::Number(n) => serde_json::Number::from_f64(*n).map_or(J::Null, J::Number),
+        Value::String(s) => J::String(s.to_string_lossy()),
+        Value::Table(t) if depth < 4 => {
+            let len = t.raw_len();
+            let mut entries: Vec<(Value, Value)> = t.pairs::<Value, Value>().flatten().collect();
+            if len > 0 && entries.len() == len {
+                entries.sort_by_key(|(k, _)| k.as_integer().unwrap_or(0));
+                J::Array(
+                    entries
+                        .iter()
+                        .map(|(_, v)| value_to_json(v, depth + 1))
+                        .collect(),
+                )
+            } else {
+                let mut m = serde_json::Map::new();
+                for (k, v) in entries {
+                    let key = match &k {
+                        Value::String(s) => s.to_string_lossy(),
+                        other => other.to_string().unwrap_or_default(),
+                    };
+                    m.insert(key, value_to_json(&v, depth + 1));
+                }
+                J::Object(m)
+            }
+        }
+        _ => J::Null,
+    }
+}

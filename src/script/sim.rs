@@ -1,0 +1,786 @@
+//! [`Simulation`]: a world plus the script host, stepped one fixed 60 Hz tick at a time.
+//!
+//! A tick is a straight sequence of named stages, each timed into the world's
+//! [`StageCounters`](crate::world::StageCounters):
+//!
+//! 1. scene events (periodic food drops);
+//! 2. behaviour scripts of the fish whose staggered slot is due — fish `i` decides on ticks where
+//!    `(tick + i) % period == 0`, `period = round(60 / decision_hz)` (default 10 Hz → every 6th
+//!    tick), so the Lua cost per frame stays flat — timed into `lua_ns`, with the sensor queries
+//!    they make timed separately into `perception_ns`;
+//! 3. `World::step_motion` (the motion layer, every tick), `World::update_pose`,
+//!    `World::rebuild_grid`.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::Vec3;
+use mlua::{Table, Value};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+use super::api::{self, Ctx, WORLD_KEY};
+use super::error::{ScriptError, describe};
+use super::host::{ModuleIndex, Reloaded, ScriptHost};
+use super::log::{LogEntry, LogLevel};
+use super::reload::ScriptWatcher;
+use super::sandbox::Limits;
+use super::scene::{BoxDesc, SceneDesc, SpeciesFile, species_from_table};
+use crate::world::{Current, FishId, SpawnParams, Species, SpeciesId, TICK_HZ, Tank, World};
+
+/// A species the simulation loaded from `scripts/species/`.
+#[derive(Debug, Clone)]
+struct SpeciesSlot {
+    /// The species file.
+    path: PathBuf,
+    /// Ticks between two decisions of one fish.
+    period_ticks: u64,
+}
+
+/// What `reload_changed` did with each path, for the console.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReloadEvent {
+    /// Behaviour modules reloaded.
+    Behaviors(Vec<String>),
+    /// A species' data now applies to its live fish.
+    Species(String),
+    /// The current scene's file changed: the panel offers a restart.
+    SceneChanged,
+    /// A file failed to load; the last good version keeps running.
+    Failed(String),
+}
+
+/// The aquarium: world, scripts, scene.
+pub struct Simulation {
+    world: World,
+    host: ScriptHost,
+    scripts_dir: PathBuf,
+    assets_dir: PathBuf,
+    scene_path: Option<PathBuf>,
+    scene: Option<SceneDesc>,
+    seed: u64,
+    species: Vec<SpeciesSlot>,
+    rng: Pcg32,
+    next_drop_s: f64,
+    watcher: Option<ScriptWatcher>,
+    scene_changed: bool,
+    due: Vec<(FishId, ModuleIndex, Table)>,
+    module_of: HashMap<String, Option<ModuleIndex>>,
+    reload_events: Vec<ReloadEvent>,
+}
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+impl Simulation {
+    /// A simulation of the scene file `scene` (a path relative to the repository root `root`, to
+    /// `root/scripts/`, or absolute), seeded with `seed`. Scripts come from `root/scripts/`,
+    /// species assets from `root/assets/` (or the scene's `assets`).
+    pub fn from_scene(root: &Path, scene: &Path, seed: u64) -> Result<Self, ScriptError> {
+        let scripts_dir = root.join("scripts");
+        let path = [
+            scene.to_path_buf(),
+            root.join(scene),
+            scripts_dir.join(scene),
+            scripts_dir.join("scenes").join(scene),
+        ]
+        .into_iter()
+        .find(|p| p.is_file())
+        .ok_or_else(|| ScriptError::Io {
+            path: scene.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "scene file not found"),
+        })?;
+        let host = ScriptHost::new(&scripts_dir, Limits::default())?;
+        let display = host
+            .root()
+            .display_of(&path.canonicalize().unwrap_or(path.clone()));
+        let desc = read_scene(&host, &path, &display)?;
+        let mut sim = Self::with_host(root, host, &desc, seed)?;
+        sim.scene_path = Some(path.canonicalize().unwrap_or(path));
+        sim.populate(&desc, &display)?;
+        sim.scene = Some(desc);
+        Ok(sim)
+    }
+
+    /// An empty tank (`scripts/scenes/empty_tank.lua` if it exists, else 20 × 8 × 12 body
+    /// lengths of a black porgy) with no fish; species load on first [`Simulation::spawn`].
+    pub fn empty(root: &Path, seed: u64) -> Result<Self, ScriptError> {
+        let empty = root.join("scripts/scenes/empty_tank.lua");
+        if empty.is_file() {
+            return Self::from_scene(root, &empty, seed);
+        }
+        let scripts_dir = root.join("scripts");
+        let host = ScriptHost::new(&scripts_dir, Limits::default())?;
+        let desc = SceneDesc {
+            tank: BoxDesc {
+                min: [-500.0, 0.0, -300.0],
+                max: [500.0, 400.0, 300.0],
+            },
+            assets: None,
+            species: Vec::new(),
+            fish: Vec::new(),
+            food: Vec::new(),
+            food_drops: None,
+            obstacles: Vec::new(),
+            currents: Vec::new(),
+        };
+        Self::with_host(root, host, &desc, seed)
+    }
+
+    /// Like [`Simulation::from_scene`] with explicit limits for the Lua state.
+    pub fn from_scene_with_limits(
+        root: &Path,
+        scene: &Path,
+        seed: u64,
+        limits: Limits,
+    ) -> Result<Self, ScriptError> {
+        let mut sim = Self::from_scene(root, scene, seed)?;
+        if limits != sim.host.limits() {
+            // Rebuild the host under the new limits; the scene's fish have not run yet.
+            let mut host = ScriptHost::new(&sim.scripts_dir, limits)?;
+            api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
+            std::mem::swap(&mut sim.host, &mut host);
+            sim.module_of.clear();
+        }
+        Ok(sim)
+    }
+
+    fn with_host(
+        root: &Path,
+        host: ScriptHost,
+        desc: &SceneDesc,
+        seed: u64,
+    ) -> Result<Self, ScriptError> {
+        api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
+        let tank = tank_of(&desc.tank, "scene tank")?;
+        let assets_dir = root.join(desc.assets.as_deref().unwrap_or("assets"));
+        let first_drop = desc
+            .food_drops
+            .map(|d| f64::from(d.start.unwrap_or(d.every)))
+            .unwrap_or(f64::INFINITY);
+        Ok(Self {
+            world: World::new(tank, seed),
+            scripts_dir: root.join("scripts"),
+            host,
+            assets_dir,
+            scene_path: None,
+            scene: None,
+            seed,
+            species: Vec::new(),
+            rng: Pcg32::seed_from_u64(seed ^ 0x5eed_5cee),
+            next_drop_s: first_drop,
+            watcher: None,
+            scene_changed: false,
+            due: Vec::new(),
+            module_of: HashMap::new(),
+            reload_events: Vec::new(),
+        })
+    }
+
+    /// Replaces the tank (only before any fish is spawned).
+    pub fn set_tank(&mut self, min: Vec3, max: Vec3) -> Result<(), ScriptError> {
+        let tank = tank_of(
+            &BoxDesc {
+                min: min.to_array(),
+                max: max.to_array(),
+            },
+            "tank",
+        )?;
+        if self.world.num_fish() > 0 {
+            return Err(ScriptError::Data {
+                file: "tank".into(),
+                why: "the tank can only change before any fish is spawned".into(),
+            });
+        }
+        let mut world = World::new(tank, self.seed);
+        for i in 0..self.species.len() {
+            let s = self.world.species(SpeciesId(i as u16)).clone();
+            world.add_species(s);
+        }
+        self.world = world;
+        Ok(())
+    }
+
+    fn populate(&mut self, desc: &SceneDesc, display: &str) -> Result<(), ScriptError> {
+        for name in &desc.species {
+            self.species_id(name)?;
+        }
+        let tank = *self.world.tank();
+        let middle = BoxDesc {
+            min: (tank.min + (tank.max - tank.min) * 0.25).to_array(),
+            max: (tank.min + (tank.max - tank.min) * 0.75).to_array(),
+        };
+        for (g, group) in desc.fish.iter().enumerate() {
+            let sid = self.species_id(&group.species)?;
+            let cruise = self.world.species(sid).desc.motion.s;
+            let region = group.region.unwrap_or(middle);
+            for k in 0..group.count {
+                let pos = match (k, group.pos) {
+                    (0, Some(p)) => v3(p),
+                    _ => self.random_in(&region),
+                };
+                let heading = match group.heading {
+                    Some(h) => h,
+                    None => self
+                        .rng
+                        .random_range(-std::f32::consts::PI..std::f32::consts::PI),
+                };
+                let seed = self.rng.random::<u64>();
+                self.world
+                    .spawn(SpawnParams {
+                        species: sid,
+                        pos,
+                        heading,
+                        pitch: 0.0,
+                        speed: group.speed.unwrap_or(cruise),
+                        behavior: group.behavior.clone(),
+                        seed,
+                    })
+                    .map_err(|source| ScriptError::World {
+                        context: format!("{display}: fish group {} (#{k})", g + 1),
+                        source,
+                    })?;
+            }
+        }
+        for f in &desc.food {
+            self.world.add_food(v3(*f));
+        }
+        for o in &desc.obstacles {
+            self.world.add_obstacle(v3(o.pos), o.radius);
+        }
+        for c in &desc.currents {
+            self.world.add_current(Current {
+                pos: v3(c.pos),
+                radius: c.radius,
+                velocity: v3(c.velocity),
+            });
+        }
+        self.world.rebuild_grid();
+        Ok(())
+    }
+
+    fn random_in(&mut self, b: &BoxDesc) -> Vec3 {
+        let mut p = [0.0f32; 3];
+        for (i, v) in p.iter_mut().enumerate() {
+            let (lo, hi) = (b.min[i].min(b.max[i]), b.min[i].max(b.max[i]));
+            *v = if hi > lo {
+                self.rng.random_range(lo..hi)
+            } else {
+                lo
+            };
+        }
+        Vec3::from_array(p)
+    }
+
+    /// The species called `name`, loading `scripts/species/<name>.lua` on first use.
+    pub fn species_id(&mut self, name: &str) -> Result<SpeciesId, ScriptError> {
+        if let Some(id) = self.world.species_by_name(name) {
+            return Ok(id);
+        }
+        let path = self
+            .host
+            .root()
+            .resolve_module(&format!("species/{name}"))
+            .map_err(|why| ScriptError::Data {
+                file: format!("species '{name}'"),
+                why,
+            })?;
+        let (species, period_ticks) = self.load_species(&path)?;
+        let id = self.world.add_species(species);
+        let slot = SpeciesSlot { path, period_ticks };
+        let i = usize::from(id.0);
+        if self.species.len() <= i {
+            self.species.resize(i + 1, slot.clone());
+        }
+        self.species[i] = slot;
+        Ok(id)
+    }
+
+    /// Adds a species built in Rust (not from a file) whose fish decide `decision_hz` times per
+    /// second. It is not hot-reloaded.
+    pub fn add_species(&mut self, species: Species, decision_hz: f64) -> SpeciesId {
+        let hz = if decision_hz.is_finite() && decision_hz > 0.0 {
+            decision_hz
+        } else {
+            10.0
+        };
+        let id = self.world.add_species(species);
+        let slot = SpeciesSlot {
+            path: PathBuf::new(),
+            period_ticks: (TICK_HZ / hz).round().max(1.0) as u64,
+        };
+        let i = usize::from(id.0);
+        if self.species.len() <= i {
+            self.species.resize(i + 1, slot.clone());
+        }
+        self.species[i] = slot;
+        id
+    }
+
+    fn load_species(&self, path: &Path) -> Result<(Species, u64), ScriptError> {
+        let file = read_species(&self.host, path)?;
+        let period = (TICK_HZ / file.decision_hz).round().max(1.0) as u64;
+        let display = self.host.root().display_of(path);
+        let species =
+            Species::load(file.desc, &self.assets_dir).map_err(|source| ScriptError::World {
+                context: display,
+                source,
+            })?;
+        Ok((species, period))
+    }
+
+    /// Spawns a fish of species `species` (loaded on first use) at `pos`.
+    pub fn spawn(
+        &mut self,
+        species: &str,
+        pos: Vec3,
+        heading: f32,
+        pitch: f32,
+        speed: Option<f32>,
+        behavior: Option<&str>,
+    ) -> Result<FishId, ScriptError> {
+        let sid = self.species_id(species)?;
+        let speed = speed.unwrap_or(self.world.species(sid).desc.motion.s);
+        let seed = self.rng.random::<u64>();
+        self.world
+            .spawn(SpawnParams {
+                species: sid,
+                pos,
+                heading,
+                pitch,
+                speed,
+                behavior: behavior.map(str::to_owned),
+                seed,
+            })
+            .map_err(|source| ScriptError::World {
+                context: format!("spawning a {species}"),
+                source,
+            })
+    }
+
+    /// The world.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The world, mutable (spawn, food, obstacles…).
+    pub fn world_mut(&mut self) -> &mut World {
+        &mut self.world
+    }
+
+    /// The script host.
+    pub fn host(&self) -> &ScriptHost {
+        &self.host
+    }
+
+    /// The scene this simulation was built from.
+    pub fn scene(&self) -> Option<&SceneDesc> {
+        self.scene.as_ref()
+    }
+
+    /// Runs one fixed tick (1/60 s).
+    pub fn step(&mut self) {
+        self.drop_food();
+        self.run_behaviors();
+        let dt = (1.0 / TICK_HZ) as f32;
+        self.world.step_motion(dt);
+        self.world.update_pose();
+        self.world.rebuild_grid();
+    }
+
+    /// Runs `seconds` of simulated time (rounded to whole ticks).
+    pub fn run(&mut self, seconds: f64) {
+        let ticks = (seconds * TICK_HZ).round().max(0.0) as u64;
+        for _ in 0..ticks {
+            self.step();
+        }
+    }
+
+    fn drop_food(&mut self) {
+        let Some(drops) = self.scene.as_ref().and_then(|s| s.food_drops) else {
+            return;
+        };
+        let now = self.world.time();
+        if now + 1e-9 < self.next_drop_s || drops.every.is_nan() || drops.every <= 0.0 {
+            return;
+        }
+        self.next_drop_s += f64::from(drops.every);
+        let tank = *self.world.tank();
+        let region = drops.region.unwrap_or(BoxDesc {
+            min: [tank.min.x * 0.8, tank.max.y * 0.95, tank.min.z * 0.8],
+            max: [tank.max.x * 0.8, tank.max.y * 0.97, tank.max.z * 0.8],
+        });
+        for _ in 0..drops.count {
+            let p = self.random_in(&region);
+            self.world.add_food(p);
+        }
+    }
+
+    /// Stage 2: the behaviour scripts of the fish due this tick.
+    fn run_behaviors(&mut self) {
+        let start = Instant::now();
+        let tick = self.world.tick_count();
+        let time_s = self.world.time();
+        let mut due = std::mem::take(&mut self.due);
+        due.clear();
+        for id in self.world.fish_ids() {
+            let Some(behavior) = self.world.behavior_of(id) else {
+                continue;
+            };
+            let Some(sid) = self.world.species_of(id) else {
+                continue;
+            };
+            let period = self
+                .species
+                .get(usize::from(sid.0))
+                .map_or(6, |s| s.period_ticks);
+            if !(tick + u64::from(id.index)).is_multiple_of(period) {
+                continue;
+            }
+            let module = match self.module_of.get(behavior) {
+                Some(m) => *m,
+                None => {
+                    let m = self.host.module(behavior, time_s);
+                    self.module_of.insert(behavior.to_owned(), m);
+                    m
+                }
+            };
+            let Some(module) = module else {
+                continue;
+            };
+            let species = &self.world.species(sid).desc.name;
+            match self.host.fish_table(id, species, behavior) {
+                Ok(t) => due.push((id, module, t)),
+                Err(e) => self
+                    .host
+                    .log(LogLevel::Error, &e.to_string(), Some(id), time_s),
+            }
+        }
+        let lua = self.host.lua().clone();
+        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+            c.perception_ns = 0;
+        }
+        let world = &mut self.world;
+        let host = &mut self.host;
+        let result = lua.scope(|scope| {
+            let ud = scope.create_any_userdata_ref_mut(world)?;
+            lua.set_named_registry_value(WORLD_KEY, &ud)?;
+            for (id, module, table) in &due {
+                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                    c.fish = Some(*id);
+                }
+                let _ = host.run(*module, *id, table, time_s);
+            }
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.fish = None;
+            }
+            lua.set_named_registry_value(WORLD_KEY, Value::Nil)?;
+            Ok(())
+        });
+        if let Err(e) = result {
+            self.host.log(
+                LogLevel::Error,
+                &format!("script host: {}", describe(&e)),
+                None,
+                time_s,
+            );
+        }
+        due.clear();
+        self.due = due;
+        let perception = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+        let total = start.elapsed().as_nanos() as u64;
+        let c = self.world.counters_mut();
+        c.perception_ns = perception;
+        c.lua_ns = total.saturating_sub(perception);
+    }
+
+    /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,
+    /// root state, the intention and percepts its behaviour produced last, its memory and its
+    /// last script error.
+    pub fn inspect(&self, id: FishId) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let w = &self.world;
+        let Some(root) = w.root(id) else {
+            out.push(("fish".into(), format!("{id:?} does not exist")));
+            return out;
+        };
+        let sid = w.species_of(id);
+        out.push((
+            "fish".into(),
+            format!("#{} (gen {})", id.index, id.generation),
+        ));
+        if let Some(s) = sid {
+            out.push(("species".into(), w.species(s).desc.name.clone()));
+        }
+        out.push((
+            "behavior".into(),
+            w.behavior_of(id).unwrap_or("(none)").to_owned(),
+        ));
+        out.push((
+            "motion".into(),
+            format!(
+                "{} (+{} queued)",
+                w.current_motion(id).unwrap_or("idle"),
+                w.queue_len(id).unwrap_or(0)
+            ),
+        ));
+        out.push((
+            "pos".into(),
+            format!("{:.1}, {:.1}, {:.1}", root.pos.x, root.pos.y, root.pos.z),
+        ));
+        out.push((
+            "heading".into(),
+            format!("{:.1}°", root.heading.to_degrees()),
+        ));
+        out.push(("speed".into(), format!("{:.1}", root.speed)));
+        out.push((
+            "depth".into(),
+            format!("{:.1}", w.tank().depth_of(root.pos.y)),
+        ));
+        if let Some(t) = self.host.existing_fish_table(id) {
+            let intention: Value = t.raw_get("intention").unwrap_or(Value::Nil);
+            out.push(("intention".into(), short(&intention)));
+            if let Ok(Value::Table(p)) = t.raw_get::<Value>("percepts") {
+                for (k, v) in sorted_pairs(&p) {
+                    out.push((format!("percept.{k}"), short(&v)));
+                }
+            }
+            if let Ok(Value::Table(m)) = t.raw_get::<Value>("memory") {
+                for (k, v) in sorted_pairs(&m) {
+                    out.push((format!("memory.{k}"), short(&v)));
+                }
+            }
+        }
+        if let Some(e) = self.host.fish_error(id) {
+            out.push(("error".into(), e.to_owned()));
+        }
+        out
+    }
+
+    /// A fish's memory table as JSON.
+    pub fn memory_json(&self, id: FishId) -> serde_json::Value {
+        self.host.memory_json(id)
+    }
+
+    /// Console entries logged since the last call (each distinct message once).
+    pub fn drain_log(&mut self) -> Vec<LogEntry> {
+        self.host.drain_log()
+    }
+
+    /// Every distinct script error so far, oldest first (`file:line: message`).
+    pub fn error_messages(&self) -> Vec<String> {
+        self.host.error_messages().to_vec()
+    }
+
+    /// Script files that currently fail to load, with their errors (shown until fixed).
+    pub fn load_errors(&self) -> Vec<(String, String)> {
+        self.host
+            .load_errors()
+            .iter()
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect()
+    }
+
+    /// Starts watching `scripts/` so that [`Simulation::poll_reload`] picks up saved files.
+    pub fn watch(&mut self) -> Result<(), ScriptError> {
+        self.watcher = Some(ScriptWatcher::new(&self.scripts_dir)?);
+        Ok(())
+    }
+
+    /// Reloads what changed on disk since the last call (call once per frame; cheap when
+    /// nothing changed). Needs [`Simulation::watch`].
+    pub fn poll_reload(&mut self) -> Vec<ReloadEvent> {
+        let Some(w) = &self.watcher else {
+            return Vec::new();
+        };
+        let changed = w.changed();
+        if changed.is_empty() {
+            return Vec::new();
+        }
+        self.reload_changed(&changed)
+    }
+
+    /// Reloads what the changed files affect: behaviour modules (and the modules using a changed
+    /// library), species data (applied to live fish), or the scene (sets
+    /// [`Simulation::scene_changed`]). Usable without a watcher.
+    pub fn reload_changed(&mut self, paths: &[PathBuf]) -> Vec<ReloadEvent> {
+        let mut events = Vec::new();
+        let time_s = self.world.time();
+        for p in paths {
+            let real = p.canonicalize().unwrap_or_else(|_| p.clone());
+            if self.scene_path.as_deref() == Some(real.as_path()) {
+                self.scene_changed = true;
+                self.host.log(
+                    LogLevel::Info,
+                    &format!(
+                        "{}: scene changed — restart?",
+                        self.host.root().display_of(&real)
+                    ),
+                    None,
+                    time_s,
+                );
+                events.push(ReloadEvent::SceneChanged);
+                continue;
+            }
+            if let Some(i) = self.species.iter().position(|s| s.path == real) {
+                events.push(self.reload_species(i, &real, time_s));
+                continue;
+            }
+            match self.host.reload_path(&real, time_s) {
+                Reloaded::Modules(names) => {
+                    // Modules that failed their first load may load now.
+                    self.module_of.retain(|_, m| m.is_some());
+                    events.push(ReloadEvent::Behaviors(names));
+                }
+                Reloaded::Failed(msg) => events.push(ReloadEvent::Failed(msg)),
+                Reloaded::NotAModule => {
+                    let stem = real.file_stem().map(|s| s.to_string_lossy().into_owned());
+                    let in_behaviors = real.parent().is_some_and(|d| d.ends_with("behaviors"));
+                    if let (Some(stem), true) = (stem, in_behaviors)
+                        && self.module_of.get(&stem) == Some(&None)
+                    {
+                        // A behaviour that never loaded: try again on next use.
+                        self.module_of.remove(&stem);
+                        events.push(ReloadEvent::Behaviors(vec![stem]));
+                    }
+                }
+            }
+        }
+        self.reload_events.extend(events.iter().cloned());
+        events
+    }
+
+    fn reload_species(&mut self, i: usize, path: &Path, time_s: f64) -> ReloadEvent {
+        let display = self.host.root().display_of(path);
+        match self.load_species(path) {
+            Ok((species, period)) => {
+                let name = species.desc.name.clone();
+                match self.world.replace_species(SpeciesId(i as u16), species) {
+                    Ok(()) => {
+                        self.species[i].period_ticks = period;
+                        if let Some(mut c) = self.host.lua().app_data_mut::<Ctx>() {
+                            c.invalidate_species();
+                        }
+                        self.host.log(
+                            LogLevel::Info,
+                            &format!("{display}: species '{name}' reloaded"),
+                            None,
+                            time_s,
+                        );
+                        ReloadEvent::Species(name)
+                    }
+                    Err(e) => {
+                        let msg = format!("{display}: {e}");
+                        self.host.log(LogLevel::Error, &msg, None, time_s);
+                        ReloadEvent::Failed(msg)
+                    }
+                }
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                self.host.log(LogLevel::Error, &msg, None, time_s);
+                ReloadEvent::Failed(msg)
+            }
+        }
+    }
+
+    /// True once the scene file changed on disk since the scene was (re)started.
+    pub fn scene_changed(&self) -> bool {
+        self.scene_changed
+    }
+
+    /// Rebuilds the simulation from the (edited) scene file with the same seed, keeping the file
+    /// watcher. On error the current simulation is left as it was.
+    pub fn restart_scene(&mut self) -> Result<(), ScriptError> {
+        let Some(scene) = self.scene_path.clone() else {
+            return Ok(());
+        };
+        let root = self
+            .scripts_dir
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let mut fresh = Self::from_scene(&root, &scene, self.seed)?;
+        fresh.watcher = self.watcher.take();
+        *self = fresh;
+        Ok(())
+    }
+}
+
+fn tank_of(b: &BoxDesc, what: &str) -> Result<Tank, ScriptError> {
+    let (min, max) = (v3(b.min), v3(b.max));
+    if !(min.is_finite() && max.is_finite() && min.cmplt(max).all()) {
+        return Err(ScriptError::Data {
+            file: what.into(),
+            why: format!("tank min {min} must be below max {max} on every axis, all finite"),
+        });
+    }
+    Ok(Tank { min, max })
+}
+
+fn read_lua_file(host: &ScriptHost, path: &Path) -> Result<Value, ScriptError> {
+    host.load_data_file(path)
+}
+
+fn read_scene(host: &ScriptHost, path: &Path, display: &str) -> Result<SceneDesc, ScriptError> {
+    let v = read_lua_file(host, path)?;
+    host.from_lua(v).map_err(|e| ScriptError::Data {
+        file: display.to_owned(),
+        why: describe(&e),
+    })
+}
+
+fn read_species(host: &ScriptHost, path: &Path) -> Result<SpeciesFile, ScriptError> {
+    let display = host.root().display_of(path);
+    let Value::Table(t) = read_lua_file(host, path)? else {
+        return Err(ScriptError::Data {
+            file: display,
+            why: "a species file must return a table".into(),
+        });
+    };
+    species_from_table(host.lua(), &display, t).map_err(ScriptError::Invalid)
+}
+
+fn sorted_pairs(t: &Table) -> Vec<(String, Value)> {
+    let mut v: Vec<(String, Value)> = t
+        .pairs::<Value, Value>()
+        .flatten()
+        .map(|(k, v)| (short(&k), v))
+        .collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v.truncate(32);
+    v
+}
+
+/// A value in a few characters: numbers to 2 decimals, tables shallowly.
+fn short(v: &Value) -> String {
+    match v {
+        Value::Nil => "nil".into(),
+        Value::Boolean(b) => b.to_string(),
+        Value::Integer(i) => i.to_string(),
+        Value::Number(n) => format!("{n:.2}"),
+        Value::String(s) => s.to_string_lossy(),
+        Value::Table(t) => {
+            let mut parts: Vec<String> = t
+                .pairs::<Value, Value>()
+                .flatten()
+                .take(8)
+                .map(|(k, v)| {
+                    let v = match &v {
+                        Value::Table(_) => "{…}".to_owned(),
+                        other => short(other),
+                    };
+                    match k {
+                        Value::Integer(_) => v,
+                        k => format!("{}={v}", short(&k)),
+                    }
+                })
+                .collect();
+            parts.sort();
+            format!("{{{}}}", parts.join(", "))
+        }
+        other => other.type_name().to_owned(),
+    }
+}

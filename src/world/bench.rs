@@ -1,0 +1,183 @@
+//! Measuring the tick (issue 7): a scene that scales with the fish count, a timing loop, and the
+//! figures `shoal bench sim` prints.
+//!
+//! The loop drives anything that implements [`Ticker`]: the built-in
+//! [`WanderDriver`](super::driver::WanderDriver) today, the Lua `script::Simulation` (behaviour
+//! scripts) once it implements the trait — that is the seam.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+use super::driver::WanderDriver;
+use super::{SpawnParams, Species, StageCounters, Tank, World, WorldError};
+
+/// Something that runs whole 60 Hz ticks of a world.
+pub trait Ticker {
+    /// Runs one tick, filling the world's [`StageCounters`].
+    fn tick(&mut self);
+    /// The world ticked.
+    fn world(&self) -> &World;
+}
+
+/// The built-in Rust driver with its world.
+pub struct RustSim {
+    /// The world.
+    pub world: World,
+    /// The driver deciding for every fish.
+    pub driver: WanderDriver,
+}
+
+impl Ticker for RustSim {
+    fn tick(&mut self) {
+        self.driver.tick(&mut self.world);
+    }
+    fn world(&self) -> &World {
+        &self.world
+    }
+}
+
+/// Body lengths³ of water per fish in [`bench_world`]: the density stays the same at every fish
+/// count, so cost per fish is comparable across counts.
+pub const VOLUME_PER_FISH_LENGTHS3: f32 = 8.0;
+
+/// A tank 2:1:1 (x:y:z) holding `fish` fish of `species` at [`VOLUME_PER_FISH_LENGTHS3`], with
+/// fish placed uniformly at random (seeded) at cruising speed, headings random.
+pub fn bench_world(species: Species, fish: usize, seed: u64) -> Result<World, WorldError> {
+    let l = species.body_length();
+    let cruise = species.desc.motion.s;
+    let side = (VOLUME_PER_FISH_LENGTHS3 * fish.max(1) as f32 / 2.0).cbrt() * l;
+    let side = side.max(6.0 * l);
+    let tank = Tank {
+        min: Vec3::ZERO,
+        max: Vec3::new(2.0 * side, side, side),
+    };
+    let mut world = World::new(tank, seed);
+    let sid = world.add_species(species);
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let inset = l.min(side * 0.25);
+    for i in 0..fish {
+        let pos = Vec3::new(
+            rng.random_range(inset + l..tank.max.x - inset),
+            rng.random_range(inset..tank.max.y - inset),
+            rng.random_range(inset..tank.max.z - inset),
+        );
+        world.spawn(SpawnParams {
+            species: sid,
+            pos,
+            heading: rng.random_range(-std::f32::consts::PI..std::f32::consts::PI),
+            pitch: 0.0,
+            speed: cruise,
+            behavior: None,
+            seed: seed
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .wrapping_add(i as u64),
+        })?;
+    }
+    world.rebuild_grid();
+    Ok(world)
+}
+
+/// Median per-stage milliseconds of the measured ticks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageMillis {
+    /// Sensor queries.
+    pub perception: f64,
+    /// Behaviour decisions (Lua, or the Rust driver).
+    pub behavior: f64,
+    /// Motion players, currents and contact.
+    pub motion: f64,
+    /// Rig pose and forward kinematics.
+    pub skeleton: f64,
+    /// Skinning palettes.
+    pub palette: f64,
+    /// Spatial grid rebuild.
+    pub grid: f64,
+}
+
+/// What one run of [`measure`] found.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SimBenchResult {
+    /// Fish in the world.
+    pub fish: usize,
+    /// Ticks measured (after warm-up).
+    pub ticks: usize,
+    /// Median wall milliseconds per tick.
+    pub median_ms: f64,
+    /// 99th-percentile wall milliseconds per tick.
+    pub p99_ms: f64,
+    /// Mean wall milliseconds per tick.
+    pub mean_ms: f64,
+    /// Fish × ticks per wall second, from the mean.
+    pub fish_ticks_per_s: f64,
+    /// Median microseconds per fish per tick.
+    pub us_per_fish: f64,
+    /// Median of each stage, milliseconds.
+    pub stages: StageMillis,
+    /// Threads rayon used.
+    pub threads: usize,
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let rank = (q * (sorted.len() - 1) as f64).round() as usize;
+    sorted[rank.min(sorted.len() - 1)]
+}
+
+fn median_of(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    percentile(&values, 0.5)
+}
+
+/// Runs `warmup` ticks, then times `ticks` ticks of `sim`.
+pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchResult {
+    for _ in 0..warmup {
+        sim.tick();
+    }
+    let mut wall = Vec::with_capacity(ticks);
+    let mut stages: Vec<StageCounters> = Vec::with_capacity(ticks);
+    for _ in 0..ticks {
+        let start = Instant::now();
+        sim.tick();
+        wall.push(start.elapsed().as_secs_f64() * 1e3);
+        stages.push(*sim.world().counters());
+    }
+    let fish = sim.world().num_fish();
+    let mean_ms = wall.iter().sum::<f64>() / wall.len().max(1) as f64;
+    let mut sorted = wall.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median_ms = percentile(&sorted, 0.5);
+    let stage = |f: fn(&StageCounters) -> u64| {
+        median_of(stages.iter().map(|s| f(s) as f64 / 1e6).collect())
+    };
+    SimBenchResult {
+        fish,
+        ticks,
+        median_ms,
+        p99_ms: percentile(&sorted, 0.99),
+        mean_ms,
+        fish_ticks_per_s: if mean_ms > 0.0 {
+            fish as f64 / (mean_ms / 1e3)
+        } else {
+            0.0
+        },
+        us_per_fish: if fish > 0 {
+            median_ms * 1e3 / fish as f64
+        } else {
+            0.0
+        },
+        stages: StageMillis {
+            perception: stage(|s| s.perception_ns),
+            behavior: stage(|s| s.lua_ns),
+            motion: stage(|s| s.motion_ns),
+            skeleton: stage(|s| s.skeleton_ns),
+            palette: stage(|s| s.palette_ns),
+            grid: stage(|s| s.grid_ns),
+        },
+        threads: rayon::current_num_threads(),
+    }
+}

@@ -1,0 +1,166 @@
+//! A built-in Rust behaviour driver: wander + schooling + wall, rock and predator avoidance,
+//! decided at a per-fish rate staggered across fish, then the world's Rust stages.
+//!
+//! It exists so the Rust stages can be measured (and exercised in tests) without the Lua host:
+//! `shoal bench sim` runs it until the Lua `script::Simulation` drives the same tick with the
+//! shipped behaviour scripts. Its decisions use only the public sensor and steering API the Lua
+//! API exposes, so its perception cost is representative of the scripts'.
+
+use std::time::Instant;
+
+use rand::Rng;
+
+use super::steer::{self, Steer};
+use super::{FishId, Percept, PerceptKind, TICK_HZ, World};
+
+/// Parameters of [`WanderDriver`], in body lengths and seconds. `Copy`, see [`Default`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WanderParams {
+    /// Decisions per second per fish (default 10, issue 5's default behaviour rate).
+    pub decision_hz: f64,
+    /// Largest heading change per decision while wandering, radians (default 0.5).
+    pub wander_turn: f32,
+    /// Largest depth change per decision while wandering, body lengths (default 0.3).
+    pub wander_depth_lengths: f32,
+    /// Neighbours closer than this push away, body lengths (default 1).
+    pub separation_lengths: f32,
+    /// Keep this far from the tank's walls, floor and surface, body lengths (default 2).
+    pub wall_margin_lengths: f32,
+    /// Look this far ahead for rocks, body lengths (default 3).
+    pub obstacle_lookahead_lengths: f32,
+    /// Percepts a decision considers, nearest first (default 24).
+    pub max_percepts: usize,
+}
+
+impl Default for WanderParams {
+    fn default() -> Self {
+        Self {
+            decision_hz: 10.0,
+            wander_turn: 0.5,
+            wander_depth_lengths: 0.3,
+            separation_lengths: 1.0,
+            wall_margin_lengths: 2.0,
+            obstacle_lookahead_lengths: 3.0,
+            max_percepts: 24,
+        }
+    }
+}
+
+/// Drives a [`World`] tick by tick with Rust-decided behaviour (see the module docs).
+#[derive(Debug, Default)]
+pub struct WanderDriver {
+    /// The behaviour parameters.
+    pub params: WanderParams,
+    percepts: Vec<Percept>,
+    ids: Vec<FishId>,
+    decisions_last_tick: usize,
+}
+
+impl WanderDriver {
+    /// A driver with `params`.
+    pub fn new(params: WanderParams) -> Self {
+        Self {
+            params,
+            ..Self::default()
+        }
+    }
+
+    /// Fish decisions made in the last tick.
+    pub fn decisions_last_tick(&self) -> usize {
+        self.decisions_last_tick
+    }
+
+    /// One fixed tick of `1 / TICK_HZ` seconds: the decisions due this tick (fish `i` decides on
+    /// ticks where `(tick + i) % period == 0`, `period = TICK_HZ / decision_hz`), then
+    /// `step_motion`, `update_pose`, `rebuild_grid`. Sensor time goes to `perception_ns`, the
+    /// decisions themselves to `lua_ns` (the behaviour stage; no Lua runs here).
+    pub fn tick(&mut self, world: &mut World) {
+        let period = (TICK_HZ / self.params.decision_hz.max(1e-3))
+            .round()
+            .max(1.0) as u64;
+        let tick = world.tick_count();
+        self.ids.clear();
+        self.ids.extend(world.fish_ids());
+        let (mut perception_ns, mut behavior_ns) = (0u64, 0u64);
+        let mut decisions = 0;
+        let ids = std::mem::take(&mut self.ids);
+        for (i, &id) in ids.iter().enumerate() {
+            if !(tick + i as u64).is_multiple_of(period) {
+                continue;
+            }
+            decisions += 1;
+            let t0 = Instant::now();
+            world.vision_nearest(id, self.params.max_percepts, &mut self.percepts);
+            let t1 = Instant::now();
+            if let Some(want) = self.decide(world, id) {
+                // A refused request leaves the fish doing what it did; nothing to recover.
+                let _ = world.steer_to(id, want.heading, want.depth, want.speed);
+            }
+            let t2 = Instant::now();
+            perception_ns += (t1 - t0).as_nanos() as u64;
+            behavior_ns += (t2 - t1).as_nanos() as u64;
+        }
+        self.ids = ids;
+        self.decisions_last_tick = decisions;
+        world.step_motion((1.0 / TICK_HZ) as f32);
+        world.update_pose();
+        world.rebuild_grid();
+        let counters = world.counters_mut();
+        counters.perception_ns = perception_ns;
+        counters.lua_ns = behavior_ns;
+    }
+
+    fn decide(&self, world: &mut World, id: FishId) -> Option<Steer> {
+        let agent = world.agent(id)?;
+        let species = world.species(world.species_of(id)?);
+        let l = species.body_length();
+        let cruise = species.desc.motion.s;
+        let max_speed = species.desc.max_speed.max(cruise);
+        let p = &self.params;
+
+        if let Some(threat) = self
+            .percepts
+            .iter()
+            .find(|s| s.kind == PerceptKind::Predator)
+        {
+            return Some(steer::flee(&agent, threat.pos, max_speed));
+        }
+        if let Some(s) = world.steer_avoid_walls(id, p.wall_margin_lengths * l, cruise) {
+            return Some(s);
+        }
+        if let Some(s) =
+            world.steer_avoid_obstacles(id, p.obstacle_lookahead_lengths * l, 0.5 * l, cruise)
+        {
+            return Some(s);
+        }
+        let mates = || self.percepts.iter().filter(|s| s.kind == PerceptKind::Fish);
+        let mut parts: [(Steer, f32); 4] = [(agent.hold(), 0.0); 4];
+        if let Some(s) = steer::separation(
+            &agent,
+            mates().map(|s| s.pos),
+            p.separation_lengths * l,
+            cruise,
+        ) {
+            parts[0] = (s, 2.0);
+        }
+        if let Some(s) = steer::alignment(&agent, mates().map(|s| s.heading), cruise) {
+            parts[1] = (s, 1.0);
+        }
+        if let Some(s) = steer::cohesion(&agent, mates().map(|s| s.pos), cruise) {
+            parts[2] = (s, 0.5);
+        }
+        let rng = world.rng_mut(id)?;
+        let speed = cruise * rng.random_range(0.8..1.2);
+        parts[3] = (
+            steer::wander(
+                rng,
+                &agent,
+                p.wander_turn,
+                p.wander_depth_lengths * l,
+                speed,
+            ),
+            1.0,
+        );
+        steer::blend(&parts)
+    }
+}

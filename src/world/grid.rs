@@ -1,0 +1,243 @@
+//! Uniform spatial grid: the index the perception layer's sensor queries run on (issue 7: cost grows
+//! with neighbours, not with the square of the fish count).
+//!
+//! The grid is rebuilt from scratch every tick by a counting sort into flat arrays: count items per
+//! cell, prefix-sum the counts into `cell_start`, scatter the items. Within a cell items keep their
+//! input order, so queries visit items in a deterministic order. After the first rebuild at a given
+//! size no rebuild allocates.
+//!
+//! Items outside the grid's bounds are clamped into the border cells, so a query still finds them:
+//! clamping is monotonic, so an item within `radius` of the query point always lies in the (clamped)
+//! block of cells the query visits.
+
+use glam::Vec3;
+
+/// Upper bound on the number of cells; a cell size that would give more is enlarged.
+pub const MAX_CELLS: usize = 1 << 18;
+
+/// A uniform grid over an axis-aligned box, holding items (by `u32` key) with positions.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    origin: Vec3,
+    cell_size: f32,
+    inv_cell_size: f32,
+    dims: [u32; 3],
+    /// `cell_start[c]..cell_start[c + 1]` are the entries of cell `c`; length = cells + 1.
+    cell_start: Vec<u32>,
+    /// Item keys sorted by cell.
+    keys: Vec<u32>,
+    /// Item positions in the same order as `keys`.
+    positions: Vec<Vec3>,
+    /// Scratch: the cell of each input item, in input order.
+    cell_of: Vec<u32>,
+}
+
+impl Default for Grid {
+    fn default() -> Self {
+        Self::new(Vec3::ZERO, Vec3::ONE, 1.0)
+    }
+}
+
+impl Grid {
+    /// A grid over the box `min..max` with cubic cells of `cell_size` world units (enlarged if the
+    /// box would need more than [`MAX_CELLS`] cells; a non-finite or non-positive size means one
+    /// cell spanning the box).
+    pub fn new(min: Vec3, max: Vec3, cell_size: f32) -> Self {
+        let mut grid = Self {
+            origin: Vec3::ZERO,
+            cell_size: 1.0,
+            inv_cell_size: 1.0,
+            dims: [1, 1, 1],
+            cell_start: Vec::new(),
+            keys: Vec::new(),
+            positions: Vec::new(),
+            cell_of: Vec::new(),
+        };
+        grid.configure(min, max, cell_size);
+        grid
+    }
+
+    /// Re-derives the cell layout for the box `min..max` and `cell_size`; clears the contents.
+    pub fn configure(&mut self, min: Vec3, max: Vec3, cell_size: f32) {
+        let extent = (max - min).max(Vec3::splat(1e-6));
+        let mut size = if cell_size.is_finite() && cell_size > 0.0 {
+            cell_size
+        } else {
+            extent.max_element()
+        };
+        let dims_for = |size: f32| {
+            let d = (extent / size).ceil().max(Vec3::ONE);
+            [d.x as u64, d.y as u64, d.z as u64]
+        };
+        let mut dims = dims_for(size);
+        while dims[0] * dims[1] * dims[2] > MAX_CELLS as u64 {
+            size *= 1.25;
+            dims = dims_for(size);
+        }
+        self.origin = min;
+        self.cell_size = size;
+        self.inv_cell_size = 1.0 / size;
+        self.dims = [dims[0] as u32, dims[1] as u32, dims[2] as u32];
+        let cells = self.num_cells();
+        self.cell_start.clear();
+        self.cell_start.resize(cells + 1, 0);
+        self.keys.clear();
+        self.positions.clear();
+    }
+
+    /// Edge length of a cell, world units.
+    pub fn cell_size(&self) -> f32 {
+        self.cell_size
+    }
+
+    /// Cells along x, y and z.
+    pub fn dims(&self) -> [u32; 3] {
+        self.dims
+    }
+
+    /// Total number of cells.
+    pub fn num_cells(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
+    }
+
+    /// Number of items stored by the last rebuild.
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// Whether the last rebuild stored no item.
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+
+    /// Cell coordinate of `p` along each axis, clamped into the grid.
+    fn coord(&self, p: Vec3) -> [u32; 3] {
+        let c = (p - self.origin) * self.inv_cell_size;
+        let clamp = |v: f32, d: u32| {
+            // NaN maps to 0 through the saturating cast; the world never stores NaN anyway.
+            (v.floor().max(0.0) as u32).min(d - 1)
+        };
+        [
+            clamp(c.x, self.dims[0]),
+            clamp(c.y, self.dims[1]),
+            clamp(c.z, self.dims[2]),
+        ]
+    }
+
+    fn cell_index(&self, c: [u32; 3]) -> usize {
+        (c[2] as usize * self.dims[1] as usize + c[1] as usize) * self.dims[0] as usize
+            + c[0] as usize
+    }
+
+    /// Rebuilds from `items` (key, position) by a counting sort. Never allocates once the arrays
+    /// have grown to the item count.
+    pub fn rebuild(&mut self, items: impl ExactSizeIterator<Item = (u32, Vec3)> + Clone) {
+        let n = items.len();
+        self.cell_start.fill(0);
+        self.cell_of.clear();
+        for (_, p) in items.clone() {
+            let cell = self.cell_index(self.coord(p));
+            self.cell_of.push(cell as u32);
+            self.cell_start[cell + 1] += 1;
+        }
+        for c in 0..self.num_cells() {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        self.keys.clear();
+        self.keys.resize(n, 0);
+        self.positions.clear();
+        self.positions.resize(n, Vec3::ZERO);
+        // Scatter using cell_start as a running cursor, then shift it back: cursor of cell c ends
+        // at the start of cell c + 1.
+        for ((key, p), &cell) in items.zip(self.cell_of.iter()) {
+            let slot = &mut self.cell_start[cell as usize];
+            self.keys[*slot as usize] = key;
+            self.positions[*slot as usize] = p;
+            *slot += 1;
+        }
+        for c in (1..=self.num_cells()).rev() {
+            self.cell_start[c] = self.cell_start[c - 1];
+        }
+        self.cell_start[0] = 0;
+    }
+
+    /// Calls `visit(key, position, distance²)` for every item within `radius` of `center`
+    /// (inclusive), cell by cell in a deterministic order. Returns early if `visit` returns
+    /// `false`.
+    pub fn for_each_within(
+        &self,
+        center: Vec3,
+        radius: f32,
+        mut visit: impl FnMut(u32, Vec3, f32) -> bool,
+    ) {
+        if self.keys.is_empty() || radius.is_nan() || radius < 0.0 || !center.is_finite() {
+            return;
+        }
+        let r2 = radius * radius;
+        let lo = self.coord(center - Vec3::splat(radius));
+        let hi = self.coord(center + Vec3::splat(radius));
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                let row = self.cell_index([0, y, z]);
+                let start = self.cell_start[row + lo[0] as usize] as usize;
+                let end = self.cell_start[row + hi[0] as usize + 1] as usize;
+                // Cells along x are contiguous, so a row of cells is one run of entries.
+                for (key, &p) in self.keys[start..end]
+                    .iter()
+                    .zip(&self.positions[start..end])
+                {
+                    let d2 = p.distance_squared(center);
+                    if d2 <= r2 && !visit(*key, p, d2) {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rebuild_sorts_items_into_cells_and_queries_find_them() {
+        // 2×1×1 cells of size 1 over [0,2]×[0,1]×[0,1].
+        let mut g = Grid::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0), 1.0);
+        assert_eq!(g.dims(), [2, 1, 1]);
+        let pts = [
+            Vec3::new(1.5, 0.5, 0.5),
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(1.9, 0.5, 0.5),
+        ];
+        g.rebuild(pts.iter().enumerate().map(|(i, &p)| (i as u32, p)));
+        assert_eq!(g.cell_start, vec![0, 1, 3]);
+        assert_eq!(g.keys, vec![1, 0, 2]);
+        let mut found = Vec::new();
+        g.for_each_within(Vec3::new(1.6, 0.5, 0.5), 0.35, |k, _, _| {
+            found.push(k);
+            true
+        });
+        assert_eq!(found, vec![0, 2]);
+    }
+
+    #[test]
+    fn items_outside_the_box_are_still_found() {
+        let mut g = Grid::new(Vec3::ZERO, Vec3::splat(4.0), 1.0);
+        let far = Vec3::new(-10.0, 2.0, 2.0);
+        g.rebuild([(7u32, far)].into_iter());
+        let mut found = Vec::new();
+        g.for_each_within(Vec3::new(-9.5, 2.0, 2.0), 1.0, |k, _, _| {
+            found.push(k);
+            true
+        });
+        assert_eq!(found, vec![7]);
+    }
+
+    #[test]
+    fn huge_boxes_are_capped_in_cells() {
+        let g = Grid::new(Vec3::ZERO, Vec3::splat(1e6), 1.0);
+        assert!(g.num_cells() <= MAX_CELLS);
+        assert!(g.cell_size() > 1.0);
+    }
+}

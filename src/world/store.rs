@@ -1,0 +1,113 @@
+//! Fish state as a structure of arrays (issue 7), addressed by generational handles.
+//!
+//! Every per-fish field is its own dense array, indexed the same way, so a stage that needs only
+//! roots and species (the grid, the pose job) streams only those. Despawning swaps the last fish
+//! into the hole, so the arrays stay dense; handles survive that because a slot table maps each
+//! handle's `index` to its dense position, and a per-slot generation makes stale handles miss.
+
+use rand::SeedableRng;
+use rand_pcg::Pcg32;
+
+use super::steer::SteerMemo;
+use super::{FishId, MAX_DRIVEN_JOINTS, SpeciesId};
+use crate::motion::{MotionPlayer, RootState};
+
+/// Marks a free slot in the slot table.
+const FREE: u32 = u32::MAX;
+
+/// What a new fish starts with.
+pub(crate) struct NewFish {
+    pub root: RootState,
+    pub species: SpeciesId,
+    pub player: MotionPlayer,
+    pub behavior: Option<String>,
+    pub seed: u64,
+}
+
+/// The fish arrays. Fields are dense and parallel: entry `i` of each belongs to the same fish.
+#[derive(Default)]
+pub(crate) struct FishStore {
+    generation: Vec<u32>,
+    dense_of: Vec<u32>,
+    free: Vec<u32>,
+
+    pub ids: Vec<FishId>,
+    pub roots: Vec<RootState>,
+    pub species: Vec<SpeciesId>,
+    pub players: Vec<MotionPlayer>,
+    /// Driven joints' local yaw, radians; the first `body.power.len()` entries are used.
+    pub yaw: Vec<[f32; MAX_DRIVEN_JOINTS]>,
+    /// Midline lateral displacement at `body.joints_x`, world units; first `joints_x.len()` used.
+    pub lateral: Vec<[f32; MAX_DRIVEN_JOINTS + 1]>,
+    pub behaviors: Vec<Option<String>>,
+    pub seeds: Vec<u64>,
+    pub rngs: Vec<Pcg32>,
+    pub contact: Vec<bool>,
+    pub steer: Vec<SteerMemo>,
+}
+
+impl FishStore {
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Dense position of `id`, or `None` if it is stale or was never issued.
+    pub fn dense(&self, id: FishId) -> Option<usize> {
+        let slot = id.index as usize;
+        let dense = *self.dense_of.get(slot)?;
+        (dense != FREE && self.generation[slot] == id.generation).then_some(dense as usize)
+    }
+
+    pub fn insert(&mut self, fish: NewFish) -> FishId {
+        let index = match self.free.pop() {
+            Some(slot) => slot,
+            None => {
+                self.generation.push(0);
+                self.dense_of.push(FREE);
+                (self.generation.len() - 1) as u32
+            }
+        };
+        let id = FishId {
+            index,
+            generation: self.generation[index as usize],
+        };
+        self.dense_of[index as usize] = self.ids.len() as u32;
+        self.ids.push(id);
+        self.roots.push(fish.root);
+        self.species.push(fish.species);
+        self.players.push(fish.player);
+        self.yaw.push([0.0; MAX_DRIVEN_JOINTS]);
+        self.lateral.push([0.0; MAX_DRIVEN_JOINTS + 1]);
+        self.behaviors.push(fish.behavior);
+        self.seeds.push(fish.seed);
+        self.rngs.push(Pcg32::seed_from_u64(fish.seed));
+        self.contact.push(false);
+        self.steer.push(SteerMemo::default());
+        id
+    }
+
+    /// Removes `id`; the last fish moves into its dense position. Returns the dense position
+    /// that was vacated, or `None` if `id` was stale.
+    pub fn remove(&mut self, id: FishId) -> Option<usize> {
+        let dense = self.dense(id)?;
+        let slot = id.index as usize;
+        self.generation[slot] = self.generation[slot].wrapping_add(1);
+        self.dense_of[slot] = FREE;
+        self.free.push(id.index);
+        self.ids.swap_remove(dense);
+        self.roots.swap_remove(dense);
+        self.species.swap_remove(dense);
+        self.players.swap_remove(dense);
+        self.yaw.swap_remove(dense);
+        self.lateral.swap_remove(dense);
+        self.behaviors.swap_remove(dense);
+        self.seeds.swap_remove(dense);
+        self.rngs.swap_remove(dense);
+        self.contact.swap_remove(dense);
+        self.steer.swap_remove(dense);
+        if let Some(moved) = self.ids.get(dense) {
+            self.dense_of[moved.index as usize] = dense as u32;
+        }
+        Some(dense)
+    }
+}

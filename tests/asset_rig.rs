@@ -1,0 +1,173 @@
+//! Auto-rigging a real static fish (RedFinnedFish from ../shared/gltf-samples): the result is a
+//! valid GLB that loads, binds as a species with the generated chain, and bends sideways.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3};
+use shoal::asset::rig::{Axis, HeadEnd, RigError, RigOptions, rig_file};
+use shoal::skin::{FishModel, LinearBlendSkinningJob, palette};
+use shoal::species::{SpeciesDesc, SpeciesRig};
+
+mod common;
+
+fn red_finned_fish() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/RedFinnedFish/scene.gltf")
+}
+
+fn skin(model: &FishModel, locals: &[shoal::skeleton::JointTransform]) -> Vec<Vec3> {
+    let n = model.skeleton.num_joints();
+    let mut models = vec![Mat4::IDENTITY; n];
+    model
+        .skeleton
+        .local_to_model(Mat4::IDENTITY, locals, &mut models)
+        .run()
+        .unwrap();
+    let mut pal = vec![Mat4::IDENTITY; n];
+    palette(&models, &model.inverse_bind_poses, &mut pal).unwrap();
+    let mut out = vec![Vec3::ZERO; model.mesh.num_vertices()];
+    LinearBlendSkinningJob {
+        palette: &pal,
+        positions_in: &model.mesh.positions,
+        normals_in: &[],
+        joints: &model.mesh.joints,
+        weights: &model.mesh.weights,
+        positions_out: &mut out,
+        normals_out: &mut [],
+    }
+    .run()
+    .unwrap();
+    out
+}
+
+#[test]
+fn rigged_red_finned_fish_loads_binds_bends_and_validates() {
+    let rigged = rig_file(&red_finned_fish(), &RigOptions::default()).unwrap();
+    assert_eq!(
+        rigged.joint_names,
+        [
+            "root", "spine_1", "spine_2", "spine_3", "spine_4", "spine_5", "spine_6", "tail_end"
+        ]
+    );
+    assert_eq!(rigged.driven_joints.len(), 6);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("red_finned_fish.glb");
+    std::fs::write(&out, &rigged.glb).unwrap();
+    common::validate(&[&out]);
+
+    // The base colour texture and UVs survive.
+    let gltf = gltf::Gltf::open(&out).unwrap();
+    let material = gltf.materials().next().unwrap();
+    assert!(
+        material
+            .pbr_metallic_roughness()
+            .base_color_texture()
+            .is_some()
+    );
+    let prim = gltf.meshes().next().unwrap().primitives().next().unwrap();
+    assert_eq!(
+        prim.get(&gltf::Semantic::TexCoords(0)).unwrap().count(),
+        676
+    );
+
+    let model = FishModel::load(&out).unwrap();
+    assert_eq!(model.skeleton.num_joints(), 8);
+    assert_eq!(model.mesh.num_vertices(), 676);
+    assert_eq!(model.mesh.indices.len(), 3864);
+    let mut desc = SpeciesDesc::black_porgy();
+    desc.asset = "red_finned_fish.glb".into();
+    desc.vertebral_joints = rigged.driven_joints.clone();
+    let rig = SpeciesRig::bind(&desc, &model).unwrap();
+    assert!(rig.body.joints_x.windows(2).all(|w| w[0] < w[1]));
+    // The chain runs along the long axis: in this file's scene space the fish lies along X.
+    assert!(rig.model_forward.x.abs() > 0.99, "{}", rig.model_forward);
+
+    // Bend the middle joint: the tail swings sideways, the head stays.
+    let rest = skin(&model, model.skeleton.rest_locals());
+    let mut locals = model.skeleton.rest_locals().to_vec();
+    let mut yaw = vec![0.0; rig.num_driven()];
+    let mid = rig.num_driven() / 2;
+    yaw[mid] = 0.5;
+    rig.pose(&yaw, &mut locals);
+    let bent = skin(&model, &locals);
+    let forward = rig.model_forward;
+    let up = rig.model_up;
+    let left = up.cross(forward);
+    let head_t = rest
+        .iter()
+        .map(|p| p.dot(forward))
+        .fold(f32::NEG_INFINITY, f32::max);
+    let len = rig.model_body_length;
+    let (mut lateral, mut vertical, mut n) = (0.0f32, 0.0f32, 0);
+    for (v, (a, b)) in rest.iter().zip(&bent).enumerate() {
+        let x = (head_t - a.dot(forward)) / len;
+        if x < rig.body.joints_x[mid] - 0.1 {
+            assert!(a.distance(*b) < 1e-4 * len, "head-side vertex {v} moved");
+        }
+        if x > 0.9 {
+            lateral += (*b - *a).dot(left);
+            vertical += (*b - *a).dot(up).abs();
+            n += 1;
+        }
+    }
+    assert!(n > 0);
+    let (lateral, vertical) = (lateral / n as f32 / len, vertical / n as f32 / len);
+    assert!(
+        lateral > 0.05,
+        "tail moved {lateral} body lengths to the left"
+    );
+    assert!(
+        vertical < 0.1 * lateral,
+        "the bend is sideways, not up/down ({vertical})"
+    );
+}
+
+#[test]
+fn head_override_and_options() {
+    let auto = rig_file(&red_finned_fish(), &RigOptions::default()).unwrap();
+    let flipped = rig_file(
+        &red_finned_fish(),
+        &RigOptions {
+            head: if auto.head_positive {
+                HeadEnd::Negative
+            } else {
+                HeadEnd::Positive
+            },
+            ..RigOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        (auto.axis + flipped.axis).length() < 1e-5,
+        "{} vs {}",
+        auto.axis,
+        flipped.axis
+    );
+    let root = |r: &shoal::asset::rig::Rigged| r.mesh.joint_positions[0];
+    assert!(
+        (root(&auto) - root(&flipped)).dot(auto.axis) > 0.0,
+        "root moved to the other end"
+    );
+    let three = rig_file(
+        &red_finned_fish(),
+        &RigOptions {
+            num_joints: 3,
+            axis: Axis::X,
+            ..RigOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        three.joint_names,
+        ["root", "spine_1", "spine_2", "tail_end"]
+    );
+    let err = rig_file(
+        &red_finned_fish(),
+        &RigOptions {
+            num_joints: 1,
+            ..RigOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(err, RigError::Option(_)), "{err}");
+    assert!(Axis::parse("w").is_err() && HeadEnd::parse("up").is_err());
+}

@@ -1,0 +1,121 @@
+//! The LuaLS definitions in `scripts/types/shoal.lua` match the API the host registers, and the
+//! shipped scripts load.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use shoal::script::host::ScriptHost;
+use shoal::script::{Limits, SceneDesc, api};
+
+fn repo_scripts() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts"))
+}
+
+fn host() -> ScriptHost {
+    let h = ScriptHost::new(repo_scripts(), Limits::default()).unwrap();
+    api::register(h.lua()).unwrap();
+    h
+}
+
+#[test]
+fn test_definitions_match_registered_functions() {
+    let h = host();
+    let registered: BTreeSet<String> = api::registered_names(h.lua())
+        .unwrap()
+        .into_iter()
+        .collect();
+    let defs = std::fs::read_to_string(repo_scripts().join("types/shoal.lua")).unwrap();
+    assert!(defs.starts_with("---@meta"), "LuaLS needs ---@meta first");
+    let documented: BTreeSet<String> = defs
+        .lines()
+        .filter_map(|l| l.strip_prefix("function shoal."))
+        .map(|rest| rest[..rest.find('(').expect("a parameter list")].to_owned())
+        .collect();
+    let missing: Vec<_> = registered.difference(&documented).collect();
+    let stale: Vec<_> = documented.difference(&registered).collect();
+    assert!(
+        missing.is_empty(),
+        "registered but not in shoal.lua: {missing:?}"
+    );
+    assert!(
+        stale.is_empty(),
+        "in shoal.lua but not registered: {stale:?}"
+    );
+    assert!(registered.len() >= 25, "{registered:?}");
+    for f in [
+        "see",
+        "body",
+        "steer",
+        "separation",
+        "avoid_walls",
+        "eat",
+        "random",
+    ] {
+        assert!(registered.contains(f), "{f}");
+    }
+}
+
+#[test]
+fn test_every_shipped_behaviour_loads() {
+    let mut h = host();
+    let mut names = Vec::new();
+    for e in std::fs::read_dir(repo_scripts().join("behaviors")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "lua") {
+            names.push(p.file_stem().unwrap().to_string_lossy().into_owned());
+        }
+    }
+    names.sort();
+    assert_eq!(names, ["flee", "forage", "predator", "school", "wander"]);
+    for n in &names {
+        assert!(h.module(n, 0.0).is_some(), "{n}: {:?}", h.load_errors());
+    }
+    assert!(h.error_messages().is_empty(), "{:?}", h.error_messages());
+}
+
+#[test]
+fn test_api_outside_a_tick_is_an_error() {
+    let h = host();
+    let err = h
+        .eval("scripts/console.lua", "return shoal.body()")
+        .unwrap_err();
+    assert_eq!(
+        err,
+        "scripts/console.lua:1: shoal.body can only be called while a fish's behaviour runs (from tick, perceive, intend or behave)"
+    );
+}
+
+#[test]
+fn test_shipped_scenes_parse() {
+    let h = host();
+    for (file, min_fish) in [("default.lua", 30), ("empty_tank.lua", 0)] {
+        let v = h
+            .load_data_file(&repo_scripts().join("scenes").join(file))
+            .unwrap();
+        let scene: SceneDesc = h.from_lua(v).unwrap();
+        let n: u32 = scene.fish.iter().map(|g| g.count).sum();
+        assert!(n >= min_fish, "{file}: {n} fish");
+        assert!(
+            scene
+                .tank
+                .min
+                .iter()
+                .zip(scene.tank.max)
+                .all(|(a, b)| *a < b)
+        );
+    }
+    let v = h
+        .load_data_file(&repo_scripts().join("scenes/default.lua"))
+        .unwrap();
+    let scene: SceneDesc = h.from_lua(v).unwrap();
+    let behaviors: BTreeSet<_> = scene
+        .fish
+        .iter()
+        .filter_map(|g| g.behavior.clone())
+        .collect();
+    assert!(
+        behaviors.contains("school") && behaviors.contains("predator"),
+        "{behaviors:?}"
+    );
+    assert!(scene.food_drops.is_some_and(|d| d.every > 0.0));
+}

@@ -1,0 +1,175 @@
+//! The pose stage: palettes place each fish's model at its root, facing its heading, bend it
+//! the way the motion layer says, and do not depend on the thread count.
+
+mod world_common;
+
+use glam::{Mat4, Vec3};
+use shoal::motion::MotionRequest;
+use shoal::world::sense::forward;
+use shoal::world::{SpawnParams, TICK_HZ, World};
+use world_common::{L, at, world};
+
+const DT: f32 = (1.0 / TICK_HZ) as f32;
+
+/// Model-space rest position of joint `j` of the fixture skeleton.
+fn rest_joint(w: &World, j: usize) -> Vec3 {
+    w.species(w.species_of(w.fish_ids().next().unwrap()).unwrap())
+        .model
+        .skeleton
+        .rest_models()[j]
+        .w_axis
+        .truncate()
+}
+
+#[test]
+fn rest_pose_palettes_place_the_bind_shape_at_the_root_facing_the_heading() {
+    let (mut w, porgy, _) = world();
+    let pos = Vec3::new(400.0, 200.0, 250.0);
+    let (heading, pitch) = (std::f32::consts::FRAC_PI_2, 0.25);
+    let id = w
+        .spawn(SpawnParams {
+            pitch,
+            ..at(porgy, pos, heading)
+        })
+        .unwrap();
+    w.update_pose();
+    let range = w.palette_range(id).unwrap();
+    assert_eq!(range.len(), 10);
+    let palette = &w.palettes()[range];
+    // At rest, every palette entry is the same rigid placement of the bind shape.
+    let fwd = forward(heading, pitch);
+    for (j, m) in palette.iter().enumerate() {
+        assert!(
+            m.abs_diff_eq(palette[0], 1e-4),
+            "joint {j}: {m} vs {}",
+            palette[0]
+        );
+        // The skinned position of joint j's bind position.
+        let world_pos = m.transform_point3(rest_joint(&w, j));
+        if j < 8 {
+            // Joint j of the chain is j·L/7 behind the head along the fish's forward.
+            let want = pos - fwd * (j as f32 * L / 7.0);
+            assert!(
+                world_pos.abs_diff_eq(want, 1e-3),
+                "joint {j}: {world_pos} vs {want}"
+            );
+        }
+    }
+    // Heading π/2 faces −z: the tail lies towards +z (and, pitched nose-up, below the head).
+    let tail = palette[7].transform_point3(rest_joint(&w, 7));
+    assert!(
+        tail.z > pos.z + 0.9 * L * pitch.cos() && tail.y < pos.y,
+        "{tail}"
+    );
+}
+
+#[test]
+fn swimming_bends_the_body_to_the_side_the_motion_layer_says() {
+    let (mut w, porgy, _) = world();
+    let id = w
+        .spawn(SpawnParams {
+            speed: 50.0,
+            ..at(porgy, Vec3::new(200.0, 200.0, 250.0), 0.0)
+        })
+        .unwrap();
+    w.request(id, MotionRequest::Swim { speed: 50.0 }, false)
+        .unwrap();
+    let mut agreed = 0;
+    let mut checked = 0;
+    for _ in 0..240 {
+        w.step_motion(DT);
+        w.update_pose();
+        let root = *w.root(id).unwrap();
+        let tail_lateral = *w.lateral(id).unwrap().last().unwrap();
+        let palette = &w.palettes()[w.palette_range(id).unwrap()];
+        // Bones keep their length: the pose is rigid per segment.
+        let joints: Vec<Vec3> = (0..8)
+            .map(|j| palette[j].transform_point3(rest_joint(&w, j)))
+            .collect();
+        for k in 1..8 {
+            let bone = joints[k].distance(joints[k - 1]);
+            assert!((bone - L / 7.0).abs() < 1e-3, "bone {k}: {bone}");
+        }
+        assert!(joints[0].abs_diff_eq(root.pos, 1e-3), "head at the root");
+        // Left of a fish facing heading h is forward rotated +90° about y.
+        let left = forward(root.heading + std::f32::consts::FRAC_PI_2, 0.0);
+        let tail_side = (joints[7] - root.pos).dot(left);
+        if tail_lateral.abs() > 0.05 * L {
+            checked += 1;
+            if tail_side.signum() == tail_lateral.signum() {
+                agreed += 1;
+            }
+        }
+    }
+    assert!(checked > 20, "the tail swings: {checked}");
+    assert!(
+        agreed as f32 >= 0.9 * checked as f32,
+        "tail bends to the side of the midline: {agreed}/{checked}"
+    );
+}
+
+fn scene() -> World {
+    let (mut w, porgy, shark) = world();
+    for i in 0..300 {
+        let x = 30.0 + (i % 30) as f32 * 30.0;
+        let z = 30.0 + (i / 30) as f32 * 40.0;
+        w.spawn(SpawnParams {
+            speed: 40.0 + (i % 7) as f32,
+            seed: i,
+            ..at(
+                if i % 10 == 0 { shark } else { porgy },
+                Vec3::new(x, 200.0, z),
+                i as f32,
+            )
+        })
+        .unwrap();
+    }
+    w
+}
+
+#[test]
+fn palettes_do_not_depend_on_the_thread_count() {
+    let run = |threads: usize| -> Vec<Mat4> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut w = scene();
+            let ids: Vec<_> = w.fish_ids().collect();
+            for tick in 0..120 {
+                if tick % 30 == 0 {
+                    for (k, &id) in ids.iter().enumerate() {
+                        w.steer_to(id, tick as f32 * 0.01 + k as f32, 150.0, 60.0)
+                            .unwrap();
+                    }
+                }
+                w.step_motion(DT);
+                w.update_pose();
+                w.rebuild_grid();
+            }
+            w.palettes().to_vec()
+        })
+    };
+    let one = run(1);
+    let two = run(2);
+    assert_eq!(one.len(), 3000);
+    assert!(
+        one == two,
+        "bitwise identical palettes with 1 and 2 threads"
+    );
+}
+
+#[test]
+fn stage_counters_are_filled() {
+    let mut w = scene();
+    w.step_motion(DT);
+    w.update_pose();
+    w.rebuild_grid();
+    let c = *w.counters();
+    assert!(
+        c.motion_ns > 0 && c.skeleton_ns > 0 && c.palette_ns > 0 && c.grid_ns > 0,
+        "{c:?}"
+    );
+    assert_eq!(c.lua_ns, 0);
+}
