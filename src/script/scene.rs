@@ -190,7 +190,9 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
     let table = match t.raw_get::<Option<String>>("base").map_err(err)? {
         Some(base) => {
             let desc = base_desc(&base).ok_or_else(|| {
-                format!("{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")")
+                format!(
+                    "{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")"
+                )
             })?;
             let Value::Table(b) = lua.to_value(&desc).map_err(err)? else {
                 return Err(format!("{file}: base species did not serialize to a table"));

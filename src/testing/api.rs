@@ -935,14 +935,17 @@ fn first_line(text: &str) -> String {
     text.lines().next().unwrap_or(text).to_string()
 }
 
-/// Lua errors read `file:line: message`; split the line number out when it is there.
+/// Lua errors read `[runtime error: ]file.lua:line: message`; split the line number out when
+/// it is there.
 fn split_lua_error(text: &str) -> (Option<usize>, String) {
     let first = first_line(text);
-    let mut parts = first.splitn(3, ':');
-    if let (Some(_file), Some(line), Some(rest)) = (parts.next(), parts.next(), parts.next())
-        && let Ok(line) = line.trim().parse()
-    {
-        return (Some(line), rest.trim().to_string());
+    if let Some(at) = first.find(".lua:") {
+        let rest = &first[at + ".lua:".len()..];
+        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        if let (Ok(line), Some(message)) = (digits.parse(), rest[digits.len()..].strip_prefix(':'))
+        {
+            return (Some(line), message.trim().to_string());
+        }
     }
     (None, first)
 }
@@ -974,6 +977,10 @@ mod tests {
         assert_eq!(
             split_lua_error("tests/behavior/a_test.lua:12: boom\nstack traceback:"),
             (Some(12), "boom".to_string())
+        );
+        assert_eq!(
+            split_lua_error("runtime error: /tmp/x/b_test.lua:3: attempt to index a nil value"),
+            (Some(3), "attempt to index a nil value".to_string())
         );
         assert_eq!(
             split_lua_error("no line here"),

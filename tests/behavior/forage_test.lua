@@ -1,6 +1,16 @@
 -- Feed-hunting (paper 3.1): a hungry porgy finds, approaches and eats food; hunger is a drive
 -- that rises over time and falls with every meal.
 
+-- A point `distance` ahead of the fish, kept a body length inside the tank.
+local function ahead(w, fish, distance)
+  local p, h, tank, l = fish.pos, fish.heading, w:tank(), fish.params.l
+  local q = {p[1] + math.cos(h) * distance, p[2], p[3] - math.sin(h) * distance}
+  for i = 1, 3 do
+    q[i] = math.max(tank.min[i] + l, math.min(tank.max[i] - l, q[i]))
+  end
+  return q
+end
+
 test("hungry porgy finds food", function(t)
   local w = t:world{ seed = 7, scene = "scenes/empty_tank.lua" }
   local fish = w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, behavior = "forage" }
@@ -19,8 +29,7 @@ test("hunger rises without food and falls when eating", function(t)
   w:run(10)
   local h1 = fish.memory.hunger
   t:near(h1 - h0, 0.10, 0.02, "hunger rises at 0.01 per second without food")
-  local p = fish.pos
-  local food = w:food{ pos = {p[1] + 100, p[2], p[3]} }
+  local food = w:food{ pos = ahead(w, fish, 100) }
   local eaten = w:run_until(function() return food.eaten end, 15)
   t:expect(eaten, "the hungry porgy eats the pellet placed ahead of it")
   t:less(fish.memory.hunger, h1 - 0.3, "a meal lowers hunger")
@@ -29,15 +38,11 @@ end)
 test("a sated porgy ignores food", function(t)
   local w = t:world{ seed = 5 }
   local fish = w:spawn{ species = "black_porgy", pos = {-200, 200, 0}, heading = 0, behavior = "forage" }
-  -- Three meals in a row leave it sated (hunger clamps at 0), then food right ahead stays.
-  for i = 1, 3 do
-    local p = fish.pos
-    local pellet = w:food{ pos = {p[1] + 60, p[2], p[3]} }
-    w:run_until(function() return pellet.eaten end, 10)
-  end
-  t:less(fish.memory.hunger, 0.3, "three meals sate it")
-  local p = fish.pos
-  local ignored = w:food{ pos = {p[1] + 150, p[2], p[3] + 150} }
+  -- One meal takes hunger (0.5 at the start) below the hungry threshold; food then stays.
+  local pellet = w:food{ pos = ahead(w, fish, 80) }
+  t:expect(w:run_until(function() return pellet.eaten end, 10), "the first pellet is eaten")
+  t:less(fish.memory.hunger, 0.3, "a meal sates it")
+  local ignored = w:food{ pos = ahead(w, fish, 120) }
   w:run(5)
   t:expect(not ignored.eaten, "a sated fish does not go for food")
 end)
