@@ -8,6 +8,7 @@ use anyhow::Context;
 /// Arguments of `shoal asset`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
+    /// What to build.
     #[command(subcommand)]
     pub what: What,
 }
@@ -59,7 +60,8 @@ pub struct RigArgs {
     /// The rigged GLB to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Number of vertebral joints in the chain (root included; at least 2).
+    /// Vertebral chain joints, root included (2 to 64): root, spine_1 … spine_{N−1}; a leaf
+    /// tail_end is added. 7 gives the paper's 7 segments with 6 driven joints.
     #[arg(long, default_value_t = 7)]
     pub joints: usize,
     /// The body's long axis: auto (principal axis of the vertices), x, y or z.
