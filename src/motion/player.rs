@@ -717,4 +717,69 @@ mod tests {
             root.heading
         );
     }
+
+    /// Parameters that failed validation still never put NaN or infinity into the outputs.
+    #[test]
+    fn test_invalid_params_never_produce_nan() {
+        let ok = MotionParams::default();
+        let bad = [
+            MotionParams { p: f32::NAN, ..ok },
+            MotionParams { lambda: 0.0, ..ok },
+            MotionParams { l: 0.0, ..ok },
+            MotionParams { tt: 0.0, ..ok },
+            MotionParams { p: 0.1, ..ok },
+            MotionParams {
+                omega: f32::INFINITY,
+                ..ok
+            },
+            MotionParams {
+                max_amp: f32::NAN,
+                ..ok
+            },
+        ];
+        let body = Body::black_porgy();
+        for params in bad {
+            for request in [
+                MotionRequest::Swim { speed: 50.0 },
+                MotionRequest::Turn {
+                    kind: TurnKind::Quick,
+                    angle: 1.0,
+                    side: Side::Right,
+                },
+                MotionRequest::Turn {
+                    kind: TurnKind::Normal,
+                    angle: 1.0,
+                    side: Side::Left,
+                },
+                MotionRequest::Ascend { height: 10.0 },
+            ] {
+                let mut player = MotionPlayer::new();
+                let mut root = RootState {
+                    speed: 50.0,
+                    ..RootState::default()
+                };
+                player.push(request).unwrap();
+                let mut lateral = [0.0; 7];
+                let mut yaw = [0.0; 6];
+                for _ in 0..200 {
+                    player.step(
+                        1.0 / 60.0,
+                        &params,
+                        &body,
+                        &mut root,
+                        &mut lateral,
+                        &mut yaw,
+                    );
+                    assert!(
+                        lateral.iter().chain(yaw.iter()).all(|v| v.is_finite())
+                            && root.pos.is_finite()
+                            && root.heading.is_finite()
+                            && root.pitch.is_finite()
+                            && root.speed.is_finite(),
+                        "{params:?} {request:?}: {lateral:?} {yaw:?} {root:?}"
+                    );
+                }
+            }
+        }
+    }
 }
