@@ -23,7 +23,7 @@
 use glam::Vec3;
 
 pub mod body;
-mod player;
+pub mod player;
 pub mod presets;
 pub mod record;
 pub mod wave;
