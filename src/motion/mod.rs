@@ -15,7 +15,7 @@
 //! - `Side` follows the paper's `d`: −1 left, +1 right.
 //!
 //! Files: [`wave`] holds equations (2)–(7) as functions named after the paper's symbols;
-//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); `player.rs` holds
+//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); [`player`] holds
 //! [`MotionPlayer`] (the motions, their queue and the root's locomotion); [`presets`] the four
 //! experiments of Table 1. `docs/motion.md` maps every equation to its function and records every
 //! reading of the paper that had to be chosen.
