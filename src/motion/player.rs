@@ -55,8 +55,9 @@ enum Plan {
         stroke_s: f32,
         wavelength: f32,
     },
-    /// Rise (`height` > 0) or sink (< 0) by |height| length units.
-    Climb { height: f32 },
+    /// Rise (`height` > 0) or sink (< 0) by |height| length units, starting after `lead_s`
+    /// seconds (the time the speed needs to reach the climbing speed).
+    Climb { height: f32, lead_s: f32 },
 }
 
 /// One motion in progress.
@@ -155,11 +156,16 @@ impl Active {
                 };
                 let v1 = moving(v0);
                 // Vertical speed peaks at H·π/(2T) (cosine ease); keep it ≤ v1·sin(max pitch).
-                let duration =
+                // From a slower start, first reach v1, then climb.
+                let climb_s =
                     (PI * height / (2.0 * v1 * MAX_CLIMB_PITCH_RAD.sin())).max(MIN_CLIMB_S);
+                let lead_s = if v0 < v1 { SPEED_RAMP_S } else { 0.0 };
                 a.v1 = v1;
-                a.duration_s = duration;
-                a.plan = Plan::Climb { height: signed };
+                a.duration_s = lead_s + climb_s;
+                a.plan = Plan::Climb {
+                    height: signed,
+                    lead_s,
+                };
             }
         }
         a
@@ -218,7 +224,11 @@ impl Active {
         if !self.duration_s.is_finite() || self.duration_s <= 0.0 {
             return 1.0;
         }
-        let u = (t / self.duration_s).clamp(0.0, 1.0);
+        let lead_s = match self.plan {
+            Plan::Climb { lead_s, .. } => lead_s,
+            _ => 0.0,
+        };
+        let u = ((t - lead_s) / (self.duration_s - lead_s)).clamp(0.0, 1.0);
         let strokes = match self.plan {
             Plan::Turn { strokes, .. } => strokes as f32,
             _ => 1.0,
@@ -500,7 +510,7 @@ impl MotionPlayer {
                 // d = −1 (left) increases the heading.
                 heading -= d * angle * dprog;
             }
-            Plan::Climb { height } => dy = height * dprog,
+            Plan::Climb { height, .. } => dy = height * dprog,
             _ => {}
         }
         let heading_mid = 0.5 * (root.heading + heading);
