@@ -90,6 +90,7 @@ impl PresetArgs {
 /// Arguments of `shoal motion`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
+    /// Which preset, and overrides of its values.
     #[command(flatten)]
     pub preset: PresetArgs,
     /// Seconds to sample.

@@ -15,6 +15,7 @@ use crate::motion::{Body, MidlinePoseJob, Preset, Recording, record_preset, wave
 /// Arguments of `shoal plot`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
+    /// Which preset, and overrides of its values.
     #[command(flatten)]
     pub preset: PresetArgs,
     /// PNG to write.
