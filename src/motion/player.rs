@@ -792,4 +792,11 @@ mod tests {
             }
         }
     }
+
+    /// 10,000 fish each hold a player: keep it within a few cache lines.
+    #[test]
+    fn test_player_state_is_small() {
+        let size = std::mem::size_of::<MotionPlayer>();
+        assert!(size <= 192, "MotionPlayer is {size} bytes");
+    }
 }
