@@ -8,8 +8,8 @@ local M = {}
 
 -- weights of the three crowding rules, and their radii in body lengths
 M.SEPARATION, M.SEPARATION_RADIUS = 1.0, 1.0
-M.ALIGNMENT, M.ALIGNMENT_RADIUS = 2.0, 3.0
-M.COHESION, M.COHESION_RADIUS = 1.0, 4.0
+M.ALIGNMENT, M.ALIGNMENT_RADIUS = 2.0, 4.0
+M.COHESION, M.COHESION_RADIUS = 1.0, 6.0
 
 function M.perceive(fish)
   local p = common.begin(fish)

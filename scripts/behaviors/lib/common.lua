@@ -34,6 +34,8 @@ C.AVOID_HOLD = 1.5     -- seconds an avoidance manoeuvre is held
 C.AVOID_RETARGET = math.rad(60)  -- a new manoeuvre this different replaces a held one
 C.WALL_LOOKAHEAD = 2.5 -- seconds ahead a side wall is looked for
 C.SHARP_TURN = math.rad(100)  -- avoidance turns sharper than this are quick turns
+C.SHARP_FOOD_TURN = math.rad(50)  -- food this far off the heading ...
+C.NEAR_FOOD = 3                   -- ... and this close (body lengths): turn on the spot
 C.WANDER_HOLD = { 2, 5 }  -- seconds a wander direction is held (random in this range)
 
 -- Seconds since this fish's previous decision (0 on its first).
@@ -140,7 +142,7 @@ end
 local KEYS = setmetatable({}, { __index = function(t, prefix)
   local k = { id = prefix .. "_id", x = prefix .. "_x", y = prefix .. "_y", z = prefix .. "_z",
               distance = prefix .. "_distance", heading = prefix .. "_heading",
-              speed = prefix .. "_speed" }
+              speed = prefix .. "_speed", bearing = prefix .. "_bearing" }
   t[prefix] = k
   return k
 end })
@@ -152,6 +154,7 @@ function C.keep(p, prefix, percept)
     p[k.id] = percept.id
     p[k.x], p[k.y], p[k.z] = percept.x, percept.y, percept.z
     p[k.distance] = percept.distance
+    p[k.bearing] = percept.bearing
     p[k.heading] = percept.heading
     p[k.speed] = percept.speed
   else
@@ -178,7 +181,15 @@ function C.feed(fish, p)
     end
   end
   if not ate then
-    shoal.steer(shoal.arrive(p.food_x, p.food_y, p.food_z))
+    local b = p.food_bearing
+    if cur.body.motion == "quick_turn" then
+      -- let the turn finish
+    elseif math.abs(b) > C.SHARP_FOOD_TURN and p.food_distance < C.NEAR_FOOD * cur.me.length then
+      -- Close and off to the side: a serial turn would circle it; turn on the spot.
+      shoal.quick_turn(math.abs(b), b > 0 and "left" or "right", true)
+    else
+      shoal.steer(shoal.arrive(p.food_x, p.food_y, p.food_z))
+    end
   end
   return ate
 end
