@@ -109,7 +109,7 @@ fn print_row(r: &SimBenchResult, header: bool) {
             r.threads
         );
         println!(
-            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>7} {:>9}",
             "fish",
             "median ms",
             "p99 ms",
@@ -120,12 +120,14 @@ fn print_row(r: &SimBenchResult, header: bool) {
             "motion",
             "skel",
             "palette",
-            "grid"
+            "grid",
+            "in view",
+            "nearest L"
         );
     }
     let s = &r.stages;
     println!(
-        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
+        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>7.1} {:>9.2}",
         r.fish,
         r.median_ms,
         r.p99_ms,
@@ -136,6 +138,8 @@ fn print_row(r: &SimBenchResult, header: bool) {
         s.motion,
         s.skeleton,
         s.palette,
-        s.grid
+        s.grid,
+        r.mean_in_view,
+        r.mean_nearest_lengths
     );
 }

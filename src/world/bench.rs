@@ -118,6 +118,11 @@ pub struct SimBenchResult {
     pub stages: StageMillis,
     /// Threads rayon used.
     pub threads: usize,
+    /// Mean number of things in a fish's view at the end of the run (all fish sampled), which
+    /// is what perception cost grows with.
+    pub mean_in_view: f64,
+    /// Mean distance from a fish to its nearest neighbour at the end, body lengths.
+    pub mean_nearest_lengths: f64,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -146,7 +151,21 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
         wall.push(start.elapsed().as_secs_f64() * 1e3);
         stages.push(*sim.world().counters());
     }
-    let fish = sim.world().num_fish();
+    let world = sim.world();
+    let fish = world.num_fish();
+    let (mut in_view, mut nearest, mut sampled) = (0usize, 0.0f64, 0usize);
+    let mut seen = Vec::new();
+    for id in world.fish_ids().step_by((fish / 500).max(1)) {
+        world.vision(id, &mut seen);
+        in_view += seen.len();
+        let l = world
+            .species(world.species_of(id).unwrap_or(super::SpeciesId(0)))
+            .body_length();
+        if let Some(p) = seen.iter().find(|p| p.fish.is_some()) {
+            nearest += f64::from(p.distance / l);
+        }
+        sampled += 1;
+    }
     let mean_ms = wall.iter().sum::<f64>() / wall.len().max(1) as f64;
     let mut sorted = wall.clone();
     sorted.sort_by(f64::total_cmp);
@@ -179,5 +198,7 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
             grid: stage(|s| s.grid_ns),
         },
         threads: rayon::current_num_threads(),
+        mean_in_view: in_view as f64 / sampled.max(1) as f64,
+        mean_nearest_lengths: nearest / sampled.max(1) as f64,
     }
 }

@@ -37,7 +37,7 @@ use rand_pcg::Pcg32;
 
 use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
 use grid::Grid;
-use sense::{bearing, elevation, forward, in_view_cone, tank_distances, wrap_angle};
+use sense::{ViewCone, bearing, elevation, forward, tank_distances, wrap_angle};
 use steer::{Agent, Steer, SteerParams};
 use store::{FishStore, NewFish};
 
@@ -965,73 +965,69 @@ impl World {
 
     /// Everything the fish sees: fish (predators marked), uneaten food and obstacles within its
     /// species' `view_range` and inside its view cone (`view_angle_deg`, the cone's full opening
-    /// around its forward direction), nearest first (ties broken by kind and id, so the order is
-    /// deterministic). Clears `out`; a stale id leaves it empty.
+    /// around its forward direction), nearest first (ties broken by kind, then id, so the order
+    /// is deterministic). Clears `out`; a stale id leaves it empty.
     pub fn vision(&self, id: FishId, out: &mut Vec<Percept>) {
-        self.vision_unsorted(id, out);
-        out.sort_unstable_by(nearest_first);
+        self.vision_nearest(id, usize::MAX, out);
     }
 
-    fn vision_unsorted(&self, id: FishId, out: &mut Vec<Percept>) {
+    /// [`World::vision`] keeping only the `max` nearest percepts (exactly the first `max` of the
+    /// full list), for scripts that look at a few things: only those are sorted and built.
+    pub fn vision_nearest(&self, id: FishId, max: usize, out: &mut Vec<Percept>) {
         out.clear();
         let Some(d) = self.fish.dense(id) else {
             return;
         };
+        SEEN.with_borrow_mut(|seen| {
+            seen.clear();
+            self.collect_seen(d, seen);
+            if seen.len() > max {
+                if max == 0 {
+                    return;
+                }
+                seen.select_nth_unstable_by_key(max - 1, |s| s.key);
+                seen.truncate(max);
+            }
+            seen.sort_unstable_by_key(|s| s.key);
+            let me = &self.fish.roots[d];
+            out.extend(seen.iter().map(|s| self.percept_of(me, *s)));
+        });
+    }
+
+    /// Everything in view of dense fish `d`, as sort keys (see [`Seen`]).
+    fn collect_seen(&self, d: usize, seen: &mut Vec<Seen>) {
         let me = self.fish.roots[d];
         let my_species = self.fish.species[d];
         let desc = &self.species[usize::from(my_species.0)].desc;
         let range = desc.view_range;
         let angle = desc.view_angle_deg;
         let fwd = forward(me.heading, me.pitch);
-        let percept = |kind, pos: Vec3, distance| Percept {
-            kind,
-            fish: None,
-            food: None,
-            obstacle: None,
-            species: None,
-            pos,
-            distance,
-            bearing: bearing(me.pos, me.heading, pos),
-            elevation: elevation(me.pos, pos),
-            heading: 0.0,
-            speed: 0.0,
-        };
+        let cone = ViewCone::new(me.pos, fwd, angle);
 
         self.for_each_fish_near(me.pos, range, |o, d2| {
             if o == d {
                 return;
             }
-            let other = &self.fish.roots[o];
-            if !in_view_cone(me.pos, fwd, angle, other.pos) {
+            if !cone.contains(self.fish.roots[o].pos) {
                 return;
             }
             let species = self.fish.species[o];
-            let predator =
-                species != my_species && self.species[usize::from(species.0)].desc.predator;
-            let kind = if predator {
-                PerceptKind::Predator
-            } else {
-                PerceptKind::Fish
-            };
-            out.push(Percept {
-                fish: Some(self.fish.ids[o]),
-                species: Some(species),
-                heading: other.heading,
-                speed: other.speed,
-                ..percept(kind, other.pos, d2.sqrt())
-            });
+            let kind =
+                if species != my_species && self.species[usize::from(species.0)].desc.predator {
+                    PerceptKind::Predator
+                } else {
+                    PerceptKind::Fish
+                };
+            seen.push(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
         });
 
         let mut see_food = |i: usize, f: &Food| {
-            if f.eaten || !in_view_cone(me.pos, fwd, angle, f.pos) {
+            if f.eaten || !cone.contains(f.pos) {
                 return;
             }
             let dist = f.pos.distance(me.pos);
             if dist <= range {
-                out.push(Percept {
-                    food: Some(FoodId(i as u32)),
-                    ..percept(PerceptKind::Food, f.pos, dist)
-                });
+                seen.push(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
             }
         };
         self.food_grid.for_each_within(me.pos, range, |key, _, _| {
@@ -1044,7 +1040,7 @@ impl World {
 
         for (i, o) in self.obstacles.iter().enumerate() {
             let to_centre = o.pos.distance(me.pos);
-            let distance = (to_centre - o.radius).max(0.0);
+            let distance = to_centre - o.radius;
             if distance > range {
                 continue;
             }
@@ -1062,28 +1058,54 @@ impl World {
                 off_axis <= half + angular_radius
             };
             if visible {
-                out.push(Percept {
-                    obstacle: Some(ObstacleId(i as u32)),
-                    ..percept(PerceptKind::Obstacle, o.pos, distance)
-                });
+                seen.push(Seen::new(
+                    distance,
+                    PerceptKind::Obstacle,
+                    i as u32,
+                    i as u32,
+                ));
             }
         }
     }
 
-    /// [`World::vision`] keeping only the `max` nearest percepts (the same ones, in the same
-    /// order, as the first `max` of the full list), for scripts that look at a few things.
-    /// Cheaper than sorting everything when many fish are in view.
-    pub fn vision_nearest(&self, id: FishId, max: usize, out: &mut Vec<Percept>) {
-        self.vision_unsorted(id, out);
-        if out.len() > max {
-            if max == 0 {
-                out.clear();
-                return;
+    /// Builds the percept of `s` as seen from `me`.
+    fn percept_of(&self, me: &RootState, s: Seen) -> Percept {
+        let (distance, kind) = s.distance_and_kind();
+        let i = s.index as usize;
+        let mut p = Percept {
+            kind,
+            fish: None,
+            food: None,
+            obstacle: None,
+            species: None,
+            pos: Vec3::ZERO,
+            distance,
+            bearing: 0.0,
+            elevation: 0.0,
+            heading: 0.0,
+            speed: 0.0,
+        };
+        match kind {
+            PerceptKind::Fish | PerceptKind::Predator => {
+                let other = &self.fish.roots[i];
+                p.fish = Some(self.fish.ids[i]);
+                p.species = Some(self.fish.species[i]);
+                p.pos = other.pos;
+                p.heading = other.heading;
+                p.speed = other.speed;
             }
-            out.select_nth_unstable_by(max - 1, nearest_first);
-            out.truncate(max);
+            PerceptKind::Food => {
+                p.food = Some(FoodId(s.index));
+                p.pos = self.foods[i].pos;
+            }
+            PerceptKind::Obstacle => {
+                p.obstacle = Some(ObstacleId(s.index));
+                p.pos = self.obstacles[i].pos;
+            }
         }
-        out.sort_unstable_by(nearest_first);
+        p.bearing = bearing(me.pos, me.heading, p.pos);
+        p.elevation = elevation(me.pos, p.pos);
+        p
     }
 
     /// The fish's body sensor: depth, distances to floor, surface and nearest side wall (with
@@ -1429,15 +1451,43 @@ impl World {
     }
 }
 
-/// Vision's order: nearest first, ties broken by kind, then fish, food and obstacle id (a total
-/// order on distinct percepts, so the result is deterministic).
-fn nearest_first(a: &Percept, b: &Percept) -> std::cmp::Ordering {
-    a.distance
-        .total_cmp(&b.distance)
-        .then(a.kind.cmp(&b.kind))
-        .then(a.fish.cmp(&b.fish))
-        .then(a.food.cmp(&b.food))
-        .then(a.obstacle.cmp(&b.obstacle))
+/// Something in view before it becomes a [`Percept`]: a sort key that orders nearest first,
+/// then by kind, then by id (a total order on distinct things, so vision is deterministic), and
+/// where to find the thing (dense fish index, food or obstacle index).
+#[derive(Clone, Copy, Debug)]
+struct Seen {
+    /// distance bits (non-negative floats order like their bits) << 32 | kind << 30 | id.
+    key: u64,
+    index: u32,
+}
+
+impl Seen {
+    fn new(distance: f32, kind: PerceptKind, id: u32, index: u32) -> Self {
+        // Clamp to +0.0 (never −0.0, whose bits would sort last).
+        let distance = if distance > 0.0 { distance } else { 0.0 };
+        let kind = kind as u64;
+        Self {
+            key: (u64::from(distance.to_bits()) << 32) | (kind << 30) | u64::from(id & 0x3FFF_FFFF),
+            index,
+        }
+    }
+
+    fn distance_and_kind(&self) -> (f32, PerceptKind) {
+        let distance = f32::from_bits((self.key >> 32) as u32);
+        let kind = match (self.key >> 30) & 3 {
+            0 => PerceptKind::Fish,
+            1 => PerceptKind::Food,
+            2 => PerceptKind::Obstacle,
+            _ => PerceptKind::Predator,
+        };
+        (distance, kind)
+    }
+}
+
+thread_local! {
+    /// Vision's scratch list, per thread so `vision` can take `&self` and never allocate once
+    /// warm.
+    static SEEN: std::cell::RefCell<Vec<Seen>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Sum of the drift velocities of the current zones at `p`, world units per second. Each zone
@@ -1515,4 +1565,39 @@ pub fn resolve_contact(root: &mut RootState, l: f32, tank: &Tank, obstacles: &[O
         touched = true;
     }
     touched
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seen_keys_round_trip_and_order_nearest_then_kind_then_id() {
+        let kinds = [
+            PerceptKind::Fish,
+            PerceptKind::Food,
+            PerceptKind::Obstacle,
+            PerceptKind::Predator,
+        ];
+        for (k, kind) in kinds.into_iter().enumerate() {
+            let s = Seen::new(12.5, kind, 7, 3);
+            assert_eq!(s.distance_and_kind(), (12.5, kind));
+            assert_eq!(s.key & 0x3FFF_FFFF, 7);
+            assert_eq!((s.key >> 30) & 3, k as u64);
+        }
+        let near = Seen::new(1.0, PerceptKind::Predator, 9, 0).key;
+        let far = Seen::new(1.5, PerceptKind::Fish, 0, 0).key;
+        assert!(near < far);
+        assert!(Seen::new(1.0, PerceptKind::Fish, 9, 0).key < near);
+        assert!(Seen::new(1.0, PerceptKind::Predator, 8, 0).key < near);
+        // Inside an obstacle: distance 0, never −0 (which would sort last).
+        assert_eq!(
+            Seen::new(-0.0, PerceptKind::Obstacle, 0, 0)
+                .distance_and_kind()
+                .0
+                .to_bits(),
+            0
+        );
+        assert!(Seen::new(-3.0, PerceptKind::Obstacle, 0, 0).key < far);
+    }
 }
