@@ -450,6 +450,8 @@ pub struct World {
     time: f64,
     tick: u64,
     species: Vec<Species>,
+    /// Per species: its skeleton prepared for the pose stage.
+    pose_plans: Vec<pose::PosePlan>,
     fish: FishStore,
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
@@ -470,7 +472,6 @@ pub struct World {
     palette_offsets: Vec<u32>,
     palettes: Vec<Mat4>,
     counters: StageCounters,
-    pose_failures: u64,
     rejected_motion_steps: u64,
 }
 
@@ -514,6 +515,7 @@ impl World {
             time: 0.0,
             tick: 0,
             species: Vec::new(),
+            pose_plans: Vec::new(),
             fish: FishStore::default(),
             foods: Vec::new(),
             obstacles: Vec::new(),
@@ -527,7 +529,6 @@ impl World {
             palette_offsets: vec![0],
             palettes: Vec::new(),
             counters: StageCounters::default(),
-            pose_failures: 0,
             rejected_motion_steps: 0,
         }
     }
@@ -560,6 +561,7 @@ impl World {
         if let Err(e) = s.validate() {
             log::error!("species {:?}: {e}", s.desc.name);
         }
+        self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
         self.species.push(s);
         SpeciesId((self.species.len() - 1) as u16)
     }
@@ -574,6 +576,7 @@ impl World {
             .ok_or(WorldError::UnknownSpecies(id))?;
         let joints_changed = slot.rig.body.power.len() != s.rig.body.power.len()
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
+        self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
         *slot = s;
         if joints_changed {
             for i in 0..self.fish.len() {
@@ -1417,6 +1420,7 @@ impl World {
         }
         let inputs = pose::PoseInputs {
             species: &self.species,
+            plans: &self.pose_plans,
             fish_species: &self.fish.species,
             roots: &self.fish.roots,
             yaw: &self.fish.yaw,
@@ -1427,13 +1431,6 @@ impl World {
         let wall = start.elapsed().as_nanos() as u64;
         let skel = timing.skeleton_ns.load(Ordering::Relaxed);
         let pal = timing.palette_ns.load(Ordering::Relaxed);
-        let failures = timing.failures.load(Ordering::Relaxed);
-        if failures > 0 {
-            if self.pose_failures == 0 {
-                log::error!("{failures} fish could not be posed (rig and model disagree)");
-            }
-            self.pose_failures += failures;
-        }
         let share = if skel + pal > 0 {
             skel as f64 / (skel + pal) as f64
         } else {
