@@ -15,7 +15,7 @@
 //! - `Side` follows the paper's `d`: −1 left, +1 right.
 //!
 //! Files: [`wave`] holds equations (2)–(7) as functions named after the paper's symbols;
-//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); `player.rs` holds
+//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); [`player`] holds
 //! [`MotionPlayer`] (the motions, their queue and the root's locomotion); [`presets`] the four
 //! experiments of Table 1. `docs/motion.md` maps every equation to its function and records every
 //! reading of the paper that had to be chosen.
@@ -23,7 +23,7 @@
 use glam::Vec3;
 
 pub mod body;
-mod player;
+pub mod player;
 pub mod presets;
 pub mod record;
 pub mod wave;
@@ -92,21 +92,41 @@ pub struct MotionParams {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum MotionRequest {
     /// Steady swim at `speed` (length units / s) until the next request.
-    Swim { speed: f32 },
+    Swim {
+        /// Length units per second, ≥ 0.
+        speed: f32,
+    },
     /// Change speed to `speed` over `duration` seconds, then keep swimming.
-    Accelerate { speed: f32, duration: f32 },
+    Accelerate {
+        /// Target speed, length units per second, ≥ 0.
+        speed: f32,
+        /// Seconds, ≥ 0.
+        duration: f32,
+    },
     /// Come to rest over `duration` seconds.
-    Stop { duration: f32 },
+    Stop {
+        /// Seconds, ≥ 0.
+        duration: f32,
+    },
     /// Turn by `angle` radians (> 0) to `side`.
     Turn {
+        /// Normal, quick or serial (section 3.5.2).
         kind: TurnKind,
+        /// Heading change, radians in (0, 2π].
         angle: f32,
+        /// Which way (the paper's d).
         side: Side,
     },
     /// Rise by `height` length units (pitch up, then level out).
-    Ascend { height: f32 },
+    Ascend {
+        /// Length units, ≥ 0.
+        height: f32,
+    },
     /// Sink by `depth` length units (pitch down, then level out).
-    Descend { depth: f32 },
+    Descend {
+        /// Length units, ≥ 0.
+        depth: f32,
+    },
 }
 
 /// The root joint's state: position and orientation (paper 3.2: only the root carries position).
@@ -138,16 +158,25 @@ pub enum MotionError {
     /// A parameter is NaN, infinite or out of its range.
     #[error("invalid motion parameter {name} = {value}: {why}")]
     InvalidParam {
+        /// The parameter's name (a `MotionParams` field, a request field, `d`, `seconds`, …).
         name: &'static str,
+        /// The rejected value.
         value: f32,
+        /// Why it was rejected and what range is accepted.
         why: String,
     },
     /// A [`Body`] is malformed (joint positions not increasing, lengths disagree, ...).
     #[error("invalid body: {why}")]
-    InvalidBody { why: String },
+    InvalidBody {
+        /// What is wrong, naming the entry.
+        why: String,
+    },
     /// No preset has this name.
     #[error("unknown motion preset {name:?}: expected one of ex1, ex2, ex3, ex4")]
-    UnknownPreset { name: String },
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+    },
 }
 
 /// Fraction of `l` the tail tip sweeps peak to peak in a steady swim with the default
@@ -177,14 +206,16 @@ impl MotionParams {
     /// The black porgy defaults (the paper's fish, Table 1 Ex1's pivot and length).
     ///
     /// p = 0.4, s = 50 (one body length per second), l = 50, λ = l (a carangiform body wave about
-    /// one body long), maxAmp = l/6 so the tail tip sweeps 2·(1 − p)·maxAmp = 0.2·l peak to peak,
-    /// ω = 3.75 so the Strouhal number 2·p·ω·(1 − p)·maxAmp/λ is 0.30 at every speed, Tt = 2 s,
-    /// f = 1, turn angle 90°.
+    /// one body long), ω = 3.75 so the tail beats at s·p·ω/λ = 1.5 Hz per body length per second,
+    /// maxAmp = l/5 so the posed tail tip (Fig. 5 weights applied) sweeps 0.2·l peak to peak
+    /// (the bare curve F would sweep 2·(1 − p)·maxAmp = 0.24·l; the weights take 16 % off), which
+    /// makes the Strouhal number 1.5 Hz·0.2·l/(1 l/s) = 0.30 at every speed; Tt = 2 s, f = 1,
+    /// turn angle 90°.
     pub const BLACK_PORGY: Self = Self {
         p: 0.4,
         s: 50.0,
         l: 50.0,
-        max_amp: 50.0 / 6.0,
+        max_amp: 50.0 / 5.0,
         lambda: 50.0,
         omega: 3.75,
         tt: 2.0,
@@ -261,17 +292,6 @@ impl MotionParams {
     /// Tail-beat frequency at `speed` (length units per second), hertz.
     pub fn tail_beat_hz(&self, speed: f32) -> f32 {
         wave::tail_beat_hz(speed, self.p, self.omega, self.lambda)
-    }
-
-    /// Peak-to-peak sideways sweep of the tail tip in a steady swim, length units: 2·(1 − p)·maxAmp.
-    pub fn tail_excursion(&self) -> f32 {
-        2.0 * (1.0 - self.p) * self.max_amp
-    }
-
-    /// Strouhal number f·A/U of a steady swim (independent of speed with this wave):
-    /// tail-beat frequency × peak-to-peak tail excursion / speed = 2·p·ω·(1 − p)·maxAmp/λ.
-    pub fn strouhal(&self) -> f32 {
-        self.p * self.omega / self.lambda * self.tail_excursion()
     }
 }
 

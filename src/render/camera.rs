@@ -1,0 +1,165 @@
+//! Orbit camera: looks at `target` from `distance` along the direction given by `yaw`/`pitch`.
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// An orbit camera (right-handed, +y up, depth 0..1).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Camera {
+    /// The point looked at, world space.
+    pub target: Vec3,
+    /// Angle around +y of the eye seen from the target, radians (0: eye on +z).
+    pub yaw_rad: f32,
+    /// Elevation of the eye above the target's horizontal plane, radians (clamped to ±1.5).
+    pub pitch_rad: f32,
+    /// Eye–target distance, length units (> 0).
+    pub distance: f32,
+    /// Vertical field of view, radians.
+    pub fov_y_rad: f32,
+}
+
+/// A ray in world space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub origin: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+}
+
+impl Ray {
+    /// Distance along the ray to the first hit of a sphere, if any (origin inside counts as 0).
+    pub fn hit_sphere(&self, center: Vec3, radius: f32) -> Option<f32> {
+        let oc = self.origin - center;
+        let b = oc.dot(self.dir);
+        let c = oc.length_squared() - radius * radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            return None;
+        }
+        let t = -b - disc.sqrt();
+        if t >= 0.0 {
+            Some(t)
+        } else if c <= 0.0 {
+            Some(0.0)
+        } else {
+            None
+        }
+    }
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            target: Vec3::new(0.0, 100.0, 0.0),
+            yaw_rad: 0.35,
+            pitch_rad: 0.22,
+            distance: 640.0,
+            fov_y_rad: 50f32.to_radians(),
+        }
+    }
+}
+
+impl Camera {
+    /// Near plane distance, length units.
+    pub const NEAR: f32 = 1.0;
+    /// Far plane distance, length units.
+    pub const FAR: f32 = 10_000.0;
+
+    /// The eye position, world space.
+    pub fn eye(&self) -> Vec3 {
+        let pitch = self.pitch_rad.clamp(-1.5, 1.5);
+        let dir = Vec3::new(
+            pitch.cos() * self.yaw_rad.sin(),
+            pitch.sin(),
+            pitch.cos() * self.yaw_rad.cos(),
+        );
+        self.target + dir * self.distance.max(1e-3)
+    }
+
+    /// World → view matrix.
+    pub fn view(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.eye(), self.target, Vec3::Y)
+    }
+
+    /// Perspective projection for a `width / height` aspect ratio.
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        glam::camera::rh::proj::directx::perspective(
+            self.fov_y_rad,
+            aspect.max(1e-3),
+            Self::NEAR,
+            Self::FAR,
+        )
+    }
+
+    /// World → clip matrix.
+    pub fn view_proj(&self, aspect: f32) -> Mat4 {
+        self.projection(aspect) * self.view()
+    }
+
+    /// The ray through a pixel (`pixel` in physical pixels from the top-left corner).
+    pub fn ray_through_pixel(&self, pixel: Vec2, size_px: Vec2) -> Ray {
+        let ndc = Vec2::new(
+            pixel.x / size_px.x.max(1.0) * 2.0 - 1.0,
+            1.0 - pixel.y / size_px.y.max(1.0) * 2.0,
+        );
+        let inv = self.view_proj(size_px.x / size_px.y.max(1.0)).inverse();
+        let near = inv.project_point3(ndc.extend(0.0));
+        let far = inv.project_point3(ndc.extend(1.0));
+        Ray {
+            origin: near,
+            dir: (far - near).normalize_or(Vec3::NEG_Z),
+        }
+    }
+
+    /// Rotates around the target by screen-space drag (radians).
+    pub fn orbit(&mut self, d_yaw_rad: f32, d_pitch_rad: f32) {
+        self.yaw_rad -= d_yaw_rad;
+        self.pitch_rad = (self.pitch_rad + d_pitch_rad).clamp(-1.45, 1.45);
+    }
+
+    /// Moves target and eye together in the view plane; `dx`, `dy` are fractions of the view
+    /// height (so a drag across the whole view height moves one view height).
+    pub fn pan(&mut self, dx: f32, dy: f32) {
+        let view = self.view();
+        let right = Vec3::new(view.x_axis.x, view.y_axis.x, view.z_axis.x);
+        let up = Vec3::new(view.x_axis.y, view.y_axis.y, view.z_axis.y);
+        let scale = 2.0 * self.distance * (self.fov_y_rad * 0.5).tan();
+        self.target += (-right * dx + up * dy) * scale;
+    }
+
+    /// Zooms by a factor (< 1 moves closer).
+    pub fn zoom(&mut self, factor: f32) {
+        if factor.is_finite() && factor > 0.0 {
+            self.distance = (self.distance * factor).clamp(5.0, 5_000.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_pixel_ray_points_at_target() {
+        let cam = Camera::default();
+        let ray = cam.ray_through_pixel(Vec2::new(320.0, 240.0), Vec2::new(640.0, 480.0));
+        let to_target = (cam.target - cam.eye()).normalize();
+        assert!(
+            ray.dir.dot(to_target) > 0.9999,
+            "{:?} vs {to_target:?}",
+            ray.dir
+        );
+    }
+
+    #[test]
+    fn ray_hits_sphere_in_front_only() {
+        let ray = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+        };
+        let t = ray.hit_sphere(Vec3::new(10.0, 0.0, 0.0), 2.0).unwrap();
+        assert!((t - 8.0).abs() < 1e-5);
+        assert!(ray.hit_sphere(Vec3::new(-10.0, 0.0, 0.0), 2.0).is_none());
+        assert!(ray.hit_sphere(Vec3::new(10.0, 3.0, 0.0), 2.0).is_none());
+    }
+}

@@ -1,0 +1,144 @@
+//! `shoal render` end to end: PNG, GIF and directory outputs, determinism, argument errors.
+
+use std::process::Command;
+
+fn shoal(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(args)
+        .output()
+        .expect("shoal runs")
+}
+
+fn ok(out: &std::process::Output) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout:\n{stdout}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+#[test]
+fn png_output_is_deterministic_and_names_the_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.png");
+    let b = dir.path().join("b.png");
+    for p in [&a, &b] {
+        let stdout = ok(&shoal(&[
+            "render",
+            "--seconds",
+            "0.5",
+            "--fps",
+            "10",
+            "--size",
+            "96x64",
+            "--seed",
+            "3",
+            "--fish",
+            "8",
+            "--out",
+            p.to_str().unwrap(),
+        ]));
+        assert!(stdout.contains("adapter: "), "{stdout}");
+    }
+    let ia = image::open(&a).unwrap().to_rgba8();
+    assert_eq!(ia.dimensions(), (96, 64));
+    assert_eq!(
+        ia,
+        image::open(&b).unwrap().to_rgba8(),
+        "same seed, same image"
+    );
+    // A different seed places the fish elsewhere.
+    let c = dir.path().join("c.png");
+    ok(&shoal(&[
+        "render",
+        "--seconds",
+        "0.5",
+        "--fps",
+        "10",
+        "--size",
+        "96x64",
+        "--seed",
+        "4",
+        "--fish",
+        "8",
+        "--out",
+        c.to_str().unwrap(),
+    ]));
+    assert_ne!(ia, image::open(&c).unwrap().to_rgba8());
+}
+
+#[test]
+fn directory_and_gif_outputs_hold_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    ok(&shoal(&[
+        "render",
+        "--seconds",
+        "0.3",
+        "--fps",
+        "10",
+        "--size",
+        "48x32",
+        "--fish",
+        "3",
+        "--out",
+        frames.to_str().unwrap(),
+    ]));
+    let mut names: Vec<String> = std::fs::read_dir(&frames)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["frame_00000.png", "frame_00001.png", "frame_00002.png"]
+    );
+
+    let gif = dir.path().join("a.gif");
+    ok(&shoal(&[
+        "render",
+        "--seconds",
+        "0.4",
+        "--fps",
+        "10",
+        "--size",
+        "48x32",
+        "--fish",
+        "3",
+        "--out",
+        gif.to_str().unwrap(),
+    ]));
+    use image::AnimationDecoder;
+    let decoder = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(
+        std::fs::File::open(&gif).unwrap(),
+    ))
+    .unwrap();
+    let frames = decoder.into_frames().collect_frames().unwrap();
+    assert_eq!(frames.len(), 4);
+}
+
+#[test]
+fn bad_arguments_are_errors_that_say_why() {
+    let out = shoal(&["render", "--size", "12by4", "--out", "x.png"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("WIDTHxHEIGHT"));
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.json");
+    std::fs::write(&scene, r#"{"tank": {"min": [0, 0, 0], "max": [-1, 5, 5]}}"#).unwrap();
+    let out = shoal(&[
+        "render",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        "x.png",
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("scene.json") && stderr.contains("tank"),
+        "{stderr}"
+    );
+}
