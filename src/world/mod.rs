@@ -6,7 +6,7 @@
 //! ([`World::steer_to`]), and runs the layers below the scripts: motion ([`World::step_motion`]),
 //! skeleton and skinning palettes ([`World::update_pose`]).
 //!
-//! Fish live in a structure of arrays ([`store`]) addressed by generational [`FishId`] handles.
+//! Fish live in a structure of arrays (`store.rs`) addressed by generational [`FishId`] handles.
 //! A tick, Rapier-style, is a straight sequence of named stages each timed into
 //! [`StageCounters`]; the Lua host (`script::Simulation`) drives it:
 //! behaviour scripts → [`World::step_motion`] → [`World::update_pose`] → [`World::rebuild_grid`].
