@@ -20,18 +20,24 @@
 
 pub mod app;
 mod camera;
+mod demo_rig;
 mod gpu;
 mod renderer;
 mod scene;
 pub mod shaders;
 mod target;
 pub mod testmesh;
+mod world_scene;
 
 pub use camera::{Camera, Ray};
+pub use demo_rig::{DemoRig, PoseScratch};
 pub use gpu::{Gpu, GpuError};
 pub use renderer::{RenderTimings, Renderer};
-pub use scene::{DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver};
+pub use scene::{
+    DemoMesh, DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver, porgy_asset_path,
+};
 pub use target::OffscreenTarget;
+pub use world_scene::{WorldScene, WorldSim};
 
 use glam::{Mat4, Vec3};
 
