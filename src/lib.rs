@@ -20,4 +20,5 @@ pub mod script;
 pub mod skeleton;
 pub mod skin;
 pub mod species;
+pub mod testing;
 pub mod world;

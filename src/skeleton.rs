@@ -8,6 +8,11 @@
 //! precedes its children ([`NO_PARENT`] for roots), names and rest poses live in separate arrays,
 //! and the skeleton never changes after it is built. Forward kinematics is a job
 //! ([`LocalToModelJob`]) over caller-owned slices that never allocates.
+//!
+//! The paper sets the vertebral joints' orientation with Euler angles about the vertebral
+//! column's principal axes (section 3.5.3): [`EulerAngles`]. [`VertebralChain`] is the swimming
+//! column of section 4 (7 segments, 6 driven joints by default) and [`VertebralPoseJob`] writes
+//! the motion layer's joint yaws into its local transforms.
 
 use glam::{Mat4, Quat, Vec3};
 
@@ -100,6 +105,15 @@ pub enum SkeletonError {
         what: &'static str,
         len: usize,
         expected: usize,
+    },
+    /// A number given to a job or builder is NaN, infinite or out of its range.
+    #[error("{what}[{index}] = {value}: {why}")]
+    InvalidValue {
+        what: &'static str,
+        index: usize,
+        /// The value as written (kept as text so the error stays `Eq`).
+        value: String,
+        why: &'static str,
     },
 }
 
@@ -354,6 +368,290 @@ impl LocalToModelJob<'_> {
             };
             self.models[joint] = parent_model * local.to_mat4();
         }
+        Ok(())
+    }
+}
+
+/// Euler angles about a vertebral joint's principal axes (paper 3.5.3), radians.
+///
+/// A joint's local frame: +x along the vertebral column towards the head (the fish's forward),
+/// +y dorsal (up), +z to the fish's right. The rotation is R = Ry(yaw)·Rz(pitch)·Rx(roll):
+/// yaw about the dorsal axis (positive turns the joint's forward axis to the fish's left,
+/// counter-clockwise seen from above, like `RootState::heading`), then pitch about the lateral
+/// axis (positive nose-up), then roll about the column. Note the sign against the motion layer:
+/// a positive motion `yaw` bends the part *behind* the joint to the left, which is a negative
+/// Euler yaw of that joint ([`EulerAngles::from_bend_left`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct EulerAngles {
+    /// About +y (dorsal), radians, positive counter-clockwise seen from above.
+    pub yaw: f32,
+    /// About +z (the fish's right), radians, positive raises the forward axis.
+    pub pitch: f32,
+    /// About +x (the column), radians, positive rolls the dorsal axis towards the right.
+    pub roll: f32,
+}
+
+impl EulerAngles {
+    /// No rotation.
+    pub const ZERO: Self = Self {
+        yaw: 0.0,
+        pitch: 0.0,
+        roll: 0.0,
+    };
+
+    /// The angles that bend the body behind a joint by `bend_left` radians towards the fish's
+    /// left (the motion layer's joint `yaw`): an Euler yaw of −bend_left.
+    pub fn from_bend_left(bend_left: f32) -> Self {
+        Self {
+            yaw: -bend_left,
+            ..Self::ZERO
+        }
+    }
+
+    /// The rotation Ry(yaw)·Rz(pitch)·Rx(roll).
+    pub fn to_quat(self) -> Quat {
+        Quat::from_euler(glam::EulerRot::YZX, self.yaw, self.pitch, self.roll)
+    }
+
+    /// The angles of `rotation` (yaw in (−π, π], pitch in [−π/2, π/2], roll in (−π, π]).
+    pub fn from_quat(rotation: Quat) -> Self {
+        let (yaw, pitch, roll) = rotation.to_euler(glam::EulerRot::YZX);
+        Self { yaw, pitch, roll }
+    }
+}
+
+/// Name of the vertebral chain's root joint (at the head).
+pub const HEAD_JOINT: &str = "head";
+/// Name of the vertebral chain's leaf joint (at the tail tip).
+pub const TAIL_TIP_JOINT: &str = "tail_tip";
+
+/// The swimming vertebral column (paper sections 3.2 and 4): a root joint at the head, one
+/// driven joint per entry of `joints_x` before the tail tip, and a leaf at the tail tip.
+///
+/// Joint 0 is the root ("head", position and orientation), joints 1 … n the driven joints
+/// ("vertebra_1" … "vertebra_n", orientation only), joint n + 1 the leaf ("tail_tip"). In the
+/// rest pose the fish faces +x and the column runs from the origin towards −x.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VertebralChain {
+    skeleton: Skeleton,
+    body_length: f32,
+    joints_x: Vec<f32>,
+}
+
+impl VertebralChain {
+    /// The paper's black porgy column of `body_length`: 7 equal segments, 6 driven joints.
+    pub fn black_porgy(body_length: f32) -> Result<Self, SkeletonError> {
+        let joints_x: Vec<f32> = (1..=7).map(|k| k as f32 / 7.0).collect();
+        Self::new(body_length, &joints_x)
+    }
+
+    /// A column of `body_length` length units whose driven joints sit at `joints_x` (fractions
+    /// of the body length from the head, strictly increasing in (0, 1)), followed by the tail tip
+    /// 1.0 — the same layout as the motion layer's `Body::joints_x`.
+    ///
+    /// Fails if the body length is not positive and finite, or `joints_x` is not strictly
+    /// increasing inside (0, 1] or does not end at 1.0.
+    pub fn new(body_length: f32, joints_x: &[f32]) -> Result<Self, SkeletonError> {
+        if !(body_length.is_finite() && body_length > 0.0) {
+            return Err(SkeletonError::InvalidValue {
+                what: "body_length",
+                index: 0,
+                value: body_length.to_string(),
+                why: "must be a positive length",
+            });
+        }
+        let mut previous = 0.0;
+        for (index, &x) in joints_x.iter().enumerate() {
+            if !(x.is_finite() && x > previous && x <= 1.0) {
+                return Err(SkeletonError::InvalidValue {
+                    what: "joints_x",
+                    index,
+                    value: x.to_string(),
+                    why: "joint positions must rise strictly inside (0, 1]",
+                });
+            }
+            previous = x;
+        }
+        match joints_x.last() {
+            Some(&last) if last == 1.0 && joints_x.len() >= 2 => {}
+            _ => {
+                return Err(SkeletonError::InvalidValue {
+                    what: "joints_x",
+                    index: joints_x.len().saturating_sub(1),
+                    value: joints_x
+                        .last()
+                        .map_or_else(|| "nothing".to_owned(), |x| x.to_string()),
+                    why: "needs at least one driven joint and must end with the tail tip 1.0",
+                });
+            }
+        }
+        let n = joints_x.len() - 1;
+        let mut parents = Vec::with_capacity(n + 2);
+        let mut names = Vec::with_capacity(n + 2);
+        let mut rests = Vec::with_capacity(n + 2);
+        parents.push(NO_PARENT);
+        names.push(HEAD_JOINT.to_owned());
+        rests.push(JointTransform::IDENTITY);
+        let mut x_prev = 0.0;
+        for (k, &x) in joints_x.iter().enumerate() {
+            parents.push(k as u16);
+            names.push(if k < n {
+                format!("vertebra_{}", k + 1)
+            } else {
+                TAIL_TIP_JOINT.to_owned()
+            });
+            rests.push(JointTransform {
+                translation: Vec3::new(-(x - x_prev) * body_length, 0.0, 0.0),
+                ..JointTransform::IDENTITY
+            });
+            x_prev = x;
+        }
+        Ok(Self {
+            skeleton: Skeleton::new(parents, names, rests)?,
+            body_length,
+            joints_x: joints_x.to_vec(),
+        })
+    }
+
+    /// The joint hierarchy (head, driven joints, tail tip).
+    pub fn skeleton(&self) -> &Skeleton {
+        &self.skeleton
+    }
+
+    /// Body length, length units.
+    pub fn body_length(&self) -> f32 {
+        self.body_length
+    }
+
+    /// Driven joints' positions (fractions of body length), then the tail tip 1.0.
+    pub fn joints_x(&self) -> &[f32] {
+        &self.joints_x
+    }
+
+    /// Number of driven joints.
+    pub fn num_driven(&self) -> usize {
+        self.joints_x.len() - 1
+    }
+
+    /// Skeleton index of driven joint `k` (0-based, head to tail).
+    pub fn driven_joint(&self, k: usize) -> usize {
+        k + 1
+    }
+
+    /// A pose job writing `bend_left` (the motion layer's joint yaws) into `locals`.
+    pub fn pose<'a>(
+        &'a self,
+        bend_left: &'a [f32],
+        locals: &'a mut [JointTransform],
+    ) -> VertebralPoseJob<'a> {
+        VertebralPoseJob {
+            rest_locals: self.skeleton.rest_locals(),
+            head_lateral: 0.0,
+            head_yaw: 0.0,
+            bend_left,
+            locals,
+        }
+    }
+}
+
+/// Motion yaws → local joint transforms of a [`VertebralChain`]. Never allocates.
+///
+/// Each driven joint k gets its rest translation and the rotation
+/// [`EulerAngles::from_bend_left`]`(bend_left[k])`; the head joint gets `head_yaw` (radians,
+/// counter-clockwise seen from above) and is moved `head_lateral` length units to the fish's
+/// left (−z), as the motion player reports them; the tail tip keeps its rest transform.
+#[derive(Debug)]
+pub struct VertebralPoseJob<'a> {
+    /// The chain's rest locals ([`Skeleton::rest_locals`]): head, driven joints, tail tip.
+    pub rest_locals: &'a [JointTransform],
+    /// Sideways offset of the head from the root's travel line, length units, positive left.
+    pub head_lateral: f32,
+    /// Yaw of the head segment relative to the heading, radians, counter-clockwise.
+    pub head_yaw: f32,
+    /// One bend per driven joint, radians, positive bends the body behind it to the left.
+    pub bend_left: &'a [f32],
+    /// Output: one local transform per joint of the chain.
+    pub locals: &'a mut [JointTransform],
+}
+
+impl VertebralPoseJob<'_> {
+    /// Checks sizes (a head, ≥ 1 driven joint and a tail tip; one bend per driven joint; one
+    /// output per joint) and that every angle and offset is finite.
+    pub fn validate(&self) -> Result<(), SkeletonError> {
+        let num_joints = self.rest_locals.len();
+        if num_joints < 3 {
+            return Err(SkeletonError::SliceLength {
+                what: "rest_locals",
+                len: num_joints,
+                expected: 3,
+            });
+        }
+        if self.bend_left.len() + 2 != num_joints {
+            return Err(SkeletonError::SliceLength {
+                what: "bend_left",
+                len: self.bend_left.len(),
+                expected: num_joints - 2,
+            });
+        }
+        if self.locals.len() != num_joints {
+            return Err(SkeletonError::SliceLength {
+                what: "locals",
+                len: self.locals.len(),
+                expected: num_joints,
+            });
+        }
+        if let Some((index, &value)) = self
+            .bend_left
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !v.is_finite())
+        {
+            return Err(SkeletonError::InvalidValue {
+                what: "bend_left",
+                index,
+                value: value.to_string(),
+                why: "joint angles must be finite",
+            });
+        }
+        for (what, value) in [
+            ("head_lateral", self.head_lateral),
+            ("head_yaw", self.head_yaw),
+        ] {
+            if !value.is_finite() {
+                return Err(SkeletonError::InvalidValue {
+                    what,
+                    index: 0,
+                    value: value.to_string(),
+                    why: "must be finite",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Validates, then writes every local transform.
+    pub fn run(self) -> Result<(), SkeletonError> {
+        self.validate()?;
+        let n = self.rest_locals.len();
+        let head = &self.rest_locals[0];
+        self.locals[0] = JointTransform {
+            translation: head.translation + Vec3::new(0.0, 0.0, -self.head_lateral),
+            rotation: head.rotation
+                * EulerAngles {
+                    yaw: self.head_yaw,
+                    ..EulerAngles::ZERO
+                }
+                .to_quat(),
+            scale: head.scale,
+        };
+        for (k, &bend) in self.bend_left.iter().enumerate() {
+            let rest = &self.rest_locals[k + 1];
+            self.locals[k + 1] = JointTransform {
+                rotation: rest.rotation * EulerAngles::from_bend_left(bend).to_quat(),
+                ..*rest
+            };
+        }
+        self.locals[n - 1] = self.rest_locals[n - 1];
         Ok(())
     }
 }

@@ -77,6 +77,10 @@ pub struct SpeciesDesc {
     /// Top speed, world units per second.
     #[serde(default = "default_max_speed")]
     pub max_speed: f32,
+    /// Whether other species see this one as a predator (their vision reports its fish as
+    /// `PerceptKind::Predator`).
+    #[serde(default)]
+    pub predator: bool,
     /// Optional linear RGB multiplier on the asset's colours.
     #[serde(default)]
     pub color_tint: Option<[f32; 3]>,
@@ -168,6 +172,7 @@ impl SpeciesDesc {
             view_range: 250.0,
             view_angle_deg: 300.0,
             max_speed: 120.0,
+            predator: false,
             color_tint: None,
             drives: Drives::default(),
         }
@@ -198,6 +203,7 @@ impl SpeciesDesc {
             view_range: 180.0,
             view_angle_deg: 280.0,
             max_speed: 70.0,
+            predator: false,
             color_tint: None,
             drives: Drives {
                 sociability: 0.1,

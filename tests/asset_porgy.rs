@@ -282,9 +282,57 @@ fn species_desc_reads_from_json_with_defaults() {
     let d: SpeciesDesc = serde_json::from_str(json).unwrap();
     assert_eq!(d.drives, shoal::species::Drives::default());
     assert_eq!(d.color_tint, None);
+    assert!(!d.predator);
     assert!(d.view_range > 0.0 && d.max_speed > 0.0);
     d.validate().unwrap();
     let eel = SpeciesDesc::eel();
     let round: SpeciesDesc = serde_json::from_str(&serde_json::to_string(&eel).unwrap()).unwrap();
     assert_eq!(round, eel);
+}
+
+/// Every triangle's winding (counter-clockwise = front, glTF) agrees with its vertex normals, so
+/// back-face culling keeps the visible side; and body normals point away from the body's axis.
+#[test]
+fn generated_faces_wind_outwards() {
+    for file in ["assets/black_porgy.glb", "assets/eel.glb"] {
+        let model = FishModel::load(&repo(file)).unwrap();
+        let (p, n) = (&model.mesh.positions, &model.mesh.normals);
+        let mut disagree = 0;
+        for t in model.mesh.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let face = (p[b] - p[a]).cross(p[c] - p[a]);
+            if face.length() < 1e-12 {
+                continue;
+            }
+            if face.dot(n[a] + n[b] + n[c]) <= 0.0 {
+                disagree += 1;
+                if disagree < 12 {
+                    eprintln!(
+                        "{file}: triangle {a},{b},{c} at {} normal {}",
+                        (p[a] + p[b] + p[c]) / 3.0,
+                        n[a]
+                    );
+                }
+            }
+        }
+        assert_eq!(
+            disagree, 0,
+            "{file}: {disagree} triangles wound against their normals"
+        );
+        // Mid-body flank vertices (|x| well off the median plane) face outwards in x.
+        let mut outward = 0;
+        let mut total = 0;
+        for (q, m) in p.iter().zip(n) {
+            if q.z.abs() < 0.05 && q.x.abs() > 0.015 {
+                total += 1;
+                if m.x * q.x > 0.0 {
+                    outward += 1;
+                }
+            }
+        }
+        assert!(
+            total > 10 && outward == total,
+            "{file}: {outward}/{total} flank normals outward"
+        );
+    }
 }

@@ -171,3 +171,29 @@ fn head_override_and_options() {
     assert!(matches!(err, RigError::Option(_)), "{err}");
     assert!(Axis::parse("w").is_err() && HeadEnd::parse("up").is_err());
 }
+
+#[test]
+fn rigging_the_generated_fish_finds_their_snouts() {
+    // The generated fish face +Z; re-rigging them (their skins ignored) must find the same head.
+    for file in ["assets/black_porgy.glb", "assets/eel.glb"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+        let rigged = rig_file(&path, &RigOptions::default()).unwrap();
+        assert!(
+            rigged.axis.abs_diff_eq(glam::Vec3::Z, 1e-6),
+            "{file}: {}",
+            rigged.axis
+        );
+        assert!(
+            rigged
+                .warnings
+                .iter()
+                .any(|w| w.contains("already skinned"))
+        );
+        // root sits near the snout (z = +0.5), tail_end at the tail tip (z = −0.5).
+        let j = &rigged.mesh.joint_positions;
+        assert!(
+            j[0].z > 0.3 && (j[j.len() - 1].z + 0.5).abs() < 0.02,
+            "{file}: {j:?}"
+        );
+    }
+}

@@ -42,7 +42,7 @@ fn test_steady_swim_is_biologically_sane_across_speeds() {
             (excursion_bl - 0.2).abs() <= 0.02,
             "{body_lengths_per_s} BL/s: tail excursion {excursion_bl} body lengths"
         );
-        // The frequency is the one the parameters promise.
+        // The frequency is the one the parameters promise: s·p·ω/λ.
         let expected = params.tail_beat_hz(speed);
         assert!(
             (freq - expected).abs() < 0.02 * expected,
@@ -51,23 +51,26 @@ fn test_steady_swim_is_biologically_sane_across_speeds() {
     }
 }
 
-/// At the pivot the body hardly moves; the head recoils against the tail.
+/// At the pivot the body hardly moves; the head recoils against the tail. (Unit joint weights
+/// and short segments, so the posed body is the wave F itself to within a few per cent.)
 #[test]
 fn test_pivot_is_the_quietest_point_and_head_recoils() {
     let params = MotionParams::default();
-    let body = Body::evenly_spaced(10); // joints at 0.1 … 0.9, one of them at the pivot 0.4.
+    let mut body = Body::evenly_spaced(10); // joints at 0.1 … 0.9, one of them at the pivot 0.4.
+    body.power = vec![1.0; 9];
     let (mut player, mut root) = cruising(&params, &body, params.s);
     let frames = record(&mut player, &params, &body, &mut root, 2.0, RATE_HZ);
     let range = |j: usize| peak_to_peak(frames.iter().map(|f| f.lateral[j]));
     let at_pivot = range(3);
-    assert!(at_pivot < 1e-3, "pivot moves {at_pivot}");
+    assert!(at_pivot < 0.03 * range(9), "pivot moves {at_pivot}");
     for j in [0, 1, 5, 6, 7, 8, 9] {
-        assert!(range(j) > at_pivot);
+        assert!(range(j) > 5.0 * at_pivot);
     }
-    // |A(x)| is the envelope, |x − p|·maxAmp: the tail tip (x = 1) sweeps 0.6/0.3 = 2 times the
-    // range of the joint at x = 0.1.
+    // |A(x)| is the envelope, |x − p|·maxAmp: the curve's tail tip (x = 1) sweeps 0.6/0.3 = 2
+    // times the range at x = 0.1; rigid segments carry a bend θ as sin θ rather than tan θ, which
+    // takes up to ~12 % off the steep tail segment.
     let ratio = range(9) / range(0);
-    assert!((ratio - 2.0).abs() < 0.02, "tail/head range {ratio}");
+    assert!((1.75..=2.0).contains(&ratio), "tail/head range {ratio}");
     // Either side of the pivot the body moves in opposite directions (A(x) changes sign there):
     // the displacements at x = 0.3 and x = 0.5 are anti-correlated, by −cos(2π·0.1·l/λ) = −0.81
     // with the default λ = l.
@@ -183,7 +186,9 @@ fn test_quick_turn_halts_and_serial_turn_keeps_swimming() {
 }
 
 /// During a left turn the tail is pushed to the left (C-bend concave to the turn side), and
-/// during a right turn to the right.
+/// during a right turn to the right: the same turn to both sides, from the same swim phase,
+/// differs only by the turn wave, so the mean tail displacement of the left one lies to the left
+/// of the right one's by a clear margin.
 #[test]
 fn test_turn_bends_tail_to_its_side() {
     for (kind, preset) in [
@@ -191,14 +196,26 @@ fn test_turn_bends_tail_to_its_side() {
         (TurnKind::Quick, "ex3"),
         (TurnKind::Serial, "ex4"),
     ] {
-        for side in [Side::Left, Side::Right] {
+        let l = Preset::by_name(preset).unwrap().params.l;
+        let mean_tail = |side| {
             let (frames, _) = turn(kind, side, FRAC_PI_2, preset);
-            let mean_tail = frames.iter().map(|f| f.lateral[6]).sum::<f32>() / frames.len() as f32;
-            // Positive lateral is left; d = −1 is left.
-            assert!(
-                mean_tail * -side.d() > 0.0,
-                "{kind:?} {side:?}: mean tail lateral {mean_tail}"
-            );
+            frames.iter().map(|f| f.lateral[6]).sum::<f32>() / frames.len() as f32
+        };
+        let (left, right) = (mean_tail(Side::Left), mean_tail(Side::Right));
+        assert!(
+            left - right > 0.04 * l,
+            "{kind:?}: mean tail lateral {left} (left turn) vs {right} (right turn)"
+        );
+    }
+    // Mid-way through a quick turn the fish has all but stopped, so the swim wave has faded and
+    // the whole body behind the pivot is bent to the turn side.
+    for side in [Side::Left, Side::Right] {
+        let (frames, duration) = turn(TurnKind::Quick, side, FRAC_PI_2, "ex3");
+        // `turn` records from the turn's first step at RATE_HZ.
+        let mid = &frames[(0.5 * duration * RATE_HZ) as usize];
+        assert_eq!(mid.motion, "quick_turn");
+        for (j, lat) in mid.lateral.iter().enumerate().skip(1) {
+            assert!(lat * -side.d() > 0.0, "{side:?}: joint {j} at {lat}");
         }
     }
 }
@@ -457,4 +474,38 @@ fn test_params_validation_names_each_field() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("λ'"), "{err}");
+}
+
+/// The midline the player reports is the posed chain: forward kinematics of `head_lateral`,
+/// `head_yaw` and the joint yaws through [`MidlinePoseJob`] puts the tail where `lateral` says,
+/// for the swim and all three turns.
+#[test]
+fn test_posed_chain_follows_reported_midline() {
+    use shoal::motion::{MidlinePoseJob, record_preset};
+    for name in ["ex1", "ex2", "ex3", "ex4"] {
+        let preset = Preset::by_name(name).unwrap();
+        let body = Body::black_porgy();
+        let rec = record_preset(&preset, &body, 3.0, 60.0).unwrap();
+        let l = preset.params.l;
+        let mut points = [glam::Vec3::ZERO; 8];
+        let mut worst: f32 = 0.0;
+        for f in &rec.frames {
+            MidlinePoseJob {
+                root: &f.root,
+                body: &body,
+                l,
+                head_lateral: f.head_lateral,
+                head_yaw: f.head_yaw,
+                yaw: &f.yaw,
+                points: &mut points,
+            }
+            .run()
+            .unwrap();
+            // Tail tip relative to the root, in the root's frame: sideways (left) component.
+            let rel = points[7] - f.root.pos;
+            let tail_left = rel.dot(f.root.left());
+            worst = worst.max((tail_left - f.lateral[6]).abs());
+        }
+        assert!(worst < 1e-4 * l, "{name}: posed tail differs by {worst}");
+    }
 }

@@ -113,6 +113,12 @@ fn rigged_simple_gltf_ignores_the_mesh_node_transform() {
     assert_eq!(model.mesh.num_vertices(), 160);
     assert_eq!(model.mesh.indices.len(), 564);
     assert_eq!(model.skeleton.names(), ["Bone", "Bone.001"]);
+    assert!(
+        model
+            .warnings
+            .iter()
+            .any(|w| w.contains("own transform is ignored"))
+    );
     // joint·IBM = Z_UP at rest: (x, y, z) → (x, z, −y). Armature's 90° turn must not appear.
     let expected: Vec<Vec3> = raw_positions("RiggedSimple.gltf", 0)
         .iter()
@@ -192,6 +198,8 @@ fn simple_skin_shared_strided_view() {
 #[test]
 fn simple_skin_bevy_joints_below_the_mesh_node() {
     let model = FishModel::load(&sample("SimpleSkin_bevy_variant.gltf")).unwrap();
+    // The mesh node is an identity root: nothing to ignore, so no such warning.
+    assert!(!model.warnings.iter().any(|w| w.contains("own transform")));
     assert_eq!(model.skeleton.num_joints(), 2);
     assert_eq!(model.mesh.num_vertices(), 10);
     // joint·IBM = translate(−0.5, 0, 0) at rest (IBM ≠ inverse rest pose).

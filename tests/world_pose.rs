@@ -173,3 +173,63 @@ fn stage_counters_are_filled() {
     );
     assert_eq!(c.lua_ns, 0);
 }
+
+#[test]
+fn the_shipped_porgy_at_rest_skins_to_its_bind_shape_head_at_the_root() {
+    use shoal::skin::LinearBlendSkinningJob;
+    use shoal::world::pose::root_matrix;
+    use shoal::world::{Species, SpeciesDesc, Tank};
+
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let species = Species::load(SpeciesDesc::black_porgy(), &assets).unwrap();
+    let l = species.body_length();
+    let mut w = World::new(
+        Tank {
+            min: Vec3::ZERO,
+            max: Vec3::splat(20.0 * l),
+        },
+        1,
+    );
+    let sid = w.add_species(species);
+    let pos = Vec3::new(300.0, 400.0, 500.0);
+    let id = w
+        .spawn(SpawnParams {
+            pitch: -0.2,
+            ..at(sid, pos, 2.0)
+        })
+        .unwrap();
+    w.update_pose();
+    let species = w.species(sid);
+    let mesh = &species.model.mesh;
+    let palette = &w.palettes()[w.palette_range(id).unwrap()];
+    assert_eq!(palette.len(), species.model.skeleton.num_joints());
+    let n = mesh.num_vertices();
+    let (mut positions, mut normals) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    LinearBlendSkinningJob {
+        palette,
+        positions_in: &mesh.positions,
+        normals_in: &mesh.normals,
+        joints: &mesh.joints,
+        weights: &mesh.weights,
+        positions_out: &mut positions,
+        normals_out: &mut normals,
+    }
+    .run()
+    .unwrap();
+    let placement = root_matrix(w.root(id).unwrap(), &species.rig.model_to_body);
+    for (v, skinned) in mesh.positions.iter().zip(&positions) {
+        let want = placement.transform_point3(*v);
+        assert!(skinned.abs_diff_eq(want, 1e-3 * l), "{skinned} vs {want}");
+    }
+    // The snout is at the root and the body is l long along the heading.
+    let fwd = forward(2.0, -0.2);
+    let along: Vec<f32> = positions.iter().map(|p| (*p - pos).dot(fwd)).collect();
+    let front = along.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let back = along.iter().copied().fold(f32::INFINITY, f32::min);
+    assert!(front.abs() < 1e-3 * l, "snout at the root: {front}");
+    assert!(
+        (front - back - l).abs() < 1e-3 * l,
+        "length {}",
+        front - back
+    );
+}

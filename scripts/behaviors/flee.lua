@@ -1,5 +1,6 @@
--- Escape: when a predator comes within the fear range, swim away from it at top speed;
--- otherwise wander. Collision avoidance still wins over wandering.
+-- Escape: when a predator comes within the fear range, swim away from where it was last seen at
+-- top speed until the fear wears off; otherwise wander. Rocks are avoided first; walls give way
+-- to fear (the tank itself stops a fish fleeing into one).
 local shoal = shoal
 local common = require("behaviors.lib.common")
 
@@ -14,19 +15,20 @@ end
 
 function M.intend(fish, p)
   local dt = common.elapsed(fish)
-  local fear = common.fear(fish, p.predator_distance, dt)
-  if p.predator_id and fear > 0.3 then return "flee" end
-  if p.avoid_heading then return "avoid" end
+  local fear = common.fear(fish, p, dt)
+  if common.avoiding(fish, p, "rock") then return "avoid" end
+  if fear > common.AFRAID then return "flee" end
+  if common.avoiding(fish, p, "wall") then return "avoid" end
   return "wander"
 end
 
 function M.behave(fish, intention, p)
   if intention == "flee" then
-    common.escape(p)
+    common.escape(fish)
   elseif intention == "avoid" then
-    shoal.steer(p.avoid_heading, p.avoid_depth, p.avoid_speed)
+    common.avoid(fish)
   else
-    common.wander()
+    common.wander(fish)
   end
 end
 

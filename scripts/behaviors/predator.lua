@@ -21,7 +21,9 @@ function M.intend(fish, p)
   local m = fish.memory
   local dt = common.elapsed(fish)
   common.hunger(fish, dt)
-  if p.avoid_heading then return "avoid" end
+  if common.avoiding(fish, p, "rock") or common.avoiding(fish, p, "wall") then
+    return "avoid"
+  end
   if m.rest_until and shoal.time() < m.rest_until then return "rest" end
   if p.prey_id and m.hunger > 0.2 then return "hunt" end
   return "patrol"
@@ -30,14 +32,14 @@ end
 function M.behave(fish, intention, p)
   local m = fish.memory
   if intention == "avoid" then
-    shoal.steer(p.avoid_heading, p.avoid_depth, p.avoid_speed)
+    common.avoid(fish)
   elseif intention == "hunt" then
     local me = shoal.species()
     if p.prey_distance < 0.5 * me.length then
       m.catches = (m.catches or 0) + 1
       m.hunger = 0
       m.rest_until = shoal.time() + M.REST_SECONDS
-      common.wander(1.5)
+      common.wander(fish, 1.5)
       return
     end
     -- lead the target: where it will be in LEAD_SECONDS
@@ -46,9 +48,9 @@ function M.behave(fish, intention, p)
     local z = p.prey_z - math.sin(p.prey_heading or 0) * lead
     shoal.steer(shoal.seek(x, p.prey_y, z, me.max_speed))
   elseif intention == "rest" then
-    common.wander(0.3)
+    common.wander(fish, 0.3)
   else
-    common.wander(0.5)
+    common.wander(fish, 0.5)
   end
 end
 

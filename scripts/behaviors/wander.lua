@@ -11,15 +11,17 @@ function M.perceive(fish)
 end
 
 function M.intend(fish, p)
-  if p.avoid_heading then return "avoid" end
+  if common.avoiding(fish, p, "rock") or common.avoiding(fish, p, "wall") then
+    return "avoid"
+  end
   return "wander"
 end
 
 function M.behave(fish, intention, p)
   if intention == "avoid" then
-    shoal.steer(p.avoid_heading, p.avoid_depth, p.avoid_speed)
+    common.avoid(fish)
   else
-    common.wander()
+    common.wander(fish)
   end
 end
 

@@ -1,8 +1,18 @@
--- The predator of the default scene: a black porgy body marked as a predator (so porgies see it
--- as one and flee) that swims faster.
+-- The predator of the default scene: the black porgy's body scaled up to 1.6 times the length,
+-- tinted rust-red, marked as a predator (porgies see it as one and flee), faster and
+-- farther-sighted.
 return {
   base = "black_porgy",
   name = "barracuda",
   predator = true,
+  color_tint = { 1.3, 0.75, 0.55 },
+  motion = {
+    l = 80,                 -- body length, world units (the model is scaled to it)
+    s = 70,                 -- cruising speed, units/s
+    max_amp = 80 / 6,
+    lambda = 80,
+  },
+  view_range = 500,
+  max_speed = 170,
   decision_hz = 10,
 }

@@ -98,6 +98,10 @@ function shoal.body() end
 ---@return shoal.Species
 function shoal.species() end
 
+---The tank's box, world units (y up; the surface is max_y).
+---@return { min_x: number, min_y: number, min_z: number, max_x: number, max_y: number, max_z: number }
+function shoal.tank() end
+
 ---Simulated time, seconds.
 ---@return number
 function shoal.time() end

@@ -235,7 +235,7 @@ impl FishPlan {
                 ]),
                 spines: 11,
                 spiny_part: 0.58,
-                sweep: 0.04,
+                sweep: 0.02,
                 grid: (24, 6),
             },
             anal: MedianFin {
@@ -638,7 +638,8 @@ impl FishPlan {
     }
 
     /// Adds a two-sided sheet: grid points `point(a, b)` (a along the base, b from base to edge),
-    /// offset ±`thickness`·(1 − b) along `side`, normals ±`side`.
+    /// offset ±`thickness`·(1 − b) along `side`, normals ±`side`; each triangle is wound so its
+    /// front faces its side's normal.
     #[allow(clippy::too_many_arguments)]
     fn sheet(
         m: &mut RiggedMesh,
@@ -651,9 +652,6 @@ impl FishPlan {
     ) {
         let (na, nb) = grid;
         let mut pairs = Vec::new();
-        // Orientation of the grid: (dP/da × dP/db) · side.
-        let o = (point(1.0, 0.5) - point(0.0, 0.5)).cross(point(0.5, 1.0) - point(0.5, 0.0));
-        let grid_faces_side = o.dot(side) > 0.0;
         for sign in [1.0f32, -1.0] {
             let base = m.positions.len() as u32;
             for i in 0..=na {
@@ -670,14 +668,18 @@ impl FishPlan {
                 }
             }
             let v = |i: usize, j: usize| base + (i * (nb + 1) + j) as u32;
-            let forward = grid_faces_side == (sign > 0.0);
             for i in 0..na {
                 for j in 0..nb {
                     let (p, q, r, s) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
-                    if forward {
-                        m.indices.extend([p, q, r, p, r, s]);
-                    } else {
-                        m.indices.extend([p, r, q, p, s, r]);
+                    // Wind each triangle so its front faces this side's normal.
+                    for [x, y, z] in [[p, q, r], [p, r, s]] {
+                        let pos = |k: u32| m.positions[k as usize];
+                        let face = (pos(y) - pos(x)).cross(pos(z) - pos(x));
+                        if face.dot(side * sign) >= 0.0 {
+                            m.indices.extend([x, y, z]);
+                        } else {
+                            m.indices.extend([x, z, y]);
+                        }
                     }
                 }
             }
@@ -723,7 +725,7 @@ impl FishPlan {
                 // Spine tips at a = k·spiny/spines; the membrane dips between them.
                 let k = a / fin.spiny_part * spines as f32;
                 let dip = (k * PI).sin().abs();
-                h *= 1.0 - 0.4 * dip * b.powf(1.5);
+                h *= 1.0 - 0.3 * dip * b.powf(1.5);
             }
             let sweep = fin.sweep * b;
             Vec3::new(0.0, root_y + sign * h * b, Self::z(f) - sweep)

@@ -8,6 +8,7 @@ use anyhow::Context;
 /// Arguments of `shoal asset`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
+    /// What to build.
     #[command(subcommand)]
     pub what: What,
 }
@@ -43,6 +44,10 @@ pub enum What {
         /// Panel size in pixels.
         #[arg(long, default_value_t = 512)]
         size: u32,
+        /// Instead: a sheet of 8 top views over one tail beat of a travelling wave whose joint
+        /// yaws peak at `--yaw` (a quick look at the fish swimming).
+        #[arg(long)]
+        swim: bool,
     },
 }
 
@@ -55,7 +60,8 @@ pub struct RigArgs {
     /// The rigged GLB to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Number of vertebral joints in the chain (root included; at least 2).
+    /// Vertebral chain joints, root included (2 to 64): root, spine_1 … spine_{N−1}; a leaf
+    /// tail_end is added. 7 gives the paper's 7 segments with 6 driven joints.
     #[arg(long, default_value_t = 7)]
     pub joints: usize,
     /// The body's long axis: auto (principal axis of the vertices), x, y or z.
@@ -113,8 +119,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out,
             yaw,
             size,
+            swim,
         } => {
-            let img = preview(&model, yaw, size)?;
+            let img = if swim {
+                swim_sheet(&model, yaw, size)?
+            } else {
+                preview(&model, yaw, size)?
+            };
             img.save(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {}", out.display());
@@ -125,9 +136,71 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 
 /// Skins `model` with every `spine_*` joint yawed by `yaw` and draws side and top views.
 pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<image::RgbImage> {
-    use crate::asset::preview::{View, render_views};
-    use glam::{Mat4, Vec3};
     let fish = crate::skin::FishModel::load(model)?;
+    let (rig, _) = preview_rig(model, &fish)?;
+    let yaws = vec![yaw; rig.num_driven()];
+    let (positions, f, u) = posed(&fish, &rig, &yaws)?;
+    use crate::asset::preview::{View, render_views};
+    let right = f.cross(u);
+    let views = [
+        View { right: -f, up: u },
+        View {
+            right: -f,
+            up: right,
+        },
+    ];
+    Ok(render_views(
+        &positions,
+        &fish.mesh.colors,
+        &fish.mesh.indices,
+        &views,
+        size,
+    ))
+}
+
+/// Eight top views over one period of a travelling wave: joint k's yaw is
+/// `amplitude · x_k · sin(2π(phase − x_k))` (x_k its position along the body).
+pub fn swim_sheet(
+    model: &std::path::Path,
+    amplitude: f32,
+    size: u32,
+) -> anyhow::Result<image::RgbImage> {
+    use crate::asset::preview::{View, render_views};
+    let fish = crate::skin::FishModel::load(model)?;
+    let (rig, _) = preview_rig(model, &fish)?;
+    let mut sheet = image::RgbImage::new(size * 4, size * 2);
+    for frame in 0..8u32 {
+        let phase = frame as f32 / 8.0;
+        let yaws: Vec<f32> = rig.body.joints_x[..rig.num_driven()]
+            .iter()
+            .map(|&x| amplitude * x * (std::f32::consts::TAU * (phase - x)).sin())
+            .collect();
+        let (positions, f, u) = posed(&fish, &rig, &yaws)?;
+        let views = [View {
+            right: -f,
+            up: f.cross(u),
+        }];
+        let img = render_views(
+            &positions,
+            &fish.mesh.colors,
+            &fish.mesh.indices,
+            &views,
+            size,
+        );
+        image::imageops::replace(
+            &mut sheet,
+            &img,
+            i64::from(frame % 4 * size),
+            i64::from(frame / 4 * size),
+        );
+    }
+    Ok(sheet)
+}
+
+fn preview_rig(
+    model: &std::path::Path,
+    fish: &crate::skin::FishModel,
+) -> anyhow::Result<(crate::species::SpeciesRig, ())> {
     let mut spines: Vec<(u32, String)> = fish
         .skeleton
         .names()
@@ -142,10 +215,19 @@ pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<i
     );
     let mut desc = crate::species::SpeciesDesc::black_porgy();
     desc.vertebral_joints = spines.into_iter().map(|(_, n)| n).collect();
-    let rig = crate::species::SpeciesRig::bind(&desc, &fish)?;
+    Ok((crate::species::SpeciesRig::bind(&desc, fish)?, ()))
+}
+
+/// Skins `fish` with the given driven-joint yaws; returns positions, forward and up.
+fn posed(
+    fish: &crate::skin::FishModel,
+    rig: &crate::species::SpeciesRig,
+    yaws: &[f32],
+) -> anyhow::Result<(Vec<glam::Vec3>, glam::Vec3, glam::Vec3)> {
+    use glam::{Mat4, Vec3};
     let n = fish.skeleton.num_joints();
     let mut locals = fish.skeleton.rest_locals().to_vec();
-    rig.pose(&vec![yaw; rig.num_driven()], &mut locals);
+    rig.pose(yaws, &mut locals);
     let mut models = vec![Mat4::IDENTITY; n];
     fish.skeleton
         .local_to_model(Mat4::IDENTITY, &locals, &mut models)
@@ -163,21 +245,5 @@ pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<i
         normals_out: &mut [],
     }
     .run()?;
-    let f = rig.model_forward;
-    let u = rig.model_up;
-    let right = f.cross(u);
-    let views = [
-        View { right: -f, up: u },
-        View {
-            right: -f,
-            up: right,
-        },
-    ];
-    Ok(render_views(
-        &positions,
-        &fish.mesh.colors,
-        &fish.mesh.indices,
-        &views,
-        size,
-    ))
+    Ok((positions, rig.model_forward, rig.model_up))
 }

@@ -30,9 +30,11 @@ pub const MIN_CLIMB_S: f32 = 1.0;
 /// Time constant, seconds, with which pitch relaxes to level outside ascents and descents.
 pub const PITCH_RELAX_S: f32 = 0.3;
 /// Extra bend of the quick turn's wave F_st over the swim amplitude (a C-shaped bend).
-pub const QUICK_TURN_BEND_GAIN: f32 = 3.0;
+pub const QUICK_TURN_BEND_GAIN: f32 = 2.0;
 /// Extra bend of the serial turn's wave F_st over the swim amplitude.
-pub const SERIAL_TURN_BEND_GAIN: f32 = 2.0;
+pub const SERIAL_TURN_BEND_GAIN: f32 = 1.5;
+/// Shortest wavelength of the quick/serial turn wave along the body, body lengths.
+pub const TURN_WAVELENGTH_BODY_LENGTHS: f32 = 8.0;
 /// Most motion transitions a single `step` performs (zero-length motions finish at once).
 const MAX_TRANSITIONS_PER_STEP: usize = 8;
 
@@ -116,10 +118,11 @@ impl Active {
             MotionRequest::Turn { kind, angle, side } => {
                 let tt = params.tt;
                 // λ'' = 2·Tt is a period; the swim wave's phase speed ω' at cruising speed turns it
-                // into a length along the body (at least 2 body lengths, so the bend stays one C).
+                // into a length along the body, at least TURN_WAVELENGTH_BODY_LENGTHS·l so the
+                // bend stays one smooth C instead of folding.
                 let wavelength = (wave::lambda_2(tt)
                     * wave::omega_prime(params.s, params.p, params.omega))
-                .max(2.0 * params.l);
+                .max(TURN_WAVELENGTH_BODY_LENGTHS * params.l);
                 let (v1, strokes, stroke_s, duration) = match kind {
                     TurnKind::Normal => {
                         let v1 = moving(v0);
@@ -257,6 +260,7 @@ fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
         kind,
         d,
         wavelength,
+        strokes,
         ..
     } = a.plan
     else {
@@ -271,22 +275,22 @@ fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
     let amp = wave::amplitude(xl, c.p, c.l, c.max_amp);
     let t = match kind {
         TurnKind::Normal => wave::f_nt(amp, xp, c.lambda, c.phase, d, c.f),
-        TurnKind::Quick => wave::f_st(
-            amp * QUICK_TURN_BEND_GAIN * c.f,
-            xp,
-            wavelength,
-            a.elapsed_s,
-            c.tt,
-            d,
-        ),
-        TurnKind::Serial => wave::f_st(
-            amp * SERIAL_TURN_BEND_GAIN * c.f,
-            xp,
-            wavelength,
-            a.elapsed_s,
-            c.tt,
-            d,
-        ),
+        TurnKind::Quick | TurnKind::Serial => {
+            // One |sin| lobe per stroke: the bend enters at the pivot when the stroke starts
+            // and runs to the tail; before it arrives (and after the last stroke) a point is
+            // not bent, so no lobe of a stroke that never happened shows.
+            let theta = TAU * wave::omega_2(c.tt) * a.elapsed_s - TAU * xp / wavelength;
+            if theta < 0.0 || theta > strokes as f32 * PI {
+                0.0
+            } else {
+                let gain = if kind == TurnKind::Quick {
+                    QUICK_TURN_BEND_GAIN
+                } else {
+                    SERIAL_TURN_BEND_GAIN
+                };
+                wave::f_st(amp * gain * c.f, xp, wavelength, a.elapsed_s, c.tt, d)
+            }
+        }
     };
     wave::t_locomotion(s, t, ip)
 }
@@ -431,6 +435,11 @@ impl MotionPlayer {
     /// displacement at each entry of `body.joints_x` into `lateral` and each driven joint's local
     /// yaw (radians) into `yaw`. Panics only on mismatched slice lengths (a programming error).
     ///
+    /// The wave (equations (3)–(7)) is sampled at the head and at `body.joints_x`; the bends
+    /// between segments, weighted by `body.power`, become `yaw`; `lateral` is the posed chain's
+    /// sideways displacement (so `lateral`, `yaw`, [`MotionPlayer::head_lateral`] and
+    /// [`MotionPlayer::head_yaw`] always describe the same body).
+    ///
     /// `dt` = 0 (or a NaN / negative `dt`, treated as 0) only recomputes the outputs. `params`
     /// should have passed [`MotionParams::validate`]. Never allocates.
     pub fn step(
@@ -510,6 +519,15 @@ impl MotionPlayer {
         let (sh, ch) = heading_mid.sin_cos();
         root.pos.x += ch * horizontal;
         root.pos.z -= sh * horizontal;
+        if heading != root.heading {
+            // Turns yaw the body about the pivot (the paper's turning axis), not about the head:
+            // the head, p·l in front of it, swings round with the heading.
+            let arm = params.p * params.l;
+            let (s0, c0) = root.heading.sin_cos();
+            let (s1, c1) = heading.sin_cos();
+            root.pos.x += arm * (c1 - c0);
+            root.pos.z -= arm * (s1 - s0);
+        }
         root.pos.y += dy;
         root.heading = wrap_angle(heading);
         root.speed = v_end;
@@ -573,6 +591,33 @@ impl MotionPlayer {
         if !self.head_yaw.is_finite() {
             self.head_yaw = 0.0;
         }
+        // Report the body as posed: the weighted yaws, chained from the head, give each
+        // sample's sideways displacement (what a renderer driving the joints shows).
+        posed_lateral(params.l, &body.joints_x, head, self.head_yaw, yaw, lateral);
+    }
+}
+
+/// Sideways displacement (positive left) of each `joints_x` sample of the rigid chain that starts
+/// `head_lateral` to the side, leaves the head at `head_yaw` and bends by `yaw` at each driven
+/// joint. Segment lengths are Δx·l.
+fn posed_lateral(
+    l: f32,
+    joints_x: &[f32],
+    head_lateral: f32,
+    head_yaw: f32,
+    yaw: &[f32],
+    lateral: &mut [f32],
+) {
+    let mut left = head_lateral;
+    let mut alpha = -head_yaw;
+    let mut x_prev = 0.0;
+    for (k, (&x, out)) in joints_x.iter().zip(lateral.iter_mut()).enumerate() {
+        if k > 0 {
+            alpha += yaw[k - 1];
+        }
+        left += (x - x_prev) * l * alpha.sin();
+        x_prev = x;
+        *out = left;
     }
 }
 

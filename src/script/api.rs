@@ -55,6 +55,9 @@ pub struct Ctx {
     pub fish: Option<FishId>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
+    /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
+    /// `nearest`); reset whenever `fish` changes.
+    pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
@@ -63,6 +66,7 @@ pub struct Ctx {
     see_pool: Vec<Table>,
     nearest_out: Table,
     body_out: Table,
+    tank_out: Table,
 }
 
 impl Ctx {
@@ -261,6 +265,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     lua.set_app_data(Ctx {
         fish: None,
         perception_ns: 0,
+        percepts_of: None,
         percepts: Vec::with_capacity(64),
         keys,
         species_names: Vec::new(),
@@ -269,6 +274,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         see_pool: Vec::new(),
         nearest_out: lua.create_table()?,
         body_out: lua.create_table()?,
+        tank_out: lua.create_table()?,
     });
 
     let shoal = lua.create_table()?;
@@ -288,7 +294,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 let start = Instant::now();
                 let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside("see"))?;
                 let ctx = &mut *ctx;
-                w.vision(f, &mut ctx.percepts);
+                if ctx.percepts_of != Some(f) {
+                    w.vision(f, &mut ctx.percepts);
+                    ctx.percepts_of = Some(f);
+                }
                 let out = ctx.see_out.clone();
                 let mut n = 0usize;
                 let percepts = std::mem::take(&mut ctx.percepts);
@@ -327,7 +336,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     .app_data_mut::<Ctx>()
                     .ok_or_else(|| outside("nearest"))?;
                 let ctx = &mut *ctx;
-                w.vision(f, &mut ctx.percepts);
+                if ctx.percepts_of != Some(f) {
+                    w.vision(f, &mut ctx.percepts);
+                    ctx.percepts_of = Some(f);
+                }
                 let want = match &species {
                     Some(s) => w.species_by_name(&s.to_str()?),
                     None => None,
@@ -409,6 +421,25 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 t.raw_set("predator", d.predator)?;
                 ctx.species_tables[i] = Some(t.clone());
                 Ok(t)
+            })
+        })?,
+    )?;
+    shoal.set(
+        "tank",
+        lua.create_function(|lua, ()| {
+            with_world(lua, "tank", |w, _| {
+                let t = *w.tank();
+                let out = lua
+                    .app_data_ref::<Ctx>()
+                    .map(|c| c.tank_out.clone())
+                    .ok_or_else(|| outside("tank"))?;
+                out.raw_set("min_x", t.min.x)?;
+                out.raw_set("min_y", t.min.y)?;
+                out.raw_set("min_z", t.min.z)?;
+                out.raw_set("max_x", t.max.x)?;
+                out.raw_set("max_y", t.max.y)?;
+                out.raw_set("max_z", t.max.z)?;
+                Ok(out)
             })
         })?,
     )?;

@@ -26,7 +26,7 @@
 use mlua::{Lua, LuaSerdeExt, Table, Value};
 use serde::Deserialize;
 
-use crate::world::SpeciesDesc;
+use crate::species::SpeciesDesc;
 
 /// An axis-aligned box, world units.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -139,8 +139,72 @@ pub struct SpeciesFile {
     pub decision_hz: f64,
 }
 
-/// TEMPORARY until species lands.
-pub fn species_from_table(_lua: &Lua, file: &str, _t: Table) -> Result<SpeciesFile, String> {
-    let _ = (<Lua as LuaSerdeExt>::to_value::<()>, Value::Nil);
-    Err(format!("{file}: species data needs the species module"))
+/// Built-in descriptions a species file can start from.
+fn base_desc(name: &str) -> Option<SpeciesDesc> {
+    match name {
+        "black_porgy" => Some(SpeciesDesc::black_porgy()),
+        "eel" => Some(SpeciesDesc::eel()),
+        _ => None,
+    }
+}
+
+/// Copies `over` into `base`, merging nested tables key by key.
+fn merge(lua: &Lua, base: &Table, over: &Table) -> mlua::Result<()> {
+    for kv in over.pairs::<Value, Value>() {
+        let (k, v) = kv?;
+        match (&v, base.raw_get::<Value>(k.clone())?) {
+            (Value::Table(o), Value::Table(b)) if o.raw_len() == 0 && !is_array_like(&b) => {
+                merge(lua, &b, o)?
+            }
+            _ => base.raw_set(k, v)?,
+        }
+    }
+    Ok(())
+}
+
+fn is_array_like(t: &Table) -> bool {
+    t.raw_len() > 0
+}
+
+/// Reads a species table (the value a species file returned) into a [`SpeciesFile`]. `file` names
+/// the file in messages.
+pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile, String> {
+    let err = |e: mlua::Error| format!("{file}: {}", super::error::describe(&e));
+    let decision_hz = match t.raw_get::<Value>("decision_hz").map_err(err)? {
+        Value::Nil => 10.0,
+        v => {
+            let hz = v
+                .as_number()
+                .or(v.as_integer().map(|i| i as f64))
+                .unwrap_or(f64::NAN);
+            if !(hz.is_finite() && hz > 0.0 && hz <= 60.0) {
+                return Err(format!(
+                    "{file}: decision_hz must be a number in (0, 60], got {}",
+                    v.to_string().unwrap_or_default()
+                ));
+            }
+            hz
+        }
+    };
+    t.raw_set("decision_hz", Value::Nil).map_err(err)?;
+    let table = match t.raw_get::<Option<String>>("base").map_err(err)? {
+        Some(base) => {
+            let desc = base_desc(&base).ok_or_else(|| {
+                format!(
+                    "{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")"
+                )
+            })?;
+            let Value::Table(b) = lua.to_value(&desc).map_err(err)? else {
+                return Err(format!("{file}: base species did not serialize to a table"));
+            };
+            t.raw_set("base", Value::Nil).map_err(err)?;
+            merge(lua, &b, &t).map_err(err)?;
+            b
+        }
+        None => t,
+    };
+    let desc: SpeciesDesc = lua
+        .from_value(Value::Table(table))
+        .map_err(|e| format!("{file}: {}", super::error::describe(&e)))?;
+    Ok(SpeciesFile { desc, decision_hz })
 }

@@ -360,6 +360,12 @@ impl Simulation {
             })
     }
 
+    /// Removes a fish and forgets its script table and memory. False if it was already gone.
+    pub fn despawn(&mut self, id: FishId) -> bool {
+        self.host.forget_fish(id);
+        self.world.despawn(id)
+    }
+
     /// The world.
     pub fn world(&self) -> &World {
         &self.world
@@ -418,8 +424,9 @@ impl Simulation {
         }
     }
 
-    /// Stage 2: the behaviour scripts of the fish due this tick.
-    fn run_behaviors(&mut self) {
+    /// Stage 2 alone: runs the behaviour scripts of the fish whose staggered slot is due this
+    /// tick (without advancing time; [`Simulation::step`] calls it). Public for benchmarks.
+    pub fn run_behaviors(&mut self) {
         let start = Instant::now();
         let tick = self.world.tick_count();
         let time_s = self.world.time();
@@ -470,11 +477,13 @@ impl Simulation {
             for (id, module, table) in &due {
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     c.fish = Some(*id);
+                    c.percepts_of = None;
                 }
                 let _ = host.run(*module, *id, table, time_s);
             }
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                 c.fish = None;
+                c.percepts_of = None;
             }
             lua.set_named_registry_value(WORLD_KEY, Value::Nil)?;
             Ok(())

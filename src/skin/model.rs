@@ -114,7 +114,8 @@ impl FishModel {
             .meshes
             .get(mesh_index)
             .ok_or_else(|| invalid(format!("node {node_index} names missing mesh {mesh_index}")))?;
-        if node.local_matrix != Mat4::IDENTITY || node.parent.is_some() {
+        let globals = scene.globals_from(&scene.rest_locals());
+        if !globals[node_index].abs_diff_eq(Mat4::IDENTITY, 1e-6) {
             warnings.push(format!(
                 "{}: the skinned mesh node {node_index}'s own transform is ignored (glTF skinning rule)",
                 path.display()
@@ -179,7 +180,6 @@ impl FishModel {
         }
 
         // The file's rest palette, global(joint) · IBM, by file joint index.
-        let globals = scene.globals_from(&scene.rest_locals());
         let bind_palette: Vec<Mat4> = skin
             .joints
             .iter()

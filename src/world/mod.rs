@@ -21,7 +21,6 @@ pub mod driver;
 pub mod grid;
 pub mod pose;
 pub mod sense;
-mod stand_in;
 pub mod steer;
 mod store;
 
@@ -42,9 +41,8 @@ use sense::{bearing, elevation, forward, in_view_cone, tank_distances, wrap_angl
 use steer::{Agent, Steer, SteerParams};
 use store::{FishStore, NewFish};
 
-// TEMPORARY: the contract's names from the species/skin work, until it lands in main.
 pub use crate::skin::FishModel;
-pub use stand_in::{SpeciesDesc, SpeciesRig};
+pub use crate::species::{SpeciesDesc, SpeciesRig};
 
 /// The fixed motion tick, Hz.
 pub const TICK_HZ: f64 = 60.0;

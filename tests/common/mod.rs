@@ -3,23 +3,21 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::Arc;
 
-use glam::{Mat4, Vec3};
-use shoal::motion::{Body, MotionParams};
+use shoal::motion::MotionParams;
 use shoal::script::Simulation;
-use shoal::skeleton::{JointTransform, NO_PARENT, Skeleton};
-use shoal::world::{FishModel, Species, SpeciesDesc, SpeciesRig};
+use shoal::world::{Species, SpeciesDesc};
 
 /// The repository root (holds `scripts/`).
 pub fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A copy of the repository's `scripts/` in a temporary directory (for tests that edit files).
+/// A copy of the repository's `scripts/` and `assets/` in a temporary directory (for tests that edit files).
 pub fn scratch_repo() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     copy_dir(&repo().join("scripts"), &dir.path().join("scripts"));
+    copy_dir(&repo().join("assets"), &dir.path().join("assets"));
     let root = dir.path().to_path_buf();
     (dir, root)
 }
@@ -37,50 +35,22 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// A black-porgy-like species built in Rust: Table 1's motion parameters (l = 50), a chain
-/// skeleton of 7 segments.
+/// The black porgy (`SpeciesDesc::black_porgy()` on `assets/black_porgy.glb`) under another
+/// name; a predator swims faster and sees further.
 pub fn species(name: &str, predator: bool) -> Species {
-    let motion = MotionParams::BLACK_PORGY;
-    let body = Body::black_porgy();
-    let n = body.joints_x.len() + 1;
-    let mut parents = vec![NO_PARENT];
-    parents.extend((0..n - 1).map(|i| i as u16));
-    let names = (0..n).map(|i| format!("j{i}")).collect();
-    let seg = motion.l / (n - 1) as f32;
-    let locals: Vec<JointTransform> = (0..n)
-        .map(|i| JointTransform {
-            translation: if i == 0 {
-                Vec3::ZERO
-            } else {
-                Vec3::new(-seg, 0.0, 0.0)
-            },
-            ..JointTransform::IDENTITY
-        })
-        .collect();
-    let skeleton = Skeleton::new(parents, names, locals).unwrap();
-    let ibms = skeleton.rest_models().iter().map(Mat4::inverse).collect();
-    Species {
-        desc: SpeciesDesc {
-            name: name.to_owned(),
-            asset: String::new(),
-            motion: MotionParams {
-                s: if predator { 70.0 } else { 50.0 },
-                ..motion
-            },
-            view_range: if predator { 500.0 } else { 300.0 },
-            view_angle_deg: 300.0,
-            max_speed: if predator { 160.0 } else { 150.0 },
-            predator,
+    let base = SpeciesDesc::black_porgy();
+    let desc = SpeciesDesc {
+        name: name.to_owned(),
+        motion: MotionParams {
+            s: if predator { 70.0 } else { 50.0 },
+            ..base.motion
         },
-        rig: SpeciesRig {
-            body,
-            model_to_body: Mat4::IDENTITY,
-        },
-        model: Arc::new(FishModel {
-            skeleton,
-            inverse_bind_poses: ibms,
-        }),
-    }
+        view_range: if predator { 500.0 } else { 300.0 },
+        max_speed: if predator { 160.0 } else { 150.0 },
+        predator,
+        ..base
+    };
+    Species::load(desc, &repo().join("assets")).unwrap()
 }
 
 /// An empty-tank simulation of the repository's scripts with the test species

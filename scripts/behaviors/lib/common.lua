@@ -1,9 +1,14 @@
 -- Shared pieces of the shipped behaviours: drives (after Tu & Terzopoulos, "Artificial Fishes",
--- 1994) and the reflexes every behaviour runs first (escape, collision avoidance).
+-- 1994), reflexes every behaviour runs first (collision avoidance, escape), and held wishes.
 --
 -- Drives live in fish.memory so they persist across ticks and reloads:
 --   hunger in [0, 1]: rises at HUNGER_RATE per second, falls by MEAL per pellet eaten.
---   fear   in [0, 1]: FEAR_RANGE / distance to the nearest predator seen, decaying when none is.
+--   fear   in [0, 1]: FEAR_LENGTHS body lengths / distance to the nearest predator seen, decaying
+--                     at FEAR_DECAY per second once none is seen (the fish remembers where it was).
+--
+-- Wishes that need a whole turn to carry out (avoiding a wall, a new wander direction) are held
+-- for a moment in memory rather than recomputed every decision: recomputing them as the fish
+-- turns would keep restarting the turn.
 
 local shoal = shoal
 local C = {}
@@ -12,7 +17,13 @@ C.HUNGER_RATE = 0.01   -- per second: from sated to starving in 100 s
 C.MEAL = 0.4           -- hunger removed by one pellet
 C.HUNGRY = 0.3         -- above this, food in sight wins over crowding/wandering
 C.FEAR_LENGTHS = 6     -- a predator within this many body lengths is frightening
-C.FEAR_DECAY = 0.5     -- per second, once no predator is seen
+C.FEAR_DECAY = 0.1     -- per second, once no predator is seen
+C.AFRAID = 0.5         -- fear above this: flee
+C.AVOID_HOLD = 1.5     -- seconds an avoidance manoeuvre is held
+C.AVOID_RETARGET = math.rad(60)  -- a new manoeuvre this different replaces a held one
+C.WALL_LOOKAHEAD = 2.5 -- seconds ahead a side wall is looked for
+C.SHARP_TURN = math.rad(100)  -- avoidance turns sharper than this are quick turns
+C.WANDER_HOLD = { 2, 5 }  -- seconds a wander direction is held (random in this range)
 
 -- Seconds since this fish's previous decision (0 on its first).
 function C.elapsed(fish)
@@ -32,26 +43,86 @@ function C.hunger(fish, dt)
   return h
 end
 
--- Updates fear from the distance to the nearest predator seen (nil: none); returns it.
-function C.fear(fish, distance, dt)
+-- Updates fear from the predator in p (if any) and remembers where it was; returns fear.
+function C.fear(fish, p, dt)
   local m = fish.memory
   local f = (m.fear or 0) - C.FEAR_DECAY * dt
-  if distance then
+  if p.predator_id then
     local length = shoal.species().length
-    local f_now = C.FEAR_LENGTHS * length / math.max(distance, 1e-3)
+    local f_now = C.FEAR_LENGTHS * length / math.max(p.predator_distance, 1e-3)
     if f_now > f then f = f_now end
+    m.threat_x, m.threat_y, m.threat_z = p.predator_x, p.predator_y, p.predator_z
   end
   if f < 0 then f = 0 elseif f > 1 then f = 1 end
   m.fear = f
   return f
 end
 
--- Fills p.avoid_* with an avoidance manoeuvre when a rock or a wall is close; returns whether.
+-- Senses rocks and walls into p.rock_* / p.wall_* (heading, depth, speed or nil).
+-- Side walls are seen early: where the fish will be in WALL_LOOKAHEAD seconds, a body length in
+-- from the walls, must still be inside, else it turns for the middle of the tank (a steady wish,
+-- so the motion layer carries out one whole turn). Floor and surface use shoal.avoid_walls.
 function C.sense_collision(p)
-  local h, d, s = shoal.avoid_obstacles()
-  if not h then h, d, s = shoal.avoid_walls() end
-  p.avoid_heading, p.avoid_depth, p.avoid_speed = h, d, s
-  return h ~= nil
+  p.rock_heading, p.rock_depth, p.rock_speed = shoal.avoid_obstacles()
+  local b, s, t = shoal.body(), shoal.species(), shoal.tank()
+  local look = C.WALL_LOOKAHEAD * s.cruise_speed
+  local x = b.x + math.cos(b.heading) * look
+  local z = b.z - math.sin(b.heading) * look
+  local inset = s.length
+  if x < t.min_x + inset or x > t.max_x - inset or z < t.min_z + inset or z > t.max_z - inset then
+    local cx, cz = 0.5 * (t.min_x + t.max_x), 0.5 * (t.min_z + t.max_z)
+    p.wall_heading = math.atan(-(cz - b.z), cx - b.x)
+    p.wall_depth, p.wall_speed = b.depth, s.cruise_speed
+  else
+    p.wall_heading, p.wall_depth, p.wall_speed = shoal.avoid_walls(s.length)
+  end
+end
+
+local function angle_between(a, b)
+  local d = (a - b) % (2 * math.pi)
+  if d > math.pi then d = 2 * math.pi - d end
+  return d
+end
+
+-- True while an avoidance manoeuvre of kind `which` ("rock" or "wall") is held, starting one if
+-- p asks for it. A held manoeuvre is replaced only by one pointing somewhere else entirely (a
+-- second wall), not by the slowly changing wish of the same one.
+local AVOID_KEYS = {
+  rock = { heading = "rock_heading", depth = "rock_depth", speed = "rock_speed" },
+  wall = { heading = "wall_heading", depth = "wall_depth", speed = "wall_speed" },
+}
+
+function C.avoiding(fish, p, which)
+  local m = fish.memory
+  local now = shoal.time()
+  local k = AVOID_KEYS[which]
+  local h = p[k.heading]
+  local held = m.avoid_kind == which and m.avoid_until and now < m.avoid_until
+  if held and not (h and angle_between(h, m.avoid_heading) > C.AVOID_RETARGET) then
+    return true
+  end
+  if h then
+    m.avoid_kind = which
+    m.avoid_heading, m.avoid_depth = h, p[k.depth]
+    m.avoid_speed = p[k.speed]
+    m.avoid_until = now + C.AVOID_HOLD
+    return true
+  end
+  return false
+end
+
+-- Carries out the held avoidance: a sharp one as a quick turn (halting, small radius: the fish
+-- spins away from the wall) unless `smooth`, anything else through shoal.steer.
+function C.avoid(fish, smooth)
+  local m = fish.memory
+  local b = shoal.body()
+  if b.motion == "quick_turn" then return end   -- let it finish
+  local err = (m.avoid_heading - b.heading + math.pi) % (2 * math.pi) - math.pi
+  if not smooth and math.abs(err) > C.SHARP_TURN then
+    shoal.quick_turn(math.abs(err), err > 0 and "left" or "right", true)
+  else
+    shoal.steer(m.avoid_heading, m.avoid_depth, m.avoid_speed)
+  end
 end
 
 -- Key names per prefix, built once (no string concatenation per decision).
@@ -78,9 +149,10 @@ function C.keep(p, prefix, percept)
   end
 end
 
--- Escape: flat out away from the predator.
-function C.escape(p)
-  shoal.steer(shoal.flee(p.predator_x, p.predator_y, p.predator_z))
+-- Escape: flat out away from where the predator was last seen.
+function C.escape(fish)
+  local m = fish.memory
+  shoal.steer(shoal.flee(m.threat_x, m.threat_y, m.threat_z))
 end
 
 -- Go for the food in p; eat it when within reach. Returns true if it ate.
@@ -100,9 +172,17 @@ function C.feed(fish, p)
   return ate
 end
 
--- Wander, slowly changing heading and depth.
-function C.wander(turn)
-  shoal.steer(shoal.wander(turn))
+-- Wander: a new random direction every few seconds (up to `turn` radians from the current
+-- heading, default 0.6), held in between.
+function C.wander(fish, turn)
+  local m = fish.memory
+  local now = shoal.time()
+  if not m.wander_until or now >= m.wander_until then
+    m.wander_heading, m.wander_depth, m.wander_speed = shoal.wander(turn)
+    local lo, hi = C.WANDER_HOLD[1], C.WANDER_HOLD[2]
+    m.wander_until = now + lo + (hi - lo) * shoal.random()
+  end
+  shoal.steer(m.wander_heading, m.wander_depth, m.wander_speed)
 end
 
 return C

@@ -1,0 +1,203 @@
+//! Headless scripted behaviour tests (`shoal test`): `*_test.lua` files run deterministically on a
+//! fixed timestep, with no rendering, no GPU and no display.
+//!
+//! A test file calls `test(name, fn)`; each `fn(t)` builds worlds with `t:world{…}`, spawns fish,
+//! runs simulated time and checks outcomes with `t:expect` / `t:near` (see [`api`] for the whole
+//! Lua surface). Every failed check records the test file and line, the expected and actual values
+//! and the simulated time, so a designer can find the failure without a debugger. With a trace
+//! directory, each failing test also writes its fish trajectories (CSV) and a top-view plot (PNG).
+
+pub mod api;
+pub mod trace;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What the runner was asked to do.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Only tests whose name (or file name) contains this text run.
+    pub filter: Option<String>,
+    /// Where failing tests write `<file>-<test>.csv` and `.png`; `None` writes nothing.
+    pub trace_dir: Option<PathBuf>,
+    /// Repository root: `scripts/` (behaviours, species, scenes) and `assets/` live under it.
+    pub root: PathBuf,
+}
+
+/// One failed check (or the error that ended a test).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// The test file.
+    pub file: PathBuf,
+    /// Line in the test file, where known.
+    pub line: Option<usize>,
+    /// What went wrong, in the test's own words plus expected/actual values.
+    pub message: String,
+    /// Simulated seconds of the most recently run world when the check failed.
+    pub sim_time: f64,
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{line}: ", self.file.display())?,
+            None => write!(f, "{}: ", self.file.display())?,
+        }
+        write!(
+            f,
+            "{} (at simulated t = {:.2} s)",
+            self.message, self.sim_time
+        )
+    }
+}
+
+/// The result of one `test(name, fn)`.
+#[derive(Debug, Clone)]
+pub struct TestOutcome {
+    /// The file that declared the test.
+    pub file: PathBuf,
+    /// The test's name.
+    pub name: String,
+    /// Every failed check; empty means the test passed.
+    pub failures: Vec<Failure>,
+    /// Simulated seconds over all worlds the test ran.
+    pub sim_seconds: f64,
+    /// Wall-clock time the test took.
+    pub wall: Duration,
+    /// Number of checks (`expect`, `near`) the test made.
+    pub num_checks: usize,
+    /// Trace files written for this test, if it failed and tracing was on.
+    pub trace_files: Vec<PathBuf>,
+}
+
+impl TestOutcome {
+    /// True when no check failed and the test ran to its end.
+    pub fn passed(&self) -> bool {
+        self.failures.is_empty()
+    }
+}
+
+/// Totals over a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Summary {
+    /// Tests that passed.
+    pub passed: usize,
+    /// Tests that failed.
+    pub failed: usize,
+}
+
+impl Summary {
+    /// Adds up outcomes.
+    pub fn of(outcomes: &[TestOutcome]) -> Self {
+        let passed = outcomes.iter().filter(|o| o.passed()).count();
+        Self {
+            passed,
+            failed: outcomes.len() - passed,
+        }
+    }
+}
+
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} passed, {} failed", self.passed, self.failed)
+    }
+}
+
+/// Errors that stop a whole run (a test's own errors are [`Failure`]s instead).
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A path given on the command line does not exist.
+    #[error("no such test file or directory: {0}")]
+    MissingPath(PathBuf),
+    /// A directory could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// Every `*_test.lua` under `paths` (files are taken as given), sorted, without duplicates.
+pub fn discover(paths: &[PathBuf]) -> Result<Vec<PathBuf>, RunError> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), RunError> {
+        let entries = std::fs::read_dir(dir).map_err(|source| RunError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        for entry in entries {
+            let path = entry
+                .map_err(|source| RunError::Io {
+                    path: dir.to_path_buf(),
+                    source,
+                })?
+                .path();
+            if path.is_dir() {
+                walk(&path, out)?;
+            } else if path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.ends_with("_test.lua"))
+            {
+                out.push(path);
+            }
+        }
+        Ok(())
+    }
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            walk(path, &mut files)?;
+        } else if path.is_file() {
+            files.push(path.clone());
+        } else {
+            return Err(RunError::MissingPath(path.clone()));
+        }
+    }
+    files.sort();
+    files.dedup();
+    Ok(files)
+}
+
+/// Runs every test of every file, calling `on_outcome` as each finishes (for live output).
+pub fn run_files(
+    files: &[PathBuf],
+    options: &RunOptions,
+    mut on_outcome: impl FnMut(&TestOutcome),
+) -> Vec<TestOutcome> {
+    let mut outcomes = Vec::new();
+    for file in files {
+        for outcome in api::run_file(file, options) {
+            on_outcome(&outcome);
+            outcomes.push(outcome);
+        }
+    }
+    outcomes
+}
+
+/// One line per test: status, name, simulated seconds, wall time; failures indented below.
+pub fn format_outcome(outcome: &TestOutcome) -> String {
+    let status = if outcome.passed() { "PASS" } else { "FAIL" };
+    let file = outcome
+        .file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut line = format!(
+        "{status} {file} :: {} ({:.1} s simulated, {:.0} ms wall)",
+        outcome.name,
+        outcome.sim_seconds,
+        outcome.wall.as_secs_f64() * 1000.0
+    );
+    for failure in &outcome.failures {
+        line.push_str(&format!("\n    {failure}"));
+    }
+    for path in &outcome.trace_files {
+        line.push_str(&format!("\n    trace: {}", path.display()));
+    }
+    line
+}
+
+/// Wall-clock helper shared by the runner.
+pub(crate) fn elapsed_since(start: Instant) -> Duration {
+    start.elapsed()
+}
