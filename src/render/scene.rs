@@ -466,6 +466,7 @@ impl SceneDriver for DemoScene {
             camera: self.default_camera(),
             tank: self.config.tank,
             time_s: self.time_s,
+            props: &[],
             overlay: &[],
             look: Look {
                 caustic_strength: self.config.caustics,

@@ -11,9 +11,10 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
+use super::props::PropMesh;
 use super::{
     Camera, FishInfo, FishInstance, FrameInput, Look, MeshId, MeshUpload, OverlayLine,
-    OverlayToggles, SceneDriver, TankBounds,
+    OverlayToggles, Prop, SceneDriver, TankBounds,
 };
 use crate::motion::{MotionParams, MotionRequest};
 use crate::script::Simulation;
@@ -93,6 +94,9 @@ pub struct WorldScene<S: WorldSim> {
     sim: S,
     species: Vec<SpeciesDraw>,
     instances: Vec<FishInstance>,
+    rock: PropMesh,
+    pellet: PropMesh,
+    props: Vec<Prop>,
     selected: Option<usize>,
     accumulator_s: f64,
     step_ms: f32,
@@ -107,6 +111,9 @@ impl<S: WorldSim> std::fmt::Debug for WorldScene<S> {
             .finish()
     }
 }
+
+/// Radius of a drawn food pellet, length units.
+pub const FOOD_PELLET_RADIUS: f32 = 2.5;
 
 /// Most ticks run for one rendered frame (a slow frame drops simulated time rather than
 /// spiralling).
@@ -136,6 +143,9 @@ impl<S: WorldSim> WorldScene<S> {
             sim,
             species,
             instances: Vec::new(),
+            rock: PropMesh::rock(),
+            pellet: PropMesh::pellet(),
+            props: Vec::new(),
             selected: None,
             accumulator_s: 0.0,
             step_ms: 0.0,
@@ -166,6 +176,35 @@ impl<S: WorldSim> WorldScene<S> {
 
     fn rebuild_instances(&mut self) {
         let w = self.sim.world();
+        // Props: rocks for the sphere obstacles, pellets for uneaten food (mesh ids after the
+        // species' meshes, see `meshes`).
+        let rock = MeshId(self.species.len() as u32);
+        let pellet = MeshId(self.species.len() as u32 + 1);
+        self.props.clear();
+        for o in w.obstacles() {
+            self.props.push(Prop {
+                mesh: rock,
+                transform: Mat4::from_scale_rotation_translation(
+                    Vec3::splat(o.radius),
+                    glam::Quat::from_rotation_y(o.pos.x * 0.013 + o.pos.z * 0.007),
+                    o.pos,
+                ),
+                tint: [1.0; 3],
+            });
+        }
+        for (_, food) in w.foods() {
+            if !food.eaten {
+                self.props.push(Prop {
+                    mesh: pellet,
+                    transform: Mat4::from_scale_rotation_translation(
+                        Vec3::splat(FOOD_PELLET_RADIUS),
+                        glam::Quat::IDENTITY,
+                        food.pos,
+                    ),
+                    tint: [1.0; 3],
+                });
+            }
+        }
         self.instances.clear();
         for (i, (offset, species)) in w.palette_offsets().iter().zip(w.fish_species()).enumerate() {
             self.instances.push(FishInstance {
@@ -181,7 +220,8 @@ impl<S: WorldSim> WorldScene<S> {
 impl<S: WorldSim> SceneDriver for WorldScene<S> {
     fn meshes(&self) -> Vec<MeshUpload<'_>> {
         let w = self.sim.world();
-        self.species
+        let mut meshes: Vec<MeshUpload<'_>> = self
+            .species
             .iter()
             .enumerate()
             .map(|(i, s)| {
@@ -190,7 +230,10 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
                     &s.model.mesh,
                 )
             })
-            .collect()
+            .collect();
+        meshes.push(self.rock.upload());
+        meshes.push(self.pellet.upload());
+        meshes
     }
 
     fn step(&mut self, dt_s: f32) {
@@ -224,6 +267,7 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
                 max: t.max,
             },
             time_s: w.time() as f32,
+            props: &self.props,
             overlay: &[],
             look: self.look,
         }
@@ -236,7 +280,7 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
             target: (t.min + t.max) * 0.5 - Vec3::Y * size.y * 0.1,
             yaw_rad: 0.35,
             pitch_rad: 0.2,
-            distance: size.x.max(size.z) * 0.9,
+            distance: size.x.max(size.z) * 0.75,
             fov_y_rad: 50f32.to_radians(),
         }
     }
