@@ -614,77 +614,6 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                     .text("speed ×"),
             );
         });
-    egui::CollapsingHeader::new("Timings (last 120 frames, ms)")
-        .default_open(true)
-        .show(ui, |ui| {
-            egui::Grid::new("timings").striped(true).show(ui, |ui| {
-                ui.label("stage");
-                ui.label("mean");
-                ui.label("max");
-                ui.end_row();
-                let rows: [(&str, StageOf); 4] = [
-                    ("simulation", |t| t.sim_ms),
-                    ("skinning upload", |t| t.upload_ms),
-                    ("draw (encode+submit)", |t| t.draw_ms),
-                    ("frame", |t| t.frame_ms),
-                ];
-                for (name, f) in rows {
-                    let (mean, max) = mean_max(&st.times, f);
-                    ui.label(name);
-                    ui.label(format!("{mean:.2}"));
-                    ui.label(format!("{max:.2}"));
-                    ui.end_row();
-                }
-                for (name, ms) in scene.stage_timings_ms() {
-                    ui.label(format!("  sim: {name}"));
-                    ui.label(format!("{ms:.2}"));
-                    ui.end_row();
-                }
-            });
-        });
-    egui::CollapsingHeader::new("Overlays")
-        .default_open(true)
-        .show(ui, |ui| {
-            ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
-            ui.checkbox(&mut st.toggles.midline, "body midline");
-            ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
-            ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
-        });
-    let species = scene.species_names();
-    egui::CollapsingHeader::new("Motion parameters")
-        .default_open(true)
-        .show(ui, |ui| {
-            if !species.is_empty() {
-                egui::ComboBox::from_label("species")
-                    .selected_text(species.get(st.species).cloned().unwrap_or_default())
-                    .show_ui(ui, |ui| {
-                        for (i, name) in species.iter().enumerate() {
-                            ui.selectable_value(&mut st.species, i, name);
-                        }
-                    });
-            }
-            let Some(mut p) = scene.motion_params(st.species) else {
-                ui.label("(this scene has no tunable motion)");
-                return;
-            };
-            let before = p;
-            ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
-            ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
-            ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
-            ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
-            ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
-            ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
-            ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
-            ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
-            let mut deg = p.turn_angle.to_degrees();
-            ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
-            p.turn_angle = deg.to_radians();
-            if p != before
-                && let Err(e) = scene.set_motion_params(st.species, p)
-            {
-                st.log(e);
-            }
-        });
     egui::CollapsingHeader::new("Selected fish")
         .default_open(true)
         .show(ui, |ui| {
@@ -754,6 +683,77 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                 for (k, v) in &st.inspect {
                     ui.label(k);
                     ui.label(v);
+                    ui.end_row();
+                }
+            });
+        });
+    let species = scene.species_names();
+    egui::CollapsingHeader::new("Motion parameters")
+        .default_open(true)
+        .show(ui, |ui| {
+            if !species.is_empty() {
+                egui::ComboBox::from_label("species")
+                    .selected_text(species.get(st.species).cloned().unwrap_or_default())
+                    .show_ui(ui, |ui| {
+                        for (i, name) in species.iter().enumerate() {
+                            ui.selectable_value(&mut st.species, i, name);
+                        }
+                    });
+            }
+            let Some(mut p) = scene.motion_params(st.species) else {
+                ui.label("(this scene has no tunable motion)");
+                return;
+            };
+            let before = p;
+            ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
+            ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
+            ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
+            ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
+            ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
+            ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
+            ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
+            ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
+            let mut deg = p.turn_angle.to_degrees();
+            ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
+            p.turn_angle = deg.to_radians();
+            if p != before
+                && let Err(e) = scene.set_motion_params(st.species, p)
+            {
+                st.log(e);
+            }
+        });
+    egui::CollapsingHeader::new("Overlays")
+        .default_open(true)
+        .show(ui, |ui| {
+            ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
+            ui.checkbox(&mut st.toggles.midline, "body midline");
+            ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
+            ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
+        });
+    egui::CollapsingHeader::new("Timings (last 120 frames, ms)")
+        .default_open(true)
+        .show(ui, |ui| {
+            egui::Grid::new("timings").striped(true).show(ui, |ui| {
+                ui.label("stage");
+                ui.label("mean");
+                ui.label("max");
+                ui.end_row();
+                let rows: [(&str, StageOf); 4] = [
+                    ("simulation", |t| t.sim_ms),
+                    ("skinning upload", |t| t.upload_ms),
+                    ("draw (encode+submit)", |t| t.draw_ms),
+                    ("frame", |t| t.frame_ms),
+                ];
+                for (name, f) in rows {
+                    let (mean, max) = mean_max(&st.times, f);
+                    ui.label(name);
+                    ui.label(format!("{mean:.2}"));
+                    ui.label(format!("{max:.2}"));
+                    ui.end_row();
+                }
+                for (name, ms) in scene.stage_timings_ms() {
+                    ui.label(format!("  sim: {name}"));
+                    ui.label(format!("{ms:.2}"));
                     ui.end_row();
                 }
             });
