@@ -109,10 +109,13 @@ pub enum SkeletonError {
     /// A number given to a job or builder is NaN, infinite or out of its range.
     #[error("{what}[{index}] = {value}: {why}")]
     InvalidValue {
+        /// The input's name.
         what: &'static str,
+        /// Index of the bad entry (0 for a single value).
         index: usize,
         /// The value as written (kept as text so the error stays `Eq`).
         value: String,
+        /// What is accepted.
         why: &'static str,
     },
 }

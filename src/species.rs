@@ -157,18 +157,8 @@ impl SpeciesDesc {
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
-            // The motion layer's black porgy defaults (λ = l, maxAmp = l/6, ω = 3.75, Tt = 2 s).
-            motion: MotionParams {
-                p: 0.4,
-                s: 50.0,
-                l: 50.0,
-                max_amp: 50.0 / 6.0,
-                lambda: 50.0,
-                omega: 3.75,
-                tt: 2.0,
-                f: 1.0,
-                turn_angle: std::f32::consts::FRAC_PI_2,
-            },
+            // The motion layer's black porgy defaults (Table 1 Ex1), written once there.
+            motion: MotionParams::BLACK_PORGY,
             view_range: 250.0,
             view_angle_deg: 300.0,
             max_speed: 120.0,
@@ -193,7 +183,7 @@ impl SpeciesDesc {
                 p: 0.2,
                 s: 30.0,
                 l: 70.0,
-                max_amp: 70.0 / 10.0,
+                max_amp: 70.0 / 8.0,
                 lambda: 42.0,
                 omega: 3.0,
                 tt: 2.5,
@@ -276,26 +266,6 @@ impl SpeciesDesc {
         }
         Ok(())
     }
-}
-
-/// Power weight of a driven joint at `x` (fraction of body length from the head), after Fig. 5.
-///
-/// Fig. 5 gives the black porgy's instantaneous muscle power at three places A, B, C along the
-/// body; the posterior muscle delivers most. Read as A = 0.6 at x = 0.3, B = 0.8 at x = 0.55,
-/// C = 1.0 at x = 0.8, linear in between and held beyond (the same reading as the motion layer's
-/// `power_after_fig5`, written here so this branch builds on its own).
-pub fn power_profile(x: f32) -> f32 {
-    const POINTS: [(f32, f32); 3] = [(0.3, 0.6), (0.55, 0.8), (0.8, 1.0)];
-    if x <= POINTS[0].0 {
-        return POINTS[0].1;
-    }
-    for w in POINTS.windows(2) {
-        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
-        if x <= x1 {
-            return y0 + (y1 - y0) * (x - x0) / (x1 - x0);
-        }
-    }
-    POINTS[2].1
 }
 
 /// A species bound to its model: everything the per-frame pose needs, precomputed.
@@ -449,7 +419,7 @@ impl SpeciesRig {
         joints_x.push(1.0);
         let power = joints_x[..driven.len()]
             .iter()
-            .map(|&x| power_profile(x))
+            .map(|&x| crate::motion::power_after_fig5(x))
             .collect();
 
         // Bend axes in each driven joint's local frame: ventral direction through the inverse of

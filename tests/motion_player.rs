@@ -256,6 +256,21 @@ fn test_ascent_and_descent_reach_their_depth() {
     }
 }
 
+/// From rest, an ascent first gets up to speed, so the pitch never exceeds 30°.
+#[test]
+fn test_ascent_from_rest_never_pitches_steeply() {
+    let params = MotionParams::default();
+    let body = Body::black_porgy();
+    let mut player = MotionPlayer::new();
+    let mut root = RootState::default();
+    player.push(MotionRequest::Ascend { height: 40.0 }).unwrap();
+    let frames = record(&mut player, &params, &body, &mut root, 8.0, 120.0);
+    let max_pitch = frames.iter().map(|f| f.root.pitch).fold(0.0, f32::max);
+    assert!(max_pitch <= PI / 6.0 + 1e-3, "pitch {max_pitch}");
+    assert!((root.pos.y - 40.0).abs() < 0.02 * 40.0, "{}", root.pos.y);
+    assert_eq!(player.current_name(), "swim");
+}
+
 /// Fig. 10: requests play to completion, in order; `interrupt` drops the queue and cuts in.
 #[test]
 fn test_queue_plays_in_order_and_interrupt_cuts_in() {

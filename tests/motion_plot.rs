@@ -85,3 +85,27 @@ fn test_plot_bad_input_is_an_error() {
     assert!(!result.status.success());
     assert!(!String::from_utf8_lossy(&result.stderr).contains("panicked"));
 }
+
+/// Without a usable font the figure is still drawn, just without any text.
+#[test]
+fn test_plot_without_fonts_still_draws() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plain.png");
+    let preset = shoal::motion::Preset::by_name("ex4").unwrap();
+    shoal::cli::plot::draw_figure(&preset, &out, (800, 400), false).unwrap();
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (800, 400));
+    for (x0, x1) in [(0, 400), (400, 800)] {
+        let (blue, red) = coloured(&img, x0, x1);
+        assert!(
+            blue > 200 && red > 200,
+            "[{x0}, {x1}): {blue} blue, {red} red"
+        );
+    }
+    // No text: the title strip at the top stays white.
+    for y in 0..6 {
+        for x in 0..800 {
+            assert_eq!(img.get_pixel(x, y).0, [255, 255, 255], "({x}, {y})");
+        }
+    }
+}

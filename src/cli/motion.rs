@@ -61,6 +61,11 @@ impl PresetArgs {
             p.s = v;
         }
         if let Some(v) = self.tt {
+            if v >= 100.0 {
+                log::warn!(
+                    "--tt {v} is read as seconds; Table 1 prints milliseconds (2000 ms is --tt 2)"
+                );
+            }
             p.tt = v;
         }
         if let Some(v) = self.f {
@@ -85,6 +90,7 @@ impl PresetArgs {
 /// Arguments of `shoal motion`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
+    /// Which preset, and overrides of its values.
     #[command(flatten)]
     pub preset: PresetArgs,
     /// Seconds to sample.

@@ -15,6 +15,7 @@ use crate::motion::{Body, MidlinePoseJob, Preset, Recording, record_preset, wave
 /// Arguments of `shoal plot`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
+    /// Which preset, and overrides of its values.
     #[command(flatten)]
     pub preset: PresetArgs,
     /// PNG to write.
@@ -102,8 +103,21 @@ fn window(rec: &Recording, preset: &Preset) -> (usize, usize) {
     }
 }
 
-/// Draws the figure for `preset` into `out` (PNG). Returns whether text could be drawn.
+/// Draws the figure for `preset` into `out` (PNG). Returns whether text could be drawn (without a
+/// usable font the figure is drawn without captions, labels and title rather than failing).
 pub fn draw(preset: &Preset, out: &Path, size: (u32, u32)) -> anyhow::Result<bool> {
+    let text = fonts_work();
+    draw_figure(preset, out, size, text)?;
+    Ok(text)
+}
+
+/// Draws the figure, with text or without (the fallback when no font can be loaded).
+pub fn draw_figure(
+    preset: &Preset,
+    out: &Path,
+    size: (u32, u32),
+    text: bool,
+) -> anyhow::Result<()> {
     let p = preset.params;
     let seconds = 12.0;
     let body = Body::black_porgy();
@@ -112,7 +126,6 @@ pub fn draw(preset: &Preset, out: &Path, size: (u32, u32)) -> anyhow::Result<boo
     let rec = record_preset(preset, &body, seconds, RATE_HZ)?;
     let fine_rec = record_preset(preset, &fine, seconds, RATE_HZ)?;
     let (start, end) = window(&rec, preset);
-    let text = fonts_work();
 
     let area = BitMapBackend::new(out, size).into_drawing_area();
     area.fill(&WHITE).map_err(plot_err)?;
@@ -149,7 +162,7 @@ pub fn draw(preset: &Preset, out: &Path, size: (u32, u32)) -> anyhow::Result<boo
     draw_from_above(&right, preset, &rec, &body, (start, end), text)?;
     area.present()
         .with_context(|| format!("writing {}", out.display()))?;
-    Ok(text)
+    Ok(())
 }
 
 /// Left panel: the body midline in the fish's own frame at successive instants (Fig. 4, 6).

@@ -12,7 +12,7 @@ use super::{Body, MotionError, RootState};
 
 /// Power weight of a joint at `x` (fraction of body length from the head), after Fig. 5.
 ///
-/// Fig. 5 (from Altringham & Ellerby, the paper's ref. [15]) shows the instantaneous muscle power
+/// Fig. 5 (from Altringham & Ellerby, the paper's ref. \[15\]) shows the instantaneous muscle power
 /// at three places along the black porgy, A (anterior), B (middle) and C (posterior); in
 /// carangiform swimmers the posterior myotomes deliver most of the power and the front of the body
 /// mostly stiffens. We read the three curves' peaks as weights A = 0.6 at x = 0.3, B = 0.8 at

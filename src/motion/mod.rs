@@ -15,7 +15,7 @@
 //! - `Side` follows the paper's `d`: −1 left, +1 right.
 //!
 //! Files: [`wave`] holds equations (2)–(7) as functions named after the paper's symbols;
-//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); `player.rs` holds
+//! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); [`player`] holds
 //! [`MotionPlayer`] (the motions, their queue and the root's locomotion); [`presets`] the four
 //! experiments of Table 1. `docs/motion.md` maps every equation to its function and records every
 //! reading of the paper that had to be chosen.
@@ -23,7 +23,7 @@
 use glam::Vec3;
 
 pub mod body;
-mod player;
+pub mod player;
 pub mod presets;
 pub mod record;
 pub mod wave;
@@ -92,21 +92,41 @@ pub struct MotionParams {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum MotionRequest {
     /// Steady swim at `speed` (length units / s) until the next request.
-    Swim { speed: f32 },
+    Swim {
+        /// Length units per second, ≥ 0.
+        speed: f32,
+    },
     /// Change speed to `speed` over `duration` seconds, then keep swimming.
-    Accelerate { speed: f32, duration: f32 },
+    Accelerate {
+        /// Target speed, length units per second, ≥ 0.
+        speed: f32,
+        /// Seconds, ≥ 0.
+        duration: f32,
+    },
     /// Come to rest over `duration` seconds.
-    Stop { duration: f32 },
+    Stop {
+        /// Seconds, ≥ 0.
+        duration: f32,
+    },
     /// Turn by `angle` radians (> 0) to `side`.
     Turn {
+        /// Normal, quick or serial (section 3.5.2).
         kind: TurnKind,
+        /// Heading change, radians in (0, 2π].
         angle: f32,
+        /// Which way (the paper's d).
         side: Side,
     },
     /// Rise by `height` length units (pitch up, then level out).
-    Ascend { height: f32 },
+    Ascend {
+        /// Length units, ≥ 0.
+        height: f32,
+    },
     /// Sink by `depth` length units (pitch down, then level out).
-    Descend { depth: f32 },
+    Descend {
+        /// Length units, ≥ 0.
+        depth: f32,
+    },
 }
 
 /// The root joint's state: position and orientation (paper 3.2: only the root carries position).
@@ -138,16 +158,25 @@ pub enum MotionError {
     /// A parameter is NaN, infinite or out of its range.
     #[error("invalid motion parameter {name} = {value}: {why}")]
     InvalidParam {
+        /// The parameter's name (a `MotionParams` field, a request field, `d`, `seconds`, …).
         name: &'static str,
+        /// The rejected value.
         value: f32,
+        /// Why it was rejected and what range is accepted.
         why: String,
     },
     /// A [`Body`] is malformed (joint positions not increasing, lengths disagree, ...).
     #[error("invalid body: {why}")]
-    InvalidBody { why: String },
+    InvalidBody {
+        /// What is wrong, naming the entry.
+        why: String,
+    },
     /// No preset has this name.
     #[error("unknown motion preset {name:?}: expected one of ex1, ex2, ex3, ex4")]
-    UnknownPreset { name: String },
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+    },
 }
 
 /// Fraction of `l` the tail tip sweeps peak to peak in a steady swim with the default

@@ -55,8 +55,9 @@ enum Plan {
         stroke_s: f32,
         wavelength: f32,
     },
-    /// Rise (`height` > 0) or sink (< 0) by |height| length units.
-    Climb { height: f32 },
+    /// Rise (`height` > 0) or sink (< 0) by |height| length units, starting after `lead_s`
+    /// seconds (the time the speed needs to reach the climbing speed).
+    Climb { height: f32, lead_s: f32 },
 }
 
 /// One motion in progress.
@@ -155,11 +156,16 @@ impl Active {
                 };
                 let v1 = moving(v0);
                 // Vertical speed peaks at H·π/(2T) (cosine ease); keep it ≤ v1·sin(max pitch).
-                let duration =
+                // From a slower start, first reach v1, then climb.
+                let climb_s =
                     (PI * height / (2.0 * v1 * MAX_CLIMB_PITCH_RAD.sin())).max(MIN_CLIMB_S);
+                let lead_s = if v0 < v1 { SPEED_RAMP_S } else { 0.0 };
                 a.v1 = v1;
-                a.duration_s = duration;
-                a.plan = Plan::Climb { height: signed };
+                a.duration_s = lead_s + climb_s;
+                a.plan = Plan::Climb {
+                    height: signed,
+                    lead_s,
+                };
             }
         }
         a
@@ -218,7 +224,11 @@ impl Active {
         if !self.duration_s.is_finite() || self.duration_s <= 0.0 {
             return 1.0;
         }
-        let u = (t / self.duration_s).clamp(0.0, 1.0);
+        let lead_s = match self.plan {
+            Plan::Climb { lead_s, .. } => lead_s,
+            _ => 0.0,
+        };
+        let u = ((t - lead_s) / (self.duration_s - lead_s)).clamp(0.0, 1.0);
         let strokes = match self.plan {
             Plan::Turn { strokes, .. } => strokes as f32,
             _ => 1.0,
@@ -500,7 +510,7 @@ impl MotionPlayer {
                 // d = −1 (left) increases the heading.
                 heading -= d * angle * dprog;
             }
-            Plan::Climb { height } => dy = height * dprog,
+            Plan::Climb { height, .. } => dy = height * dprog,
             _ => {}
         }
         let heading_mid = 0.5 * (root.heading + heading);
@@ -716,5 +726,77 @@ mod tests {
             "{}",
             root.heading
         );
+    }
+
+    /// Parameters that failed validation still never put NaN or infinity into the outputs.
+    #[test]
+    fn test_invalid_params_never_produce_nan() {
+        let ok = MotionParams::default();
+        let bad = [
+            MotionParams { p: f32::NAN, ..ok },
+            MotionParams { lambda: 0.0, ..ok },
+            MotionParams { l: 0.0, ..ok },
+            MotionParams { tt: 0.0, ..ok },
+            MotionParams { p: 0.1, ..ok },
+            MotionParams {
+                omega: f32::INFINITY,
+                ..ok
+            },
+            MotionParams {
+                max_amp: f32::NAN,
+                ..ok
+            },
+        ];
+        let body = Body::black_porgy();
+        for params in bad {
+            for request in [
+                MotionRequest::Swim { speed: 50.0 },
+                MotionRequest::Turn {
+                    kind: TurnKind::Quick,
+                    angle: 1.0,
+                    side: Side::Right,
+                },
+                MotionRequest::Turn {
+                    kind: TurnKind::Normal,
+                    angle: 1.0,
+                    side: Side::Left,
+                },
+                MotionRequest::Ascend { height: 10.0 },
+            ] {
+                let mut player = MotionPlayer::new();
+                let mut root = RootState {
+                    speed: 50.0,
+                    ..RootState::default()
+                };
+                player.push(request).unwrap();
+                let mut lateral = [0.0; 7];
+                let mut yaw = [0.0; 6];
+                for _ in 0..200 {
+                    player.step(
+                        1.0 / 60.0,
+                        &params,
+                        &body,
+                        &mut root,
+                        &mut lateral,
+                        &mut yaw,
+                    );
+                    assert!(
+                        lateral.iter().chain(yaw.iter()).all(|v| v.is_finite())
+                            && root.pos.is_finite()
+                            && root.heading.is_finite()
+                            && root.pitch.is_finite()
+                            && root.speed.is_finite(),
+                        "{params:?} {request:?}: {lateral:?} {yaw:?} {root:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// 10,000 fish each hold a player: keep it within a few cache lines.
+    #[test]
+    fn test_player_state_is_small() {
+        let size = std::mem::size_of::<MotionPlayer>();
+        assert!(size <= 192, "MotionPlayer is {size} bytes");
     }
 }
