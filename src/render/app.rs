@@ -246,6 +246,9 @@ impl App {
         for mesh in self.scene.meshes() {
             renderer.upload_mesh(&gpu, &mesh)?;
         }
+        if let Err(e) = self.scene.enable_hot_reload() {
+            self.ui.log(format!("script hot reload is off: {e}"));
+        }
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),

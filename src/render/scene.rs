@@ -107,6 +107,11 @@ pub trait SceneDriver {
     }
     /// Appends the overlay segments asked for.
     fn overlay_lines(&self, _toggles: OverlayToggles, _out: &mut Vec<OverlayLine>) {}
+    /// Starts watching the scene's scripts for edits (the window calls this; headless renders
+    /// do not, so they stay deterministic).
+    fn enable_hot_reload(&mut self) -> Result<(), String> {
+        Ok(())
+    }
     /// Moves log lines (script errors, warnings) into `out`.
     fn drain_log(&mut self, _out: &mut Vec<String>) {}
     /// Named simulation stage timings of the last step, milliseconds.

@@ -46,6 +46,14 @@ pub trait WorldSim {
     fn drain_log(&mut self) -> Vec<String> {
         Vec::new()
     }
+    /// Starts watching script files for edits (see [`WorldSim::poll_reload`]).
+    fn watch(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+    /// Applies edited scripts; one console line per reload event.
+    fn poll_reload(&mut self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 impl WorldSim for Simulation {
@@ -65,6 +73,15 @@ impl WorldSim for Simulation {
         Simulation::drain_log(self)
             .into_iter()
             .map(|e| format!("[{:.2} s] {:?}: {}", e.time_s, e.level, e.message))
+            .collect()
+    }
+    fn watch(&mut self) -> Result<(), String> {
+        Simulation::watch(self).map_err(|e| e.to_string())
+    }
+    fn poll_reload(&mut self) -> Vec<String> {
+        Simulation::poll_reload(self)
+            .into_iter()
+            .map(|e| format!("scripts: {e:?}"))
             .collect()
     }
 }
@@ -101,6 +118,8 @@ pub struct WorldScene<S: WorldSim> {
     accumulator_s: f64,
     step_ms: f32,
     look: Look,
+    hot_reload: bool,
+    reload_log: Vec<String>,
 }
 
 impl<S: WorldSim> std::fmt::Debug for WorldScene<S> {
@@ -150,6 +169,8 @@ impl<S: WorldSim> WorldScene<S> {
             accumulator_s: 0.0,
             step_ms: 0.0,
             look: Look::default(),
+            hot_reload: false,
+            reload_log: Vec::new(),
         };
         scene.rebuild_instances();
         scene
@@ -238,6 +259,10 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
 
     fn step(&mut self, dt_s: f32) {
         let start = Instant::now();
+        if self.hot_reload {
+            let events = self.sim.poll_reload();
+            self.reload_log.extend(events);
+        }
         if dt_s.is_finite() && dt_s > 0.0 {
             self.accumulator_s += f64::from(dt_s);
         }
@@ -448,7 +473,13 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
     }
 
     fn drain_log(&mut self, out: &mut Vec<String>) {
+        out.append(&mut self.reload_log);
         out.extend(self.sim.drain_log());
+    }
+
+    fn enable_hot_reload(&mut self) -> Result<(), String> {
+        self.hot_reload = true;
+        self.sim.watch()
     }
 
     fn stage_timings_ms(&self) -> Vec<(&'static str, f32)> {
