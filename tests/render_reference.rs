@@ -140,10 +140,10 @@ fn aquarium_with_fish_rocks_and_food() {
             rng.random_range(-120.0..120.0),
         );
         let root = Mat4::from_rotation_translation(
-            Quat::from_rotation_y(rng.random_range(0.0..6.28)),
+            Quat::from_rotation_y(rng.random_range(0.0..std::f32::consts::TAU)),
             pos,
         );
-        let phase: f32 = rng.random_range(0.0..6.28);
+        let phase: f32 = rng.random_range(0.0..std::f32::consts::TAU);
         let yaws: Vec<f32> = (0..nj)
             .map(|j| {
                 if j == 0 {
