@@ -406,3 +406,44 @@ fn vision_nearest_keeps_the_head_of_the_full_list() {
         assert_eq!(few.as_slice(), &all[..max.min(all.len())], "max {max}");
     }
 }
+
+#[test]
+fn vision_batch_equals_one_query_per_fish_on_any_thread_count() {
+    let (mut w, porgy, shark) = world();
+    let t = tank();
+    for i in 0..150u32 {
+        let f = |k: u32| ((i * k) % 97) as f32 / 97.0;
+        let pos = t.min + (t.max - t.min) * Vec3::new(f(13), f(29), f(53));
+        let species = if i % 25 == 0 { shark } else { porgy };
+        spawn(&mut w, species, pos, i as f32 * 0.37);
+    }
+    w.add_food(Vec3::new(400.0, 200.0, 200.0));
+    w.add_obstacle(Vec3::new(600.0, 200.0, 300.0), 40.0);
+    w.rebuild_grid();
+    let mut ids: Vec<FishId> = w.fish_ids().collect();
+    let gone = ids[10];
+    w.despawn(gone); // a stale id in the batch gets an empty list
+    ids.reverse();
+    let mut one = Vec::new();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut batch = shoal::world::VisionBatch::default();
+        pool.install(|| w.vision_batch(&ids, 8, &mut batch));
+        assert_eq!(batch.len(), ids.len());
+        let mut total = 0;
+        for (i, &id) in ids.iter().enumerate() {
+            w.vision_nearest(id, 8, &mut one);
+            assert_eq!(batch.get(i), one.as_slice(), "fish {i}, {threads} threads");
+            total += one.len();
+        }
+        assert!(total > 300, "the scene is not empty: {total}");
+        assert!(
+            batch
+                .get(ids.iter().position(|&i| i == gone).unwrap())
+                .is_empty()
+        );
+    }
+}

@@ -233,3 +233,57 @@ fn the_shipped_porgy_at_rest_skins_to_its_bind_shape_head_at_the_root() {
         front - back
     );
 }
+
+#[test]
+fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
+    use shoal::world::pose::reference_palette;
+    use shoal::world::{Species, SpeciesDesc, Tank};
+
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let mut w = World::new(
+        Tank {
+            min: Vec3::ZERO,
+            max: Vec3::new(1000.0, 500.0, 800.0),
+        },
+        2,
+    );
+    let porgy = w.add_species(Species::load(SpeciesDesc::black_porgy(), &assets).unwrap());
+    let eel = w.add_species(Species::load(SpeciesDesc::eel(), &assets).unwrap());
+    for i in 0..40 {
+        w.spawn(SpawnParams {
+            speed: 40.0,
+            pitch: 0.1 * (i % 3) as f32,
+            seed: i,
+            ..at(
+                if i % 2 == 0 { porgy } else { eel },
+                Vec3::new(100.0 + 20.0 * i as f32, 250.0, 400.0),
+                i as f32,
+            )
+        })
+        .unwrap();
+    }
+    let ids: Vec<_> = w.fish_ids().collect();
+    for (k, &id) in ids.iter().enumerate() {
+        let side = if k % 2 == 0 { 0.5 } else { -0.7 };
+        w.steer_to(id, side, 250.0, 60.0).unwrap();
+    }
+    let mut bent = 0;
+    for _ in 0..50 {
+        w.step_motion(DT);
+    }
+    w.update_pose();
+    for &id in &ids {
+        let species = w.species(w.species_of(id).unwrap());
+        let yaw = w.yaw(id).unwrap();
+        if yaw.iter().any(|y| y.abs() > 0.02) {
+            bent += 1;
+        }
+        let range = w.palette_range(id).unwrap();
+        let mut want = vec![Mat4::IDENTITY; range.len()];
+        reference_palette(species, w.root(id).unwrap(), yaw, &mut want).unwrap();
+        for (j, (got, want)) in w.palettes()[range].iter().zip(&want).enumerate() {
+            assert!(got.abs_diff_eq(*want, 1e-4), "joint {j}: {got} vs {want}");
+        }
+    }
+    assert!(bent > 30, "most fish are bent mid-swim: {bent}");
+}

@@ -1,25 +1,31 @@
 //! `shoal bench`: measured speed of the simulation (issue 7) and of rendering.
 //!
-//! `shoal bench sim --fish 1000,10000 [--seconds 5] [--json]` builds a scene per fish count (the
-//! default species at constant density, [`shoal::world::bench::bench_world`]), warms it up for a
+//! `shoal bench sim --fish 1000,10000 [--seconds 5] [--json] [--driver lua|rust]` builds a scene
+//! per fish count (constant density, [`crate::world::bench::bench_tank`]), warms it up for a
 //! second, then times each 60 Hz tick and reports the median and p99 milliseconds, fish-ticks per
-//! second and the split by stage. Behaviour is the built-in Rust wander/school driver until the
-//! Lua simulation implements [`Ticker`] (the seam in `world::bench`).
+//! second and the split by stage. `--driver lua` (default) runs the shipped behaviour scripts
+//! through `script::Simulation`; `--driver rust` runs the built-in Rust wander/school driver, to
+//! measure the Rust stages alone. Both go through the [`Ticker`] trait (`world::bench`).
 //!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
 //! demo aquarium offscreen per fish count, waits for the GPU every frame, and reports the median
 //! and p99 frame time, the CPU upload time and the draw calls (which do not grow with fish).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
 
 use crate::render::{DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver};
-use crate::world::bench::{RustSim, SimBenchResult, Ticker, bench_world, measure};
+use crate::script::Simulation;
+use crate::world::bench::{
+    RustSim, SimBenchResult, Ticker, bench_positions, bench_tank, bench_world, measure,
+};
 use crate::world::driver::WanderDriver;
-use crate::world::{Species, SpeciesDesc, TICK_HZ};
+use crate::world::{Species, SpeciesDesc, TICK_HZ, World};
 
 /// Arguments of `shoal bench`.
 #[derive(Debug, Default, clap::Args)]
@@ -56,6 +62,61 @@ pub struct SimArgs {
     /// Seed of the scene.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Who decides what the fish do: the shipped Lua behaviours, or the built-in Rust driver
+    /// (the Rust stages alone).
+    #[arg(long, value_enum, default_value_t = Driver::Lua)]
+    pub driver: Driver,
+    /// Repository root holding `scripts/` and `assets/` (Lua driver).
+    #[arg(long, default_value = ".")]
+    pub root: PathBuf,
+}
+
+/// Who decides what the fish do in `shoal bench sim`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Driver {
+    /// `script::Simulation` with the shipped behaviours: per 100 fish, 89 black porgies
+    /// schooling, 10 foraging, one barracuda hunting.
+    Lua,
+    /// `world::driver::WanderDriver`: wander, school and avoid in Rust, no Lua.
+    Rust,
+}
+
+/// The Lua simulation as a bench [`Ticker`].
+struct LuaSim(Simulation);
+
+impl Ticker for LuaSim {
+    fn tick(&mut self) {
+        self.0.step();
+    }
+    fn world(&self) -> &World {
+        self.0.world()
+    }
+}
+
+/// The constant-density bench tank populated through the Lua simulation with the shipped
+/// behaviours (see [`Driver::Lua`]).
+fn lua_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<LuaSim> {
+    let mut sim = Simulation::empty(root, seed)
+        .with_context(|| format!("loading the scripts under {}", root.display()))?;
+    let porgy = sim.species_id("black_porgy")?;
+    let l = sim.world().species(porgy).body_length();
+    let tank = bench_tank(l, fish);
+    sim.set_tank(tank.min, tank.max)?;
+    let mut rng = Pcg32::seed_from_u64(seed ^ 1);
+    for (i, pos) in bench_positions(&tank, l, fish, seed)
+        .into_iter()
+        .enumerate()
+    {
+        let (species, behavior) = match i % 100 {
+            0 => ("barracuda", "predator"),
+            1..=10 => ("black_porgy", "forage"),
+            _ => ("black_porgy", "school"),
+        };
+        let heading = rng.random_range(-std::f32::consts::PI..std::f32::consts::PI);
+        sim.spawn(species, pos, heading, 0.0, None, Some(behavior))?;
+    }
+    sim.world_mut().rebuild_grid();
+    Ok(LuaSim(sim))
 }
 
 /// Runs `shoal bench`.
@@ -77,20 +138,36 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     if args.fish.is_empty() || args.fish.contains(&0) {
         anyhow::bail!("--fish needs positive counts, e.g. --fish 1000,10000");
     }
-    let species = Species::load(SpeciesDesc::black_porgy(), &args.assets)
-        .context("loading the benchmark species (is --assets right?)")?;
     let ticks = (args.seconds * TICK_HZ).round().max(1.0) as usize;
     let mut results: Vec<SimBenchResult> = Vec::new();
+    let species = match args.driver {
+        Driver::Rust => Some(
+            Species::load(SpeciesDesc::black_porgy(), &args.assets)
+                .context("loading the benchmark species (is --assets right?)")?,
+        ),
+        Driver::Lua => None,
+    };
     for &fish in &args.fish {
-        let world = bench_world(species.clone(), fish, args.seed)?;
-        let mut sim = RustSim {
-            world,
-            driver: WanderDriver::default(),
+        let result = match &species {
+            Some(species) => {
+                let world = bench_world(species.clone(), fish, args.seed)?;
+                let mut sim = RustSim {
+                    world,
+                    driver: WanderDriver::default(),
+                };
+                measure(&mut sim, TICK_HZ as usize, ticks)
+            }
+            None => {
+                let mut sim = lua_sim(&args.root, fish, args.seed)?;
+                let result = measure(&mut sim, TICK_HZ as usize, ticks);
+                if let Some(e) = sim.0.error_messages().first() {
+                    eprintln!("script error during the bench: {e}");
+                }
+                result
+            }
         };
-        let result = measure(&mut sim, TICK_HZ as usize, ticks);
-        debug_assert_eq!(sim.world().num_fish(), fish);
         if !args.json {
-            print_row(&result, results.is_empty());
+            print_row(&result, results.is_empty(), args.driver);
         }
         results.push(result);
     }
@@ -98,7 +175,10 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "driver": "rust-wander (built-in; no Lua)",
+                "driver": match args.driver {
+                    Driver::Lua => "lua (shipped behaviours: school, forage, predator)",
+                    Driver::Rust => "rust-wander (built-in; no Lua)",
+                },
                 "tick_hz": TICK_HZ,
                 "results": results,
             }))?
@@ -114,14 +194,18 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_row(r: &SimBenchResult, header: bool) {
+fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
     if header {
+        let driver = match driver {
+            Driver::Lua => "Lua, shipped behaviours",
+            Driver::Rust => "built-in Rust wander/school (no Lua)",
+        };
         println!(
-            "driver: built-in Rust wander/school (no Lua), {} threads; stage columns are medians, ms",
+            "driver: {driver}, {} threads; stage columns are medians, ms",
             r.threads
         );
         println!(
-            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>7} {:>9}",
             "fish",
             "median ms",
             "p99 ms",
@@ -132,12 +216,14 @@ fn print_row(r: &SimBenchResult, header: bool) {
             "motion",
             "skel",
             "palette",
-            "grid"
+            "grid",
+            "in view",
+            "nearest L"
         );
     }
     let s = &r.stages;
     println!(
-        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
+        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>7.1} {:>9.2}",
         r.fish,
         r.median_ms,
         r.p99_ms,
@@ -148,7 +234,9 @@ fn print_row(r: &SimBenchResult, header: bool) {
         s.motion,
         s.skeleton,
         s.palette,
-        s.grid
+        s.grid,
+        r.mean_in_view,
+        r.mean_nearest_lengths
     );
 }
 
@@ -161,7 +249,7 @@ pub struct RenderArgs {
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "1920x1080", value_parser = super::render::parse_size)]
     pub size: (u32, u32),
-    /// Measured frames per fish count (after 3 warm-up frames).
+    /// Measured frames per fish count (after one warm-up frame).
     #[arg(long, default_value_t = 30)]
     pub frames: usize,
 }
@@ -195,6 +283,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     );
     for &n in &args.fish {
         let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
+        // The demo scene draws the generated black porgy (procedural fish if it cannot load).
         let config = DemoSceneConfig {
             fish: n,
             ..DemoSceneConfig::default()
@@ -202,12 +291,20 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         config.validate().map_err(anyhow::Error::msg)?;
         let mut scene = DemoScene::new(config);
         for m in scene.meshes() {
+            if n == args.fish[0] {
+                println!(
+                    "mesh: {} ({} triangles, {} joints)",
+                    m.label,
+                    m.indices.len() / 3,
+                    scene.rig().num_joints()
+                );
+            }
             renderer.upload_mesh(&gpu, &m)?;
         }
         let camera = scene.default_camera();
         let mut times = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
-        for frame in 0..args.frames + 3 {
+        for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
             let mut input = scene.frame_input();
             input.camera = camera;
@@ -215,7 +312,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             renderer.render(&gpu, target.view(), target.size(), &input)?;
             gpu.wait_idle();
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            if frame >= 3 {
+            if frame >= 1 {
                 times.push(ms);
                 upload += f64::from(renderer.timings().upload_ms);
             }

@@ -2,7 +2,7 @@
 //! figures `shoal bench sim` prints.
 //!
 //! The loop drives anything that implements [`Ticker`]: the built-in
-//! [`WanderDriver`](super::driver::WanderDriver) today, the Lua `script::Simulation` (behaviour
+//! [`super::driver::WanderDriver`] today, the Lua `script::Simulation` (behaviour
 //! scripts) once it implements the trait — that is the seam.
 
 use std::time::Instant;
@@ -43,27 +43,46 @@ impl Ticker for RustSim {
 /// count, so cost per fish is comparable across counts.
 pub const VOLUME_PER_FISH_LENGTHS3: f32 = 8.0;
 
-/// A tank 2:1:1 (x:y:z) holding `fish` fish of `species` at [`VOLUME_PER_FISH_LENGTHS3`], with
-/// fish placed uniformly at random (seeded) at cruising speed, headings random.
+/// A tank 2:1:1 (x:y:z) with [`VOLUME_PER_FISH_LENGTHS3`] per fish of body length `l` (at least
+/// 12 × 6 × 6 body lengths), corner at the origin.
+pub fn bench_tank(l: f32, fish: usize) -> Tank {
+    let side = (VOLUME_PER_FISH_LENGTHS3 * fish.max(1) as f32 / 2.0).cbrt() * l;
+    let side = side.max(6.0 * l);
+    Tank {
+        min: Vec3::ZERO,
+        max: Vec3::new(2.0 * side, side, side),
+    }
+}
+
+/// `count` seeded random positions inside `tank`, at least one body length `l` from its walls
+/// (and the root one more length from the −x wall, so the body fits behind it).
+pub fn bench_positions(tank: &Tank, l: f32, count: usize, seed: u64) -> Vec<Vec3> {
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let inset = l.min(tank.extent().min_element() * 0.25);
+    (0..count)
+        .map(|_| {
+            Vec3::new(
+                rng.random_range(tank.min.x + inset + l..tank.max.x - inset),
+                rng.random_range(tank.min.y + inset..tank.max.y - inset),
+                rng.random_range(tank.min.z + inset..tank.max.z - inset),
+            )
+        })
+        .collect()
+}
+
+/// [`bench_tank`] holding `fish` fish of `species` placed by [`bench_positions`] at cruising
+/// speed, headings random (all seeded).
 pub fn bench_world(species: Species, fish: usize, seed: u64) -> Result<World, WorldError> {
     let l = species.body_length();
     let cruise = species.desc.motion.s;
-    let side = (VOLUME_PER_FISH_LENGTHS3 * fish.max(1) as f32 / 2.0).cbrt() * l;
-    let side = side.max(6.0 * l);
-    let tank = Tank {
-        min: Vec3::ZERO,
-        max: Vec3::new(2.0 * side, side, side),
-    };
+    let tank = bench_tank(l, fish);
     let mut world = World::new(tank, seed);
     let sid = world.add_species(species);
-    let mut rng = Pcg32::seed_from_u64(seed);
-    let inset = l.min(side * 0.25);
-    for i in 0..fish {
-        let pos = Vec3::new(
-            rng.random_range(inset + l..tank.max.x - inset),
-            rng.random_range(inset..tank.max.y - inset),
-            rng.random_range(inset..tank.max.z - inset),
-        );
+    let mut rng = Pcg32::seed_from_u64(seed ^ 1);
+    for (i, pos) in bench_positions(&tank, l, fish, seed)
+        .into_iter()
+        .enumerate()
+    {
         world.spawn(SpawnParams {
             species: sid,
             pos,
@@ -118,6 +137,11 @@ pub struct SimBenchResult {
     pub stages: StageMillis,
     /// Threads rayon used.
     pub threads: usize,
+    /// Mean number of things in a fish's view at the end of the run (all fish sampled), which
+    /// is what perception cost grows with.
+    pub mean_in_view: f64,
+    /// Mean distance from a fish to its nearest neighbour at the end, body lengths.
+    pub mean_nearest_lengths: f64,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -146,7 +170,21 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
         wall.push(start.elapsed().as_secs_f64() * 1e3);
         stages.push(*sim.world().counters());
     }
-    let fish = sim.world().num_fish();
+    let world = sim.world();
+    let fish = world.num_fish();
+    let (mut in_view, mut nearest, mut sampled) = (0usize, 0.0f64, 0usize);
+    let mut seen = Vec::new();
+    for id in world.fish_ids().step_by((fish / 500).max(1)) {
+        world.vision(id, &mut seen);
+        in_view += seen.len();
+        let l = world
+            .species(world.species_of(id).unwrap_or(super::SpeciesId(0)))
+            .body_length();
+        if let Some(p) = seen.iter().find(|p| p.fish.is_some()) {
+            nearest += f64::from(p.distance / l);
+        }
+        sampled += 1;
+    }
     let mean_ms = wall.iter().sum::<f64>() / wall.len().max(1) as f64;
     let mut sorted = wall.clone();
     sorted.sort_by(f64::total_cmp);
@@ -179,5 +217,7 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
             grid: stage(|s| s.grid_ns),
         },
         threads: rayon::current_num_threads(),
+        mean_in_view: in_view as f64 / sampled.max(1) as f64,
+        mean_nearest_lengths: nearest / sampled.max(1) as f64,
     }
 }

@@ -11,7 +11,7 @@ use std::time::Instant;
 use rand::Rng;
 
 use super::steer::{self, Steer};
-use super::{FishId, Percept, PerceptKind, TICK_HZ, World};
+use super::{FishId, PerceptKind, TICK_HZ, VisionBatch, World};
 
 /// Parameters of [`WanderDriver`], in body lengths and seconds. `Copy`, see [`Default`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,7 +51,7 @@ impl Default for WanderParams {
 pub struct WanderDriver {
     /// The behaviour parameters.
     pub params: WanderParams,
-    percepts: Vec<Percept>,
+    batch: VisionBatch,
     ids: Vec<FishId>,
     decisions_last_tick: usize,
 }
@@ -71,7 +71,8 @@ impl WanderDriver {
     }
 
     /// One fixed tick of `1 / TICK_HZ` seconds: the decisions due this tick (fish `i` decides on
-    /// ticks where `(tick + i) % period == 0`, `period = TICK_HZ / decision_hz`), then
+    /// ticks where `(tick + i) % period == 0`, `period = TICK_HZ / decision_hz`) — their vision
+    /// sensed in one parallel batch, then decided one after another, as a Lua host would — then
     /// `step_motion`, `update_pose`, `rebuild_grid`. Sensor time goes to `perception_ns`, the
     /// decisions themselves to `lua_ns` (the behaviour stage; no Lua runs here).
     pub fn tick(&mut self, world: &mut World) {
@@ -79,38 +80,38 @@ impl WanderDriver {
             .round()
             .max(1.0) as u64;
         let tick = world.tick_count();
-        self.ids.clear();
-        self.ids.extend(world.fish_ids());
-        let (mut perception_ns, mut behavior_ns) = (0u64, 0u64);
-        let mut decisions = 0;
-        let ids = std::mem::take(&mut self.ids);
-        for (i, &id) in ids.iter().enumerate() {
-            if !(tick + i as u64).is_multiple_of(period) {
-                continue;
-            }
-            decisions += 1;
-            let t0 = Instant::now();
-            world.vision_nearest(id, self.params.max_percepts, &mut self.percepts);
-            let t1 = Instant::now();
-            if let Some(want) = self.decide(world, id) {
+        // Taken out of self so `decide` can borrow self while iterating.
+        let mut due = std::mem::take(&mut self.ids);
+        due.clear();
+        due.extend(
+            world
+                .fish_ids()
+                .enumerate()
+                .filter(|(i, _)| (tick + *i as u64).is_multiple_of(period))
+                .map(|(_, id)| id),
+        );
+        let t0 = Instant::now();
+        world.vision_batch(&due, self.params.max_percepts, &mut self.batch);
+        let t1 = Instant::now();
+        for (k, &id) in due.iter().enumerate() {
+            if let Some(want) = self.decide(world, id, k) {
                 // A refused request leaves the fish doing what it did; nothing to recover.
                 let _ = world.steer_to(id, want.heading, want.depth, want.speed);
             }
-            let t2 = Instant::now();
-            perception_ns += (t1 - t0).as_nanos() as u64;
-            behavior_ns += (t2 - t1).as_nanos() as u64;
         }
-        self.ids = ids;
-        self.decisions_last_tick = decisions;
+        let t2 = Instant::now();
+        self.decisions_last_tick = due.len();
+        self.ids = due;
         world.step_motion((1.0 / TICK_HZ) as f32);
         world.update_pose();
         world.rebuild_grid();
         let counters = world.counters_mut();
-        counters.perception_ns = perception_ns;
-        counters.lua_ns = behavior_ns;
+        counters.perception_ns = (t1 - t0).as_nanos() as u64;
+        counters.lua_ns = (t2 - t1).as_nanos() as u64;
     }
 
-    fn decide(&self, world: &mut World, id: FishId) -> Option<Steer> {
+    fn decide(&self, world: &mut World, id: FishId, k: usize) -> Option<Steer> {
+        let percepts = self.batch.get(k);
         let agent = world.agent(id)?;
         let species = world.species(world.species_of(id)?);
         let l = species.body_length();
@@ -118,11 +119,7 @@ impl WanderDriver {
         let max_speed = species.desc.max_speed.max(cruise);
         let p = &self.params;
 
-        if let Some(threat) = self
-            .percepts
-            .iter()
-            .find(|s| s.kind == PerceptKind::Predator)
-        {
+        if let Some(threat) = percepts.iter().find(|s| s.kind == PerceptKind::Predator) {
             return Some(steer::flee(&agent, threat.pos, max_speed));
         }
         if let Some(s) = world.steer_avoid_walls(id, p.wall_margin_lengths * l, cruise) {
@@ -133,7 +130,7 @@ impl WanderDriver {
         {
             return Some(s);
         }
-        let mates = || self.percepts.iter().filter(|s| s.kind == PerceptKind::Fish);
+        let mates = || percepts.iter().filter(|s| s.kind == PerceptKind::Fish);
         let mut parts: [(Steer, f32); 4] = [(agent.hold(), 0.0); 4];
         if let Some(s) = steer::separation(
             &agent,

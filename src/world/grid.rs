@@ -176,11 +176,38 @@ impl Grid {
         let r2 = radius * radius;
         let lo = self.coord(center - Vec3::splat(radius));
         let hi = self.coord(center + Vec3::splat(radius));
+        let local = center - self.origin;
+        // Squared distance from `v` to the cell slab [i·size, (i+1)·size) on one axis; border
+        // cells extend to infinity (items outside the box are clamped into them).
+        let gap = |v: f32, i: u32, dim: u32| {
+            let below = i as f32 * self.cell_size;
+            let above = below + self.cell_size;
+            let d = if v < below && i > 0 {
+                below - v
+            } else if v > above && i + 1 < dim {
+                v - above
+            } else {
+                0.0
+            };
+            d * d
+        };
         for z in lo[2]..=hi[2] {
+            let gz = gap(local.z, z, self.dims[2]);
+            if gz > r2 {
+                continue;
+            }
             for y in lo[1]..=hi[1] {
+                let gyz = gz + gap(local.y, y, self.dims[1]);
+                if gyz > r2 {
+                    continue;
+                }
+                // Only the cells of this row the sphere reaches: |dx| ≤ √(r² − dy² − dz²).
+                let half = (r2 - gyz).sqrt();
+                let x0 = self.coord(Vec3::new(center.x - half, center.y, center.z))[0].max(lo[0]);
+                let x1 = self.coord(Vec3::new(center.x + half, center.y, center.z))[0].min(hi[0]);
                 let row = self.cell_index([0, y, z]);
-                let start = self.cell_start[row + lo[0] as usize] as usize;
-                let end = self.cell_start[row + hi[0] as usize + 1] as usize;
+                let start = self.cell_start[row + x0 as usize] as usize;
+                let end = self.cell_start[row + x1 as usize + 1] as usize;
                 // Cells along x are contiguous, so a row of cells is one run of entries.
                 for (key, &p) in self.keys[start..end]
                     .iter()

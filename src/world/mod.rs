@@ -6,7 +6,7 @@
 //! ([`World::steer_to`]), and runs the layers below the scripts: motion ([`World::step_motion`]),
 //! skeleton and skinning palettes ([`World::update_pose`]).
 //!
-//! Fish live in a structure of arrays ([`store`]) addressed by generational [`FishId`] handles.
+//! Fish live in a structure of arrays (`store.rs`) addressed by generational [`FishId`] handles.
 //! A tick, Rapier-style, is a straight sequence of named stages each timed into
 //! [`StageCounters`]; the Lua host (`script::Simulation`) drives it:
 //! behaviour scripts → [`World::step_motion`] → [`World::update_pose`] → [`World::rebuild_grid`].
@@ -37,7 +37,7 @@ use rand_pcg::Pcg32;
 
 use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
 use grid::Grid;
-use sense::{bearing, elevation, forward, in_view_cone, tank_distances, wrap_angle};
+use sense::{ViewCone, bearing, elevation, forward, tank_distances, wrap_angle};
 use steer::{Agent, Steer, SteerParams};
 use store::{FishStore, NewFish};
 
@@ -355,6 +355,38 @@ pub struct Percept {
     pub speed: f32,
 }
 
+/// Percepts of many fish, filled by [`World::vision_batch`].
+#[derive(Debug, Default, Clone)]
+pub struct VisionBatch {
+    chunks: Vec<Vec<Percept>>,
+    /// Per requested fish: (chunk, start, end) in `chunks`.
+    spans: Vec<(u32, u32, u32)>,
+}
+
+impl VisionBatch {
+    /// Fish per parallel task.
+    const CHUNK: usize = 32;
+
+    /// Number of fish in the batch.
+    pub fn len(&self) -> usize {
+        self.spans.len()
+    }
+
+    /// Whether the batch holds no fish.
+    pub fn is_empty(&self) -> bool {
+        self.spans.is_empty()
+    }
+
+    /// Percepts of the batch's `i`-th fish, nearest first (empty for a stale id or out of
+    /// range).
+    pub fn get(&self, i: usize) -> &[Percept] {
+        match self.spans.get(i) {
+            Some(&(c, start, end)) => &self.chunks[c as usize][start as usize..end as usize],
+            None => &[],
+        }
+    }
+}
+
 /// What a fish feels of its own body and the tank (the paper's body sensor).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodySense {
@@ -418,6 +450,8 @@ pub struct World {
     time: f64,
     tick: u64,
     species: Vec<Species>,
+    /// Per species: its skeleton prepared for the pose stage.
+    pose_plans: Vec<pose::PosePlan>,
     fish: FishStore,
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
@@ -438,7 +472,6 @@ pub struct World {
     palette_offsets: Vec<u32>,
     palettes: Vec<Mat4>,
     counters: StageCounters,
-    pose_failures: u64,
     rejected_motion_steps: u64,
 }
 
@@ -482,6 +515,7 @@ impl World {
             time: 0.0,
             tick: 0,
             species: Vec::new(),
+            pose_plans: Vec::new(),
             fish: FishStore::default(),
             foods: Vec::new(),
             obstacles: Vec::new(),
@@ -495,7 +529,6 @@ impl World {
             palette_offsets: vec![0],
             palettes: Vec::new(),
             counters: StageCounters::default(),
-            pose_failures: 0,
             rejected_motion_steps: 0,
         }
     }
@@ -528,6 +561,7 @@ impl World {
         if let Err(e) = s.validate() {
             log::error!("species {:?}: {e}", s.desc.name);
         }
+        self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
         self.species.push(s);
         SpeciesId((self.species.len() - 1) as u16)
     }
@@ -542,6 +576,7 @@ impl World {
             .ok_or(WorldError::UnknownSpecies(id))?;
         let joints_changed = slot.rig.body.power.len() != s.rig.body.power.len()
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
+        self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
         *slot = s;
         if joints_changed {
             for i in 0..self.fish.len() {
@@ -965,73 +1000,102 @@ impl World {
 
     /// Everything the fish sees: fish (predators marked), uneaten food and obstacles within its
     /// species' `view_range` and inside its view cone (`view_angle_deg`, the cone's full opening
-    /// around its forward direction), nearest first (ties broken by kind and id, so the order is
-    /// deterministic). Clears `out`; a stale id leaves it empty.
+    /// around its forward direction), nearest first (ties broken by kind, then id, so the order
+    /// is deterministic). Clears `out`; a stale id leaves it empty.
     pub fn vision(&self, id: FishId, out: &mut Vec<Percept>) {
-        self.vision_unsorted(id, out);
-        out.sort_unstable_by(nearest_first);
+        self.vision_nearest(id, usize::MAX, out);
     }
 
-    fn vision_unsorted(&self, id: FishId, out: &mut Vec<Percept>) {
+    /// [`World::vision`] keeping only the `max` nearest percepts (exactly the first `max` of the
+    /// full list), for scripts that look at a few things: only those are sorted and built.
+    pub fn vision_nearest(&self, id: FishId, max: usize, out: &mut Vec<Percept>) {
         out.clear();
-        let Some(d) = self.fish.dense(id) else {
+        if let Some(d) = self.fish.dense(id) {
+            self.append_vision(d, max, out);
+        }
+    }
+
+    /// The `max` nearest percepts of each of `ids` (as [`World::vision_nearest`] gives them),
+    /// computed in parallel over rayon's threads into `batch`; `batch.get(i)` is `ids[i]`'s.
+    /// For a host that runs the decisions due this tick one after another: the sensing, the
+    /// expensive part, then uses both cores. Results do not depend on the thread count, and the
+    /// batch's buffers are reused, so a warm batch does not allocate.
+    pub fn vision_batch(&self, ids: &[FishId], max: usize, batch: &mut VisionBatch) {
+        use rayon::prelude::*;
+        let num_chunks = ids.len().div_ceil(VisionBatch::CHUNK);
+        if batch.chunks.len() < num_chunks {
+            batch.chunks.resize_with(num_chunks, Vec::new);
+        }
+        batch.spans.clear();
+        batch.spans.resize(ids.len(), (0, 0, 0));
+        ids.par_chunks(VisionBatch::CHUNK)
+            .zip(batch.chunks[..num_chunks].par_iter_mut())
+            .zip(batch.spans.par_chunks_mut(VisionBatch::CHUNK))
+            .enumerate()
+            .for_each(|(c, ((ids, buf), spans))| {
+                buf.clear();
+                for (&id, span) in ids.iter().zip(spans) {
+                    let start = buf.len() as u32;
+                    if let Some(d) = self.fish.dense(id) {
+                        self.append_vision(d, max, buf);
+                    }
+                    *span = (c as u32, start, buf.len() as u32);
+                }
+            });
+    }
+
+    /// Appends the `max` nearest percepts of dense fish `d` to `out`, nearest first.
+    fn append_vision(&self, d: usize, max: usize, out: &mut Vec<Percept>) {
+        if max == 0 {
             return;
-        };
+        }
+        SEEN.with_borrow_mut(|seen| {
+            seen.clear();
+            self.collect_seen(d, seen);
+            if seen.len() > max {
+                seen.select_nth_unstable_by_key(max - 1, |s| s.key);
+                seen.truncate(max);
+            }
+            seen.sort_unstable_by_key(|s| s.key);
+            let me = &self.fish.roots[d];
+            out.extend(seen.iter().map(|s| self.percept_of(me, *s)));
+        });
+    }
+
+    /// Everything in view of dense fish `d`, as sort keys (see [`Seen`]).
+    fn collect_seen(&self, d: usize, seen: &mut Vec<Seen>) {
         let me = self.fish.roots[d];
         let my_species = self.fish.species[d];
         let desc = &self.species[usize::from(my_species.0)].desc;
         let range = desc.view_range;
         let angle = desc.view_angle_deg;
         let fwd = forward(me.heading, me.pitch);
-        let percept = |kind, pos: Vec3, distance| Percept {
-            kind,
-            fish: None,
-            food: None,
-            obstacle: None,
-            species: None,
-            pos,
-            distance,
-            bearing: bearing(me.pos, me.heading, pos),
-            elevation: elevation(me.pos, pos),
-            heading: 0.0,
-            speed: 0.0,
-        };
+        let cone = ViewCone::new(me.pos, fwd, angle);
 
         self.for_each_fish_near(me.pos, range, |o, d2| {
             if o == d {
                 return;
             }
-            let other = &self.fish.roots[o];
-            if !in_view_cone(me.pos, fwd, angle, other.pos) {
+            if !cone.contains(self.fish.roots[o].pos) {
                 return;
             }
             let species = self.fish.species[o];
-            let predator =
-                species != my_species && self.species[usize::from(species.0)].desc.predator;
-            let kind = if predator {
-                PerceptKind::Predator
-            } else {
-                PerceptKind::Fish
-            };
-            out.push(Percept {
-                fish: Some(self.fish.ids[o]),
-                species: Some(species),
-                heading: other.heading,
-                speed: other.speed,
-                ..percept(kind, other.pos, d2.sqrt())
-            });
+            let kind =
+                if species != my_species && self.species[usize::from(species.0)].desc.predator {
+                    PerceptKind::Predator
+                } else {
+                    PerceptKind::Fish
+                };
+            seen.push(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
         });
 
         let mut see_food = |i: usize, f: &Food| {
-            if f.eaten || !in_view_cone(me.pos, fwd, angle, f.pos) {
+            if f.eaten || !cone.contains(f.pos) {
                 return;
             }
             let dist = f.pos.distance(me.pos);
             if dist <= range {
-                out.push(Percept {
-                    food: Some(FoodId(i as u32)),
-                    ..percept(PerceptKind::Food, f.pos, dist)
-                });
+                seen.push(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
             }
         };
         self.food_grid.for_each_within(me.pos, range, |key, _, _| {
@@ -1044,7 +1108,7 @@ impl World {
 
         for (i, o) in self.obstacles.iter().enumerate() {
             let to_centre = o.pos.distance(me.pos);
-            let distance = (to_centre - o.radius).max(0.0);
+            let distance = to_centre - o.radius;
             if distance > range {
                 continue;
             }
@@ -1062,28 +1126,54 @@ impl World {
                 off_axis <= half + angular_radius
             };
             if visible {
-                out.push(Percept {
-                    obstacle: Some(ObstacleId(i as u32)),
-                    ..percept(PerceptKind::Obstacle, o.pos, distance)
-                });
+                seen.push(Seen::new(
+                    distance,
+                    PerceptKind::Obstacle,
+                    i as u32,
+                    i as u32,
+                ));
             }
         }
     }
 
-    /// [`World::vision`] keeping only the `max` nearest percepts (the same ones, in the same
-    /// order, as the first `max` of the full list), for scripts that look at a few things.
-    /// Cheaper than sorting everything when many fish are in view.
-    pub fn vision_nearest(&self, id: FishId, max: usize, out: &mut Vec<Percept>) {
-        self.vision_unsorted(id, out);
-        if out.len() > max {
-            if max == 0 {
-                out.clear();
-                return;
+    /// Builds the percept of `s` as seen from `me`.
+    fn percept_of(&self, me: &RootState, s: Seen) -> Percept {
+        let (distance, kind) = s.distance_and_kind();
+        let i = s.index as usize;
+        let mut p = Percept {
+            kind,
+            fish: None,
+            food: None,
+            obstacle: None,
+            species: None,
+            pos: Vec3::ZERO,
+            distance,
+            bearing: 0.0,
+            elevation: 0.0,
+            heading: 0.0,
+            speed: 0.0,
+        };
+        match kind {
+            PerceptKind::Fish | PerceptKind::Predator => {
+                let other = &self.fish.roots[i];
+                p.fish = Some(self.fish.ids[i]);
+                p.species = Some(self.fish.species[i]);
+                p.pos = other.pos;
+                p.heading = other.heading;
+                p.speed = other.speed;
             }
-            out.select_nth_unstable_by(max - 1, nearest_first);
-            out.truncate(max);
+            PerceptKind::Food => {
+                p.food = Some(FoodId(s.index));
+                p.pos = self.foods[i].pos;
+            }
+            PerceptKind::Obstacle => {
+                p.obstacle = Some(ObstacleId(s.index));
+                p.pos = self.obstacles[i].pos;
+            }
         }
-        out.sort_unstable_by(nearest_first);
+        p.bearing = bearing(me.pos, me.heading, p.pos);
+        p.elevation = elevation(me.pos, p.pos);
+        p
     }
 
     /// The fish's body sensor: depth, distances to floor, surface and nearest side wall (with
@@ -1330,6 +1420,7 @@ impl World {
         }
         let inputs = pose::PoseInputs {
             species: &self.species,
+            plans: &self.pose_plans,
             fish_species: &self.fish.species,
             roots: &self.fish.roots,
             yaw: &self.fish.yaw,
@@ -1340,13 +1431,6 @@ impl World {
         let wall = start.elapsed().as_nanos() as u64;
         let skel = timing.skeleton_ns.load(Ordering::Relaxed);
         let pal = timing.palette_ns.load(Ordering::Relaxed);
-        let failures = timing.failures.load(Ordering::Relaxed);
-        if failures > 0 {
-            if self.pose_failures == 0 {
-                log::error!("{failures} fish could not be posed (rig and model disagree)");
-            }
-            self.pose_failures += failures;
-        }
         let share = if skel + pal > 0 {
             skel as f64 / (skel + pal) as f64
         } else {
@@ -1429,15 +1513,43 @@ impl World {
     }
 }
 
-/// Vision's order: nearest first, ties broken by kind, then fish, food and obstacle id (a total
-/// order on distinct percepts, so the result is deterministic).
-fn nearest_first(a: &Percept, b: &Percept) -> std::cmp::Ordering {
-    a.distance
-        .total_cmp(&b.distance)
-        .then(a.kind.cmp(&b.kind))
-        .then(a.fish.cmp(&b.fish))
-        .then(a.food.cmp(&b.food))
-        .then(a.obstacle.cmp(&b.obstacle))
+/// Something in view before it becomes a [`Percept`]: a sort key that orders nearest first,
+/// then by kind, then by id (a total order on distinct things, so vision is deterministic), and
+/// where to find the thing (dense fish index, food or obstacle index).
+#[derive(Clone, Copy, Debug)]
+struct Seen {
+    /// distance bits (non-negative floats order like their bits) << 32 | kind << 30 | id.
+    key: u64,
+    index: u32,
+}
+
+impl Seen {
+    fn new(distance: f32, kind: PerceptKind, id: u32, index: u32) -> Self {
+        // Clamp to +0.0 (never −0.0, whose bits would sort last).
+        let distance = if distance > 0.0 { distance } else { 0.0 };
+        let kind = kind as u64;
+        Self {
+            key: (u64::from(distance.to_bits()) << 32) | (kind << 30) | u64::from(id & 0x3FFF_FFFF),
+            index,
+        }
+    }
+
+    fn distance_and_kind(&self) -> (f32, PerceptKind) {
+        let distance = f32::from_bits((self.key >> 32) as u32);
+        let kind = match (self.key >> 30) & 3 {
+            0 => PerceptKind::Fish,
+            1 => PerceptKind::Food,
+            2 => PerceptKind::Obstacle,
+            _ => PerceptKind::Predator,
+        };
+        (distance, kind)
+    }
+}
+
+thread_local! {
+    /// Vision's scratch list, per thread so `vision` can take `&self` and never allocate once
+    /// warm.
+    static SEEN: std::cell::RefCell<Vec<Seen>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Sum of the drift velocities of the current zones at `p`, world units per second. Each zone
@@ -1515,4 +1627,39 @@ pub fn resolve_contact(root: &mut RootState, l: f32, tank: &Tank, obstacles: &[O
         touched = true;
     }
     touched
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seen_keys_round_trip_and_order_nearest_then_kind_then_id() {
+        let kinds = [
+            PerceptKind::Fish,
+            PerceptKind::Food,
+            PerceptKind::Obstacle,
+            PerceptKind::Predator,
+        ];
+        for (k, kind) in kinds.into_iter().enumerate() {
+            let s = Seen::new(12.5, kind, 7, 3);
+            assert_eq!(s.distance_and_kind(), (12.5, kind));
+            assert_eq!(s.key & 0x3FFF_FFFF, 7);
+            assert_eq!((s.key >> 30) & 3, k as u64);
+        }
+        let near = Seen::new(1.0, PerceptKind::Predator, 9, 0).key;
+        let far = Seen::new(1.5, PerceptKind::Fish, 0, 0).key;
+        assert!(near < far);
+        assert!(Seen::new(1.0, PerceptKind::Fish, 9, 0).key < near);
+        assert!(Seen::new(1.0, PerceptKind::Predator, 8, 0).key < near);
+        // Inside an obstacle: distance 0, never −0 (which would sort last).
+        assert_eq!(
+            Seen::new(-0.0, PerceptKind::Obstacle, 0, 0)
+                .distance_and_kind()
+                .0
+                .to_bits(),
+            0
+        );
+        assert!(Seen::new(-3.0, PerceptKind::Obstacle, 0, 0).key < far);
+    }
 }

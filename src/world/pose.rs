@@ -4,18 +4,18 @@
 //!
 //! Work splits by halving the fish range with `rayon::join` down to leaves of [`LEAF_FISH`]
 //! fish; each leaf writes only its own sub-slice of the palette, so results do not depend on the
-//! number of threads. Scratch (locals, model matrices) is per thread and grows only on warm-up.
+//! number of threads. Scratch (model matrices) is per thread and grows only on warm-up. The
+//! per-fish work is [`PosePlan`], checked against the layers' own jobs ([`reference_palette`]).
 
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use glam::{Mat4, Quat};
+use glam::{Mat4, Quat, Vec3};
 
-use super::{MAX_DRIVEN_JOINTS, Species, SpeciesId};
+use super::{FishModel, MAX_DRIVEN_JOINTS, Species, SpeciesId, SpeciesRig};
 use crate::motion::RootState;
-use crate::skeleton::JointTransform;
-use crate::skin::palette;
+use crate::skeleton::{JointTransform, NO_PARENT};
 
 /// Fish per leaf task: large enough that the per-leaf timing and scheduling are noise.
 pub const LEAF_FISH: usize = 64;
@@ -29,9 +29,169 @@ pub fn root_matrix(root: &RootState, model_to_body: &Mat4) -> Mat4 {
     ) * *model_to_body
 }
 
+/// A species' skeleton prepared for posing many fish (built once per species, see
+/// [`PosePlan::new`]): the same result as [`reference_palette`] — `SpeciesRig::pose`, then
+/// `Skeleton::local_to_model`, then `skin::palette` — with the constant work done up front:
+/// rest local matrices are precomputed (only driven joints build a matrix per fish), and a joint
+/// that is not driven and has no children (fins, jaw, tail tip) gets its palette entry straight
+/// from its parent's model matrix, `parent · (rest_local · inverse_bind)`, one product instead of
+/// three steps.
+#[derive(Debug, Clone, Default)]
+pub struct PosePlan {
+    parents: Vec<u16>,
+    /// Rest local transform of each joint, as given and as a matrix.
+    rest: Vec<JointTransform>,
+    rest_matrix: Vec<Mat4>,
+    /// Index into the fish's yaw array for driven joints, [`NOT_DRIVEN`] otherwise.
+    yaw_slot: Vec<u8>,
+    /// Bend axis of driven joints (joint-local).
+    axis: Vec<Vec3>,
+    /// Whether the joint's model matrix is needed (it has children, or is driven).
+    needs_model: Vec<bool>,
+    /// Right factor of the palette entry: `inverse_bind` for joints with a model matrix,
+    /// `rest_local · inverse_bind` for the others (applied to the parent's model matrix).
+    palette_rhs: Vec<Mat4>,
+}
+
+const NOT_DRIVEN: u8 = u8::MAX;
+
+impl PosePlan {
+    /// Prepares `rig` on `model`. Joints are taken from the model's skeleton; the rig's driven
+    /// joints beyond [`MAX_DRIVEN_JOINTS`] or outside the skeleton are ignored (as
+    /// `SpeciesRig::pose` ignores them), and a missing inverse bind pose counts as identity
+    /// (`Species::validate` refuses such species for spawning anyway).
+    pub fn new(rig: &SpeciesRig, model: &FishModel) -> Self {
+        let skeleton = &model.skeleton;
+        let n = skeleton.num_joints();
+        let parents = skeleton.parents().to_vec();
+        let rest: Vec<JointTransform> = (0..n)
+            .map(|j| {
+                rig.rest_locals
+                    .get(j)
+                    .copied()
+                    .unwrap_or(skeleton.rest_locals()[j])
+            })
+            .collect();
+        let rest_matrix: Vec<Mat4> = rest.iter().map(JointTransform::to_mat4).collect();
+        let mut yaw_slot = vec![NOT_DRIVEN; n];
+        let mut axis = vec![Vec3::ZERO; n];
+        for (k, (&j, &a)) in rig.driven_joints.iter().zip(&rig.bend_axes).enumerate() {
+            if j < n && k < MAX_DRIVEN_JOINTS && yaw_slot[j] == NOT_DRIVEN {
+                yaw_slot[j] = k as u8;
+                axis[j] = a;
+            }
+        }
+        let mut has_children = vec![false; n];
+        for &p in &parents {
+            if p != NO_PARENT {
+                has_children[usize::from(p)] = true;
+            }
+        }
+        let needs_model: Vec<bool> = (0..n)
+            .map(|j| has_children[j] || yaw_slot[j] != NOT_DRIVEN)
+            .collect();
+        let palette_rhs = (0..n)
+            .map(|j| {
+                let ibm = model
+                    .inverse_bind_poses
+                    .get(j)
+                    .copied()
+                    .unwrap_or(Mat4::IDENTITY);
+                if needs_model[j] {
+                    ibm
+                } else {
+                    rest_matrix[j] * ibm
+                }
+            })
+            .collect();
+        Self {
+            parents,
+            rest,
+            rest_matrix,
+            yaw_slot,
+            axis,
+            needs_model,
+            palette_rhs,
+        }
+    }
+
+    /// Number of joints (palette entries per fish).
+    pub fn num_joints(&self) -> usize {
+        self.parents.len()
+    }
+
+    /// Model matrices of the joints that need one, from the fish's placement `root` and its
+    /// driven joints' `yaw` (radians; a non-finite yaw counts as rest, as in
+    /// `SpeciesRig::pose`). Entries of other joints are left alone.
+    pub fn models(&self, root: Mat4, yaw: &[f32], models: &mut [Mat4]) {
+        for j in 0..self.parents.len() {
+            if !self.needs_model[j] {
+                continue;
+            }
+            let local = match self.yaw_slot[j] {
+                NOT_DRIVEN => self.rest_matrix[j],
+                slot => match yaw.get(usize::from(slot)) {
+                    Some(&angle) if angle.is_finite() => {
+                        let r = &self.rest[j];
+                        let rotation =
+                            (r.rotation * Quat::from_axis_angle(self.axis[j], angle)).normalize();
+                        Mat4::from_scale_rotation_translation(r.scale, rotation, r.translation)
+                    }
+                    _ => self.rest_matrix[j],
+                },
+            };
+            let parent = match self.parents[j] {
+                NO_PARENT => root,
+                p => models[usize::from(p)],
+            };
+            models[j] = parent * local;
+        }
+    }
+
+    /// The skinning palette from [`PosePlan::models`]' output.
+    pub fn palette(&self, root: Mat4, models: &[Mat4], out: &mut [Mat4]) {
+        for (j, o) in out.iter_mut().enumerate().take(self.parents.len()) {
+            let left = if self.needs_model[j] {
+                models[j]
+            } else {
+                match self.parents[j] {
+                    NO_PARENT => root,
+                    p => models[usize::from(p)],
+                }
+            };
+            *o = left * self.palette_rhs[j];
+        }
+    }
+}
+
+/// The pose stage spelled out with the layers' own jobs, for one fish: `SpeciesRig::pose` →
+/// `Skeleton::local_to_model` from [`root_matrix`] → `skin::palette`. [`PosePlan`] computes the
+/// same (tests compare them); this allocates and is for checking, not for the tick.
+pub fn reference_palette(
+    species: &Species,
+    root: &RootState,
+    yaw: &[f32],
+    out: &mut [Mat4],
+) -> Result<(), String> {
+    let skeleton = &species.model.skeleton;
+    let mut locals = vec![JointTransform::IDENTITY; skeleton.num_joints()];
+    species.rig.pose(yaw, &mut locals);
+    let mut models = vec![Mat4::IDENTITY; skeleton.num_joints()];
+    skeleton
+        .local_to_model(
+            root_matrix(root, &species.rig.model_to_body),
+            &locals,
+            &mut models,
+        )
+        .run()
+        .map_err(|e| e.to_string())?;
+    crate::skin::palette(&models, &species.model.inverse_bind_poses, out).map_err(|e| e.to_string())
+}
+
 /// Inputs of the pose job, all indexed by dense fish position.
 pub(crate) struct PoseInputs<'a> {
     pub species: &'a [Species],
+    pub plans: &'a [PosePlan],
     pub fish_species: &'a [SpeciesId],
     pub roots: &'a [RootState],
     pub yaw: &'a [[f32; MAX_DRIVEN_JOINTS]],
@@ -44,13 +204,12 @@ pub(crate) struct PoseInputs<'a> {
 pub(crate) struct PoseTiming {
     pub skeleton_ns: AtomicU64,
     pub palette_ns: AtomicU64,
-    pub failures: AtomicU64,
 }
 
 #[derive(Default)]
 struct Scratch {
-    locals: Vec<JointTransform>,
     models: Vec<Mat4>,
+    roots: Vec<Mat4>,
 }
 
 thread_local! {
@@ -91,40 +250,23 @@ fn leaf(
         if scratch.models.len() < total {
             scratch.models.resize(total, Mat4::IDENTITY);
         }
+        scratch.roots.clear();
         let start = Instant::now();
-        let mut failures = 0;
         for i in first..first + count {
-            let species = &inputs.species[usize::from(inputs.fish_species[i].0)];
-            let skeleton = &species.model.skeleton;
-            let joints = skeleton.num_joints();
-            if scratch.locals.len() < joints {
-                scratch.locals.resize(joints, JointTransform::IDENTITY);
-            }
-            let locals = &mut scratch.locals[..joints];
-            let driven = species.rig.body.power.len().min(MAX_DRIVEN_JOINTS);
-            species.rig.pose(&inputs.yaw[i][..driven], locals);
-            let lo = inputs.offsets[i] as usize - base;
-            let models = &mut scratch.models[lo..lo + joints];
-            let root = root_matrix(&inputs.roots[i], &species.rig.model_to_body);
-            if skeleton.local_to_model(root, locals, models).run().is_err() {
-                failures += 1;
-            }
-        }
-        let mid = Instant::now();
-        for i in first..first + count {
-            let species = &inputs.species[usize::from(inputs.fish_species[i].0)];
+            let sid = usize::from(inputs.fish_species[i].0);
+            let plan = &inputs.plans[sid];
+            let root = root_matrix(&inputs.roots[i], &inputs.species[sid].rig.model_to_body);
+            scratch.roots.push(root);
             let lo = inputs.offsets[i] as usize - base;
             let hi = inputs.offsets[i + 1] as usize - base;
-            if palette(
-                &scratch.models[lo..hi],
-                &species.model.inverse_bind_poses,
-                &mut out[lo..hi],
-            )
-            .is_err()
-            {
-                failures += 1;
-                out[lo..hi].fill(Mat4::IDENTITY);
-            }
+            plan.models(root, &inputs.yaw[i], &mut scratch.models[lo..hi]);
+        }
+        let mid = Instant::now();
+        for (k, i) in (first..first + count).enumerate() {
+            let plan = &inputs.plans[usize::from(inputs.fish_species[i].0)];
+            let lo = inputs.offsets[i] as usize - base;
+            let hi = inputs.offsets[i + 1] as usize - base;
+            plan.palette(scratch.roots[k], &scratch.models[lo..hi], &mut out[lo..hi]);
         }
         let end = Instant::now();
         timing
@@ -133,9 +275,6 @@ fn leaf(
         timing
             .palette_ns
             .fetch_add((end - mid).as_nanos() as u64, Ordering::Relaxed);
-        if failures > 0 {
-            timing.failures.fetch_add(failures, Ordering::Relaxed);
-        }
     });
 }
 
@@ -143,7 +282,6 @@ fn leaf(
 mod tests {
     use super::*;
     use crate::world::sense::forward;
-    use glam::Vec3;
 
     #[test]
     fn root_matrix_faces_the_heading_and_sits_at_the_root() {

@@ -74,6 +74,48 @@ pub fn in_view_cone(pos: Vec3, forward: Vec3, view_angle_deg: f32, target: Vec3)
     forward.dot(d) >= len * half.cos()
 }
 
+/// A view cone prepared for many tests: [`in_view_cone`] with the half-angle's cosine computed
+/// once and no square root per test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewCone {
+    pos: Vec3,
+    forward: Vec3,
+    cos_half: f32,
+    all_round: bool,
+}
+
+impl ViewCone {
+    /// The cone of full opening `view_angle_deg` degrees around the unit vector `forward`, apex
+    /// at `pos`.
+    pub fn new(pos: Vec3, forward: Vec3, view_angle_deg: f32) -> Self {
+        Self {
+            pos,
+            forward,
+            cos_half: (view_angle_deg.max(0.0) * 0.5).to_radians().cos(),
+            all_round: view_angle_deg >= 360.0,
+        }
+    }
+
+    /// Same answer as [`in_view_cone`]: forward·d ≥ |d|·cos(half), compared squared.
+    pub fn contains(&self, target: Vec3) -> bool {
+        if self.all_round {
+            return true;
+        }
+        let d = target - self.pos;
+        let len2 = d.length_squared();
+        if len2 <= f32::EPSILON * f32::EPSILON {
+            return true;
+        }
+        let dot = self.forward.dot(d);
+        let bound2 = len2 * self.cos_half * self.cos_half;
+        if self.cos_half >= 0.0 {
+            dot >= 0.0 && dot * dot >= bound2
+        } else {
+            dot >= 0.0 || dot * dot <= bound2
+        }
+    }
+}
+
 /// Distances from `pos` to the tank's boundaries: (to floor, to surface, to the nearest side wall,
 /// that wall's inward unit normal). Negative distances mean `pos` is beyond that boundary.
 pub fn tank_distances(tank: &Tank, pos: Vec3) -> (f32, f32, f32, Vec3) {
@@ -161,6 +203,28 @@ mod tests {
             Vec3::new(-1.0, 0.0, 0.7)
         ));
         assert!(in_view_cone(Vec3::ZERO, f, 360.0, Vec3::NEG_X));
+    }
+
+    #[test]
+    fn prepared_view_cone_agrees_with_the_plain_test() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
+        let mut disagreements = 0;
+        for _ in 0..20_000 {
+            let pos = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
+            let fwd = forward(rng.random_range(-PI..PI), rng.random_range(-1.5..1.5));
+            let target = Vec3::new(rng.random(), rng.random(), rng.random()) * 10.0;
+            let angle = rng.random_range(0.0..400.0);
+            let cone = ViewCone::new(pos, fwd, angle);
+            if cone.contains(target) != in_view_cone(pos, fwd, angle, target) {
+                // Only exactly on the cone's surface may rounding differ.
+                let d = (target - pos).normalize();
+                let off = fwd.dot(d).clamp(-1.0, 1.0).acos().to_degrees();
+                assert!((off - angle * 0.5).abs() < 0.01, "off {off}, angle {angle}");
+                disagreements += 1;
+            }
+        }
+        assert!(disagreements < 5);
     }
 
     #[test]
