@@ -29,6 +29,7 @@ fn render_fish(gpu: &Gpu, renderer: &mut Renderer, palette: &[Mat4]) -> image::R
         },
         tank: TankBounds::default(),
         time_s: 0.0,
+        props: &[],
         overlay: &[],
         look: Look::default(),
     };

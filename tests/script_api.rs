@@ -494,3 +494,34 @@ fn test_a_failing_fish_keeps_its_motion_and_others_run() {
     assert_eq!(log.iter().filter(|e| e.message.contains("boom")).count(), 1);
     drop(dir);
 }
+
+#[test]
+fn test_nearest_agrees_with_the_full_vision_list() {
+    // nearest() answers from the grid without building the percept list; after see() it answers
+    // from the list. Both must name the same thing at the same distance.
+    let (_d, mut sim) = probe(
+        "local function get(k, s)\n  local p = shoal.nearest(k, s)\n  return p and { p.kind, p.id, p.distance, p.bearing, p.elevation } or 'none'\nend\nreturn { tick = function(fish)\n  local m = fish.memory\n  m.grid = { get('fish'), get('food'), get('predator'), get('fish', 'barracuda') }\n  shoal.see()\n  m.list = { get('fish'), get('food'), get('predator'), get('fish', 'barracuda') }\nend }\n",
+    );
+    let watcher = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.7, "probe");
+    for i in 0..40 {
+        let a = i as f32 * 2.399;
+        let r = 30.0 + 7.0 * i as f32;
+        let p = Vec3::new(a.cos() * r, 200.0 + (a * 3.0).sin() * 60.0, a.sin() * r);
+        let species = if i % 13 == 5 {
+            "barracuda"
+        } else {
+            "black_porgy"
+        };
+        sim.spawn(species, p, a, 0.0, Some(0.0), None).unwrap();
+        if i % 3 == 0 {
+            sim.world_mut().add_food(p + Vec3::new(20.0, -10.0, 15.0));
+        }
+    }
+    sim.world_mut().rebuild_grid();
+    sim.step();
+    let m = mem(&sim, watcher);
+    assert_eq!(m["grid"], m["list"], "{m}");
+    assert_ne!(m["grid"][0], "none");
+    assert_ne!(m["grid"][1], "none");
+    assert_ne!(m["grid"][2], "none");
+}

@@ -77,7 +77,7 @@ fn test_every_shipped_behaviour_loads() {
 fn test_api_outside_a_tick_is_an_error() {
     let h = host();
     let err = h
-        .eval("scripts/console.lua", "return shoal.body()")
+        .eval("scripts/console.lua", "local b = shoal.body()\nreturn b")
         .unwrap_err();
     assert_eq!(
         err,

@@ -7,7 +7,7 @@ local common = require("behaviors.lib.common")
 local M = {}
 
 function M.perceive(fish)
-  local p = fish.percepts or {}
+  local p = common.begin(fish)
   common.keep(p, "predator", shoal.nearest("predator"))
   common.sense_collision(p)
   return p

@@ -11,7 +11,7 @@ M.REST_SECONDS = 8
 M.LEAD_SECONDS = 0.5
 
 function M.perceive(fish)
-  local p = fish.percepts or {}
+  local p = common.begin(fish)
   common.keep(p, "prey", shoal.nearest("fish", M.PREY))
   common.sense_collision(p)
   return p
@@ -24,7 +24,7 @@ function M.intend(fish, p)
   if common.avoiding(fish, p, "rock") or common.avoiding(fish, p, "wall") then
     return "avoid"
   end
-  if m.rest_until and shoal.time() < m.rest_until then return "rest" end
+  if m.rest_until and common.cur.now < m.rest_until then return "rest" end
   if p.prey_id and m.hunger > 0.2 then return "hunt" end
   return "patrol"
 end
@@ -34,11 +34,11 @@ function M.behave(fish, intention, p)
   if intention == "avoid" then
     common.avoid(fish)
   elseif intention == "hunt" then
-    local me = shoal.species()
+    local me = common.cur.me
     if p.prey_distance < 0.5 * me.length then
       m.catches = (m.catches or 0) + 1
       m.hunger = 0
-      m.rest_until = shoal.time() + M.REST_SECONDS
+      m.rest_until = common.cur.now + M.REST_SECONDS
       common.wander(fish, 1.5)
       return
     end

@@ -8,11 +8,11 @@ local M = {}
 
 -- weights of the three crowding rules, and their radii in body lengths
 M.SEPARATION, M.SEPARATION_RADIUS = 1.0, 1.0
-M.ALIGNMENT, M.ALIGNMENT_RADIUS = 2.0, 4.0
-M.COHESION, M.COHESION_RADIUS = 1.0, 6.0
+M.ALIGNMENT, M.ALIGNMENT_RADIUS = 2.0, 3.0
+M.COHESION, M.COHESION_RADIUS = 1.0, 4.0
 
 function M.perceive(fish)
-  local p = fish.percepts or {}
+  local p = common.begin(fish)
   common.keep(p, "food", shoal.nearest("food"))
   common.keep(p, "predator", shoal.nearest("predator"))
   common.sense_collision(p)
@@ -38,7 +38,7 @@ function M.behave(fish, intention, p)
   elseif intention == "eat" then
     common.feed(fish, p)
   else
-    local l = shoal.species().length
+    local l = common.cur.me.length
     local hs, ds, ss = shoal.separation(M.SEPARATION_RADIUS * l)
     local ha, da, sa = shoal.alignment(M.ALIGNMENT_RADIUS * l)
     local hc, dc, sc = shoal.cohesion(M.COHESION_RADIUS * l)

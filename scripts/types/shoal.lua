@@ -72,6 +72,10 @@
 ---@field view_angle number   # full opening of the view cone, radians
 ---@field turn_time number    # Tt, seconds
 ---@field predator boolean
+---@field hunger_per_s number        # drives (species data): hunger rise per second
+---@field satiation_per_food number  # hunger removed by one pellet
+---@field fear_decay_per_s number    # fear decay per second once no predator is seen
+---@field sociability number         # in [0, 1]: how strongly it keeps to its own species
 
 ---@class shoal
 shoal = {}

@@ -260,7 +260,7 @@ pub struct RenderArgs {
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "1920x1080", value_parser = super::render::parse_size)]
     pub size: (u32, u32),
-    /// Measured frames per fish count (after 3 warm-up frames).
+    /// Measured frames per fish count (after one warm-up frame).
     #[arg(long, default_value_t = 30)]
     pub frames: usize,
 }
@@ -294,6 +294,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     );
     for &n in &args.fish {
         let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
+        // The demo scene draws the generated black porgy (procedural fish if it cannot load).
         let config = DemoSceneConfig {
             fish: n,
             ..DemoSceneConfig::default()
@@ -301,12 +302,20 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         config.validate().map_err(anyhow::Error::msg)?;
         let mut scene = DemoScene::new(config);
         for m in scene.meshes() {
+            if n == args.fish[0] {
+                println!(
+                    "mesh: {} ({} triangles, {} joints)",
+                    m.label,
+                    m.indices.len() / 3,
+                    scene.rig().num_joints()
+                );
+            }
             renderer.upload_mesh(&gpu, &m)?;
         }
         let camera = scene.default_camera();
         let mut times = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
-        for frame in 0..args.frames + 3 {
+        for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
             let mut input = scene.frame_input();
             input.camera = camera;
@@ -314,7 +323,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             renderer.render(&gpu, target.view(), target.size(), &input)?;
             gpu.wait_idle();
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            if frame >= 3 {
+            if frame >= 1 {
                 times.push(ms);
                 upload += f64::from(renderer.timings().upload_ms);
             }

@@ -6,12 +6,20 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::render::{DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver};
+use crate::render::{
+    DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver, WorldScene,
+};
+use crate::script::Simulation;
+use crate::world::bench::{RustSim, bench_world};
+use crate::world::driver::WanderDriver;
+use crate::world::{Species, SpeciesDesc};
 
 /// Arguments of `shoal render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Scene file (JSON: fish, seed, tank, camera, caustics). Default: the built-in aquarium.
+    /// Scene: a Lua scene (`scripts/scenes/*.lua`), `porgies` (black porgies from
+    /// `assets/black_porgy.glb`, built-in wander/school behaviour), `demo` (procedural fish) or a
+    /// demo JSON file. Default: `scripts/scenes/default.lua`, else `porgies`, else `demo`.
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Simulated seconds to render.
@@ -26,7 +34,7 @@ pub struct Args {
     /// Random seed (overrides the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Number of fish (overrides the scene's).
+    /// Number of fish (`porgies` and `demo` scenes; a Lua scene sets its own).
     #[arg(long)]
     pub fish: Option<usize>,
     /// Output: `*.png` (last frame), `*.gif` (animation) or a directory (numbered PNGs).
@@ -49,6 +57,93 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
+/// The repository root that holds `scripts/` and `assets/`: the working directory when it has
+/// them, else the source tree this binary was built from.
+pub fn project_root() -> PathBuf {
+    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+    if cwd.join("scripts").is_dir() {
+        cwd
+    } else {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    }
+}
+
+/// Fish in the `porgies` scene when `--fish` is not given.
+pub const DEFAULT_PORGIES: usize = 40;
+
+/// A world of `fish` black porgies (the generated asset, `assets/black_porgy.glb`) at constant
+/// density, driven by the built-in Rust wander/school driver.
+pub fn porgy_scene(fish: usize, seed: u64) -> anyhow::Result<Box<dyn SceneDriver>> {
+    let assets = project_root().join("assets");
+    let species = Species::load(SpeciesDesc::black_porgy(), &assets)
+        .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
+    let world = bench_world(species, fish, seed)?;
+    let sim = RustSim {
+        world,
+        driver: WanderDriver::default(),
+    };
+    Ok(Box::new(WorldScene::new(sim)))
+}
+
+/// Builds the scene named by `--scene` (see [`Args::scene`]) with the `--seed` and `--fish`
+/// overrides. With no `--scene`: the default Lua scene, else the porgy world, else the demo,
+/// whichever loads first (saying why the others did not).
+pub fn load_scene(
+    scene: Option<&Path>,
+    seed: Option<u64>,
+    fish: Option<usize>,
+) -> anyhow::Result<Box<dyn SceneDriver>> {
+    let root = project_root();
+    let seed_or_1 = seed.unwrap_or(1);
+    let lua = |path: &Path| -> anyhow::Result<Box<dyn SceneDriver>> {
+        if fish.is_some() {
+            anyhow::bail!(
+                "--fish applies to `--scene demo` and `--scene porgies`; the Lua scene `{}` sets \
+                 its own fish",
+                path.display()
+            );
+        }
+        let sim = Simulation::from_scene(&root, path, seed_or_1)
+            .with_context(|| format!("loading scene `{}`", path.display()))?;
+        Ok(Box::new(WorldScene::new(sim)))
+    };
+    let demo = |config: Option<DemoSceneConfig>| -> anyhow::Result<Box<dyn SceneDriver>> {
+        let mut config = config.unwrap_or_default();
+        if let Some(seed) = seed {
+            config.seed = seed;
+        }
+        if let Some(fish) = fish {
+            config.fish = fish;
+        }
+        config.validate().map_err(anyhow::Error::msg)?;
+        Ok(Box::new(DemoScene::new(config)))
+    };
+    match scene {
+        Some(p) if p.extension().is_some_and(|e| e == "lua") => lua(p),
+        Some(p) if p.as_os_str() == "porgies" => {
+            porgy_scene(fish.unwrap_or(DEFAULT_PORGIES), seed_or_1)
+        }
+        Some(p) if p.as_os_str() == "demo" => demo(None),
+        Some(p) => demo(Some(DemoSceneConfig::load(p).map_err(anyhow::Error::msg)?)),
+        None => {
+            let default_lua = root.join("scripts/scenes/default.lua");
+            if fish.is_none() && default_lua.is_file() {
+                match lua(&default_lua) {
+                    Ok(s) => return Ok(s),
+                    Err(e) => log::warn!("{e:#}; showing the porgy world instead"),
+                }
+            }
+            match porgy_scene(fish.unwrap_or(DEFAULT_PORGIES), seed_or_1) {
+                Ok(s) => Ok(s),
+                Err(e) => {
+                    log::warn!("{e:#}; showing the procedural demo instead");
+                    demo(None)
+                }
+            }
+        }
+    }
+}
+
 enum Output {
     Png(PathBuf),
     Gif(PathBuf),
@@ -63,24 +158,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if args.fps == 0 || args.fps > 240 {
         anyhow::bail!("--fps {} must be in 1..=240", args.fps);
     }
-    let mut config = match &args.scene {
-        Some(path) => DemoSceneConfig::load(path).map_err(anyhow::Error::msg)?,
-        None => DemoSceneConfig::default(),
-    };
-    if let Some(seed) = args.seed {
-        config.seed = seed;
-    }
-    if let Some(fish) = args.fish {
-        config.fish = fish;
-    }
-    config.validate().map_err(anyhow::Error::msg)?;
+    let mut scene = load_scene(args.scene.as_deref(), args.seed, args.fish)?;
     let output = classify(&args.out);
 
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
-    let mut scene = DemoScene::new(config);
-    render_frames(&gpu, &mut renderer, &mut scene, &args, &output)?;
+    render_frames(&gpu, &mut renderer, scene.as_mut(), &args, &output)?;
     Ok(ExitCode::SUCCESS)
 }
 

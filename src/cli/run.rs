@@ -3,19 +3,24 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use crate::render::OverlayToggles;
 use crate::render::app::{AppOptions, run_window};
-use crate::render::{DemoScene, DemoSceneConfig, OverlayToggles};
 
 /// Arguments of `shoal run`.
 #[derive(Debug, Default, clap::Args)]
 pub struct Args {
-    /// Scene file (JSON: fish, seed, tank, camera, caustics). Default: the built-in aquarium.
+    /// Scene: a Lua scene (`scripts/scenes/*.lua`), `porgies` (black porgies from
+    /// `assets/black_porgy.glb`, built-in wander/school behaviour), `demo` (procedural fish) or a
+    /// demo JSON file. Default: `scripts/scenes/default.lua`, else `porgies`, else `demo`.
     #[arg(long)]
     pub scene: Option<PathBuf>,
+    /// Random seed of the scene.
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Draw this many frames, then exit (for tests and scripted runs).
     #[arg(long)]
     pub frames: Option<u64>,
-    /// Number of fish (overrides the scene's).
+    /// Number of fish (`porgies` and `demo` scenes; a Lua scene sets its own).
     #[arg(long)]
     pub fish: Option<usize>,
     /// Select (and follow) this fish at start.
@@ -28,15 +33,7 @@ pub struct Args {
 
 /// Runs `shoal run`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let mut config = match &args.scene {
-        Some(path) => DemoSceneConfig::load(path).map_err(anyhow::Error::msg)?,
-        None => DemoSceneConfig::default(),
-    };
-    if let Some(n) = args.fish {
-        config.fish = n;
-    }
-    config.validate().map_err(anyhow::Error::msg)?;
-    let scene = Box::new(DemoScene::new(config));
+    let scene = super::render::load_scene(args.scene.as_deref(), args.seed, args.fish)?;
     let all = args.overlays;
     let options = AppOptions {
         frames: args.frames,

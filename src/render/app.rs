@@ -246,6 +246,9 @@ impl App {
         for mesh in self.scene.meshes() {
             renderer.upload_mesh(&gpu, &mesh)?;
         }
+        if let Err(e) = self.scene.enable_hot_reload() {
+            self.ui.log(format!("script hot reload is off: {e}"));
+        }
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),
@@ -278,17 +281,7 @@ impl App {
     fn pick(&mut self) {
         let Some(ws) = &self.window else { return };
         let size = Vec2::new(ws.config.width as f32, ws.config.height as f32);
-        let ray = self.ui.camera.ray_through_pixel(self.ui.cursor, size);
-        let mut best: Option<(usize, f32)> = None;
-        for i in 0..self.scene.num_fish() {
-            if let Some(info) = self.scene.fish_info(i)
-                && let Some(t) = ray.hit_sphere(info.center, info.radius * 0.8)
-                && best.is_none_or(|(_, bt)| t < bt)
-            {
-                best = Some((i, t));
-            }
-        }
-        self.ui.selected = best.map(|(i, _)| i);
+        self.ui.selected = pick_fish(&self.ui.camera, self.ui.cursor, size, &*self.scene);
         self.scene.set_selected(self.ui.selected);
         if let Some(i) = self.ui.selected {
             self.ui.species = self.scene.species_of(i).unwrap_or(0);
@@ -574,6 +567,28 @@ impl ApplicationHandler for App {
     }
 }
 
+/// The fish under `cursor` (physical pixels from the top-left of a `size` view): the nearest
+/// whose bounding sphere (shrunk to 80 %, the body is thinner than its sphere) the ray through
+/// the pixel hits. CPU only; linear in the number of fish, run on clicks.
+pub fn pick_fish(
+    camera: &Camera,
+    cursor: Vec2,
+    size: Vec2,
+    scene: &dyn SceneDriver,
+) -> Option<usize> {
+    let ray = camera.ray_through_pixel(cursor, size);
+    let mut best: Option<(usize, f32)> = None;
+    for i in 0..scene.num_fish() {
+        if let Some(info) = scene.fish_info(i)
+            && let Some(t) = ray.hit_sphere(info.center, info.radius * 0.8)
+            && best.is_none_or(|(_, bt)| t < bt)
+        {
+            best = Some((i, t));
+        }
+    }
+    best.map(|(i, _)| i)
+}
+
 /// Picks one stage's time out of a frame's timings.
 type StageOf = fn(&FrameTimes) -> f32;
 
@@ -613,77 +628,6 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                     .logarithmic(true)
                     .text("speed ×"),
             );
-        });
-    egui::CollapsingHeader::new("Timings (last 120 frames, ms)")
-        .default_open(true)
-        .show(ui, |ui| {
-            egui::Grid::new("timings").striped(true).show(ui, |ui| {
-                ui.label("stage");
-                ui.label("mean");
-                ui.label("max");
-                ui.end_row();
-                let rows: [(&str, StageOf); 4] = [
-                    ("simulation", |t| t.sim_ms),
-                    ("skinning upload", |t| t.upload_ms),
-                    ("draw (encode+submit)", |t| t.draw_ms),
-                    ("frame", |t| t.frame_ms),
-                ];
-                for (name, f) in rows {
-                    let (mean, max) = mean_max(&st.times, f);
-                    ui.label(name);
-                    ui.label(format!("{mean:.2}"));
-                    ui.label(format!("{max:.2}"));
-                    ui.end_row();
-                }
-                for (name, ms) in scene.stage_timings_ms() {
-                    ui.label(format!("  sim: {name}"));
-                    ui.label(format!("{ms:.2}"));
-                    ui.end_row();
-                }
-            });
-        });
-    egui::CollapsingHeader::new("Overlays")
-        .default_open(true)
-        .show(ui, |ui| {
-            ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
-            ui.checkbox(&mut st.toggles.midline, "body midline");
-            ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
-            ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
-        });
-    let species = scene.species_names();
-    egui::CollapsingHeader::new("Motion parameters")
-        .default_open(true)
-        .show(ui, |ui| {
-            if !species.is_empty() {
-                egui::ComboBox::from_label("species")
-                    .selected_text(species.get(st.species).cloned().unwrap_or_default())
-                    .show_ui(ui, |ui| {
-                        for (i, name) in species.iter().enumerate() {
-                            ui.selectable_value(&mut st.species, i, name);
-                        }
-                    });
-            }
-            let Some(mut p) = scene.motion_params(st.species) else {
-                ui.label("(this scene has no tunable motion)");
-                return;
-            };
-            let before = p;
-            ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
-            ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
-            ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
-            ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
-            ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
-            ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
-            ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
-            ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
-            let mut deg = p.turn_angle.to_degrees();
-            ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
-            p.turn_angle = deg.to_radians();
-            if p != before
-                && let Err(e) = scene.set_motion_params(st.species, p)
-            {
-                st.log(e);
-            }
         });
     egui::CollapsingHeader::new("Selected fish")
         .default_open(true)
@@ -758,6 +702,77 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                 }
             });
         });
+    let species = scene.species_names();
+    egui::CollapsingHeader::new("Motion parameters")
+        .default_open(true)
+        .show(ui, |ui| {
+            if !species.is_empty() {
+                egui::ComboBox::from_label("species")
+                    .selected_text(species.get(st.species).cloned().unwrap_or_default())
+                    .show_ui(ui, |ui| {
+                        for (i, name) in species.iter().enumerate() {
+                            ui.selectable_value(&mut st.species, i, name);
+                        }
+                    });
+            }
+            let Some(mut p) = scene.motion_params(st.species) else {
+                ui.label("(this scene has no tunable motion)");
+                return;
+            };
+            let before = p;
+            ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
+            ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
+            ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
+            ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
+            ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
+            ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
+            ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
+            ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
+            let mut deg = p.turn_angle.to_degrees();
+            ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
+            p.turn_angle = deg.to_radians();
+            if p != before
+                && let Err(e) = scene.set_motion_params(st.species, p)
+            {
+                st.log(e);
+            }
+        });
+    egui::CollapsingHeader::new("Overlays")
+        .default_open(true)
+        .show(ui, |ui| {
+            ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
+            ui.checkbox(&mut st.toggles.midline, "body midline");
+            ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
+            ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
+        });
+    egui::CollapsingHeader::new("Timings (last 120 frames, ms)")
+        .default_open(true)
+        .show(ui, |ui| {
+            egui::Grid::new("timings").striped(true).show(ui, |ui| {
+                ui.label("stage");
+                ui.label("mean");
+                ui.label("max");
+                ui.end_row();
+                let rows: [(&str, StageOf); 4] = [
+                    ("simulation", |t| t.sim_ms),
+                    ("skinning upload", |t| t.upload_ms),
+                    ("draw (encode+submit)", |t| t.draw_ms),
+                    ("frame", |t| t.frame_ms),
+                ];
+                for (name, f) in rows {
+                    let (mean, max) = mean_max(&st.times, f);
+                    ui.label(name);
+                    ui.label(format!("{mean:.2}"));
+                    ui.label(format!("{max:.2}"));
+                    ui.end_row();
+                }
+                for (name, ms) in scene.stage_timings_ms() {
+                    ui.label(format!("  sim: {name}"));
+                    ui.label(format!("{ms:.2}"));
+                    ui.end_row();
+                }
+            });
+        });
     egui::CollapsingHeader::new("Console")
         .default_open(true)
         .show(ui, |ui| {
@@ -773,4 +788,42 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                     }
                 });
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{DemoMesh, DemoScene, DemoSceneConfig};
+
+    #[test]
+    fn clicking_a_fish_centre_picks_that_fish_and_empty_water_picks_none() {
+        let scene = DemoScene::new(DemoSceneConfig {
+            fish: 6,
+            mesh: DemoMesh::Procedural,
+            ..DemoSceneConfig::default()
+        });
+        let camera = scene.default_camera();
+        let size = Vec2::new(800.0, 600.0);
+        let view_proj = camera.view_proj(size.x / size.y);
+        let mut picked_any = false;
+        for i in 0..scene.num_fish() {
+            let c = scene.fish_info(i).unwrap().center;
+            let ndc = view_proj.project_point3(c);
+            let px = Vec2::new((ndc.x + 1.0) * 0.5 * size.x, (1.0 - ndc.y) * 0.5 * size.y);
+            let got = pick_fish(&camera, px, size, &scene);
+            // Another fish may sit in front; whatever is picked must be on the ray, and when
+            // it is not this fish, that one must be nearer the eye.
+            let got = got.expect("a fish centre hits at least that fish");
+            if got == i {
+                picked_any = true;
+            } else {
+                let eye = camera.eye();
+                let d_got = (scene.fish_info(got).unwrap().center - eye).length();
+                assert!(d_got < (c - eye).length() + 60.0, "picked {got} behind {i}");
+            }
+        }
+        assert!(picked_any);
+        // Straight up from the top-left corner: open water.
+        assert_eq!(pick_fish(&camera, Vec2::new(1.0, 1.0), size, &scene), None);
+    }
 }

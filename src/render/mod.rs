@@ -20,18 +20,25 @@
 
 pub mod app;
 mod camera;
+mod demo_rig;
 mod gpu;
+pub mod props;
 mod renderer;
 mod scene;
 pub mod shaders;
 mod target;
 pub mod testmesh;
+mod world_scene;
 
 pub use camera::{Camera, Ray};
+pub use demo_rig::{DemoRig, PoseScratch};
 pub use gpu::{Gpu, GpuError};
 pub use renderer::{RenderTimings, Renderer};
-pub use scene::{DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver};
+pub use scene::{
+    DemoMesh, DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver, porgy_asset_path,
+};
 pub use target::OffscreenTarget;
+pub use world_scene::{WorldScene, WorldSim};
 
 use glam::{Mat4, Vec3};
 
@@ -159,6 +166,17 @@ impl Default for TankBounds {
     }
 }
 
+/// A rigid object (a rock, a food pellet): a one-joint mesh placed by one matrix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prop {
+    /// Its mesh; every vertex must be on joint 0 only.
+    pub mesh: MeshId,
+    /// Model → world transform.
+    pub transform: Mat4,
+    /// Linear RGB multiplier on the material colour.
+    pub tint: [f32; 3],
+}
+
 /// One coloured line segment in world space (overlays: skeletons, midlines, arrows, ranges).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OverlayLine {
@@ -213,6 +231,8 @@ pub struct FrameInput<'a> {
     pub tank: TankBounds,
     /// Scene time, seconds (animates caustics and light shafts).
     pub time_s: f32,
+    /// Rigid props (rocks, food), drawn lit and fogged like the fish.
+    pub props: &'a [Prop],
     /// Debug overlay segments drawn on top of everything (empty for none).
     pub overlay: &'a [OverlayLine],
     /// Water and light settings.

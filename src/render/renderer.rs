@@ -155,6 +155,7 @@ pub struct Renderer {
     attachments: Option<Attachments>,
     scratch_instances: Vec<InstanceRaw>,
     scratch_ranges: Vec<(u32, u32)>,
+    scratch_props: Vec<Mat4>,
     scratch_lines: Vec<LineVertex>,
     timings: RenderTimings,
 }
@@ -287,6 +288,7 @@ impl Renderer {
             attachments: None,
             scratch_instances: Vec::new(),
             scratch_ranges: Vec::new(),
+            scratch_props: Vec::new(),
             scratch_lines: Vec::new(),
             timings: RenderTimings::default(),
         })
@@ -477,6 +479,24 @@ impl Renderer {
                 )));
             }
         }
+        for (i, prop) in input.props.iter().enumerate() {
+            match self.meshes.get(prop.mesh.0 as usize) {
+                None => {
+                    return Err(RenderError::InvalidFrame(format!(
+                        "prop {i} uses mesh {} but only {} meshes are uploaded",
+                        prop.mesh.0,
+                        self.meshes.len()
+                    )));
+                }
+                Some(m) if m.num_joints != 1 => {
+                    return Err(RenderError::InvalidFrame(format!(
+                        "prop {i} uses mesh {} with {} joints; props need one-joint meshes",
+                        prop.mesh.0, m.num_joints
+                    )));
+                }
+                Some(_) => {}
+            }
+        }
         Ok(())
     }
 
@@ -514,9 +534,14 @@ impl Renderer {
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
 
-        // Palettes: one upload for every fish.
+        // Palettes: one upload for every fish, then one matrix per prop behind them.
         let palette_bytes: &[u8] = bytemuck::cast_slice(input.palettes);
-        if self.palettes.ensure(device, palette_bytes.len() as u64) {
+        self.scratch_props.clear();
+        self.scratch_props
+            .extend(input.props.iter().map(|p| p.transform));
+        let prop_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_props);
+        let total = (palette_bytes.len() + prop_bytes.len()) as u64;
+        if self.palettes.ensure(device, total) {
             self.bind_group = make_scene_bind_group(
                 device,
                 &self.scene_layout,
@@ -527,13 +552,23 @@ impl Renderer {
         if !palette_bytes.is_empty() {
             queue.write_buffer(&self.palettes.buffer, 0, palette_bytes);
         }
+        if !prop_bytes.is_empty() {
+            queue.write_buffer(
+                &self.palettes.buffer,
+                palette_bytes.len() as u64,
+                prop_bytes,
+            );
+        }
 
-        // Instances grouped by mesh (counting sort into reused scratch space).
+        // Instances (fish, then props) grouped by mesh: a counting sort into reused scratch.
         let num_meshes = self.meshes.len();
         self.scratch_ranges.clear();
         self.scratch_ranges.resize(num_meshes, (0, 0));
         for inst in input.instances {
             self.scratch_ranges[inst.mesh.0 as usize].1 += 1;
+        }
+        for prop in input.props {
+            self.scratch_ranges[prop.mesh.0 as usize].1 += 1;
         }
         let mut start = 0;
         for r in &mut self.scratch_ranges {
@@ -542,16 +577,36 @@ impl Renderer {
             r.1 = r.0; // becomes the fill cursor, then the end
         }
         self.scratch_instances.clear();
-        self.scratch_instances
-            .resize(input.instances.len(), InstanceRaw::zeroed());
-        for inst in input.instances {
-            let r = &mut self.scratch_ranges[inst.mesh.0 as usize];
-            self.scratch_instances[r.1 as usize] = InstanceRaw {
-                palette_offset: inst.palette_offset,
-                flags: u32::from(inst.selected),
-                _pad: [0; 2],
-                tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
-            };
+        self.scratch_instances.resize(
+            input.instances.len() + input.props.len(),
+            InstanceRaw::zeroed(),
+        );
+        let fish = input.instances.iter().map(|inst| {
+            (
+                inst.mesh,
+                InstanceRaw {
+                    palette_offset: inst.palette_offset,
+                    flags: u32::from(inst.selected),
+                    _pad: [0; 2],
+                    tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
+                },
+            )
+        });
+        let first_prop = input.palettes.len() as u32;
+        let props = input.props.iter().enumerate().map(|(k, p)| {
+            (
+                p.mesh,
+                InstanceRaw {
+                    palette_offset: first_prop + k as u32,
+                    flags: 0,
+                    _pad: [0; 2],
+                    tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
+                },
+            )
+        });
+        for (mesh, raw) in fish.chain(props) {
+            let r = &mut self.scratch_ranges[mesh.0 as usize];
+            self.scratch_instances[r.1 as usize] = raw;
             r.1 += 1;
         }
         let instance_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_instances);

@@ -23,9 +23,10 @@ use std::time::Instant;
 use glam::{Mat4, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 
-use super::testmesh::TestFish;
+use super::demo_rig::{DemoRig, PoseScratch};
 use super::{Camera, FishInstance, FrameInput, Look, MeshId, MeshUpload, OverlayLine, TankBounds};
 use crate::motion::{Body, MotionParams, MotionPlayer, MotionRequest, RootState, Side, TurnKind};
+use crate::species::SpeciesDesc;
 
 /// Where a fish is, for picking and the follow camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -106,6 +107,11 @@ pub trait SceneDriver {
     }
     /// Appends the overlay segments asked for.
     fn overlay_lines(&self, _toggles: OverlayToggles, _out: &mut Vec<OverlayLine>) {}
+    /// Starts watching the scene's scripts for edits (the window calls this; headless renders
+    /// do not, so they stay deterministic).
+    fn enable_hot_reload(&mut self) -> Result<(), String> {
+        Ok(())
+    }
     /// Moves log lines (script errors, warnings) into `out`.
     fn drain_log(&mut self, _out: &mut Vec<String>) {}
     /// Named simulation stage timings of the last step, milliseconds.
@@ -128,6 +134,19 @@ pub struct DemoSceneConfig {
     pub camera: Option<Camera>,
     /// Caustic strength (0 turns them off).
     pub caustics: f32,
+    /// Which fish: `"porgy"` (the generated `assets/black_porgy.glb`, falling back to the
+    /// procedural fish with a log line when it cannot load) or `"procedural"`.
+    pub mesh: DemoMesh,
+}
+
+/// The fish model of a [`DemoScene`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DemoMesh {
+    /// The generated black porgy asset.
+    Porgy,
+    /// The built-in procedural fish (no files needed).
+    Procedural,
 }
 
 impl Default for DemoSceneConfig {
@@ -138,6 +157,7 @@ impl Default for DemoSceneConfig {
             tank: TankBounds::default(),
             camera: None,
             caustics: 1.0,
+            mesh: DemoMesh::Porgy,
         }
     }
 }
@@ -190,18 +210,30 @@ struct DemoFish {
 #[derive(Debug)]
 pub struct DemoScene {
     config: DemoSceneConfig,
-    mesh: TestFish,
+    rig: DemoRig,
     body: Body,
+    bind_joints: (Vec<Vec3>, Vec<u16>),
+    scratch: PoseScratch,
     params: MotionParams,
     fish: Vec<DemoFish>,
     palettes: Vec<Mat4>,
     instances: Vec<FishInstance>,
-    yaws: Vec<f32>,
     rng: rand_pcg::Pcg32,
     time_s: f32,
     selected: Option<usize>,
     log: Vec<String>,
     step_ms: f32,
+}
+
+/// Where the generated black porgy lives: `assets/black_porgy.glb` under the working directory
+/// when it is there, else under the source tree.
+pub fn porgy_asset_path() -> std::path::PathBuf {
+    let local = std::path::PathBuf::from("assets/black_porgy.glb");
+    if local.is_file() {
+        local
+    } else {
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb")
+    }
 }
 
 /// The demo's motion parameters: the black porgy preset at the procedural fish's length.
@@ -212,12 +244,24 @@ pub fn demo_params() -> MotionParams {
 impl DemoScene {
     /// Builds the scene.
     pub fn new(config: DemoSceneConfig) -> Self {
-        let mesh = TestFish::demo();
-        let nj = mesh.num_joints();
-        // The mesh's joints 1..nj sit at k/nj of the body: the motion layer's driven joints.
-        let body = Body::evenly_spaced(nj);
+        let mut log = Vec::new();
+        let rig = match config.mesh {
+            DemoMesh::Procedural => DemoRig::procedural(),
+            DemoMesh::Porgy => {
+                let path = porgy_asset_path();
+                match DemoRig::asset(&SpeciesDesc::black_porgy(), &path) {
+                    Ok(rig) => rig,
+                    Err(e) => {
+                        log.push(format!("{e}; using the procedural fish"));
+                        DemoRig::procedural()
+                    }
+                }
+            }
+        };
+        let nj = rig.num_joints();
+        let body = rig.body().clone();
         let mut rng = rand_pcg::Pcg32::seed_from_u64(config.seed);
-        let params = demo_params().with_length(mesh.length);
+        let params = demo_params().with_length(rig.length());
         let t = config.tank;
         let margin = Vec3::new(90.0, 40.0, 90.0).min(t.size() * 0.3);
         let fish = (0..config.fish)
@@ -249,16 +293,17 @@ impl DemoScene {
         let mut scene = Self {
             palettes: vec![Mat4::IDENTITY; config.fish * nj],
             instances: Vec::with_capacity(config.fish),
-            yaws: vec![0.0; nj],
             config,
-            mesh,
+            bind_joints: rig.bind_joints(),
+            scratch: rig.scratch(),
+            rig,
             body,
             params,
             fish,
             rng,
             time_s: 0.0,
             selected: None,
-            log: Vec::new(),
+            log,
             step_ms: 0.0,
         };
         // Settle every body into its wave before the first frame.
@@ -277,9 +322,9 @@ impl DemoScene {
         scene
     }
 
-    /// The procedural mesh the demo uses.
-    pub fn mesh(&self) -> &TestFish {
-        &self.mesh
+    /// The fish model the demo draws.
+    pub fn rig(&self) -> &DemoRig {
+        &self.rig
     }
 
     /// Root transform of a fish including the head's recoil (see `MotionPlayer::head_yaw`).
@@ -292,14 +337,13 @@ impl DemoScene {
     }
 
     fn update_pose(&mut self) {
-        let nj = self.mesh.num_joints();
+        let nj = self.rig.num_joints();
         self.instances.clear();
         for (i, f) in self.fish.iter().enumerate() {
-            self.yaws[0] = 0.0;
-            self.yaws[1..].copy_from_slice(&f.yaw);
-            self.mesh.palette(
+            self.rig.write_palette(
                 Self::root_matrix(f),
-                &self.yaws,
+                &f.yaw,
+                &mut self.scratch,
                 &mut self.palettes[i * nj..(i + 1) * nj],
             );
             let t = f.tint;
@@ -316,7 +360,7 @@ impl DemoScene {
     fn behave(&mut self, dt: f32) {
         let tank = self.config.tank;
         let p = self.params;
-        let len = self.mesh.length;
+        let len = self.rig.length();
         for f in &mut self.fish {
             f.wander_s -= dt;
             let name = f.player.current_name();
@@ -391,7 +435,7 @@ impl DemoScene {
 
 impl SceneDriver for DemoScene {
     fn meshes(&self) -> Vec<MeshUpload<'_>> {
-        vec![self.mesh.upload()]
+        vec![self.rig.upload()]
     }
 
     fn step(&mut self, dt_s: f32) {
@@ -427,6 +471,7 @@ impl SceneDriver for DemoScene {
             camera: self.default_camera(),
             tank: self.config.tank,
             time_s: self.time_s,
+            props: &[],
             overlay: &[],
             look: Look {
                 caustic_strength: self.config.caustics,
@@ -457,8 +502,8 @@ impl SceneDriver for DemoScene {
     fn fish_info(&self, fish: usize) -> Option<FishInfo> {
         let f = self.fish.get(fish)?;
         Some(FishInfo {
-            center: f.root.pos - f.root.forward() * self.mesh.length * 0.5,
-            radius: self.mesh.bounding_radius(),
+            center: f.root.pos - f.root.forward() * self.rig.length() * 0.5,
+            radius: self.rig.length() * 0.55,
         })
     }
 
@@ -470,7 +515,7 @@ impl SceneDriver for DemoScene {
     }
 
     fn species_names(&self) -> Vec<String> {
-        vec!["procedural porgy (black porgy motion)".into()]
+        vec![self.rig.upload().label.to_owned()]
     }
 
     fn species_of(&self, fish: usize) -> Option<usize> {
@@ -511,7 +556,7 @@ impl SceneDriver for DemoScene {
         out.clear();
         let Some(f) = self.fish.get(fish) else { return };
         let r = &f.root;
-        out.push(("species".into(), "procedural porgy".into()));
+        out.push(("species".into(), self.rig.upload().label.to_owned()));
         out.push(("motion".into(), f.player.current_name().into()));
         out.push(("queued".into(), f.player.queue_len().to_string()));
         out.push(("speed".into(), format!("{:.1} units/s", r.speed)));
@@ -528,25 +573,27 @@ impl SceneDriver for DemoScene {
     }
 
     fn overlay_lines(&self, toggles: OverlayToggles, out: &mut Vec<OverlayLine>) {
-        let nj = self.mesh.num_joints();
-        let seg = self.mesh.length / nj as f32;
+        let nj = self.rig.num_joints();
+        let (bind_pos, parents) = &self.bind_joints;
         for (i, f) in self.fish.iter().enumerate() {
             let pal = &self.palettes[i * nj..(i + 1) * nj];
-            let joint = |j: usize| pal[j].transform_point3(Vec3::new(-(j as f32) * seg, 0.0, 0.0));
-            let tail = pal[nj - 1].transform_point3(Vec3::new(-self.mesh.length, 0.0, 0.0));
+            let joint = |j: usize| pal[j].transform_point3(bind_pos[j]);
             if toggles.skeleton {
                 for j in 0..nj {
                     let a = joint(j);
-                    let b = if j + 1 < nj { joint(j + 1) } else { tail };
-                    out.push(OverlayLine {
-                        a,
-                        b,
-                        color: [1.0, 0.85, 0.2, 1.0],
-                    });
+                    if let Some(&p) = parents.get(j)
+                        && usize::from(p) < nj
+                    {
+                        out.push(OverlayLine {
+                            a: joint(usize::from(p)),
+                            b: a,
+                            color: [1.0, 0.85, 0.2, 1.0],
+                        });
+                    }
                     for d in [Vec3::X, Vec3::Y, Vec3::Z] {
                         out.push(OverlayLine {
-                            a: a - d * 1.5,
-                            b: a + d * 1.5,
+                            a: a - d * 0.8,
+                            b: a + d * 0.8,
                             color: [1.0, 0.3, 0.2, 1.0],
                         });
                     }
@@ -556,7 +603,7 @@ impl SceneDriver for DemoScene {
                 // The motion layer's midline: lateral offsets from the travel line.
                 let r = &f.root;
                 let point = |x: f32, lat: f32| {
-                    r.pos - r.forward() * x * self.mesh.length + r.left() * lat + Vec3::Y * 0.5
+                    r.pos - r.forward() * x * self.rig.length() + r.left() * lat + Vec3::Y * 0.5
                 };
                 let mut prev = point(0.0, f.player.head_lateral());
                 for (x, lat) in self.body.joints_x.iter().zip(&f.lateral) {
@@ -584,7 +631,7 @@ impl SceneDriver for DemoScene {
                 });
             }
             if toggles.sensors {
-                let r = self.mesh.length * 3.0;
+                let r = self.rig.length() * 3.0;
                 let n = 32;
                 for k in 0..n {
                     let a0 = TAU * k as f32 / n as f32;

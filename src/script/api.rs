@@ -21,11 +21,9 @@ use mlua::{AnyUserData, Lua, LuaString, Table, Value, Variadic};
 use rand::Rng;
 
 use crate::motion::{MotionRequest, Side, TurnKind};
+use crate::world::sense;
 use crate::world::steer::Steer;
 use crate::world::{FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
-
-/// Registry key under which the scoped world userdata lives while behaviours run.
-pub const WORLD_KEY: &str = "shoal.world";
 
 /// Default number of percepts `shoal.see` returns.
 pub const DEFAULT_SEE_MAX: usize = 32;
@@ -53,20 +51,21 @@ struct Keys {
 pub struct Ctx {
     /// The fish whose behaviour is running, if any.
     pub fish: Option<FishId>,
+    /// The world, as scoped userdata, while behaviours run (`None` otherwise).
+    pub world: Option<AnyUserData>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
     /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
     /// `nearest`); reset whenever `fish` changes.
     pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
+    neighbor_ids: Vec<FishId>,
+    motion_names: Vec<(&'static str, LuaString)>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
     species_tables: Vec<Option<Table>>,
     see_out: Table,
     see_pool: Vec<Table>,
-    nearest_out: Table,
-    body_out: Table,
-    tank_out: Table,
 }
 
 impl Ctx {
@@ -93,14 +92,13 @@ fn with_world<R>(
     name: &str,
     f: impl FnOnce(&mut World, FishId) -> mlua::Result<R>,
 ) -> mlua::Result<R> {
-    let fish = lua
-        .app_data_ref::<Ctx>()
-        .and_then(|c| c.fish)
-        .ok_or_else(|| outside(name))?;
-    let Value::UserData(ud) = lua.named_registry_value::<Value>(WORLD_KEY)? else {
-        return Err(outside(name));
+    let (fish, ud) = {
+        let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside(name))?;
+        match (ctx.fish, &ctx.world) {
+            (Some(fish), Some(ud)) => (fish, ud.clone()),
+            _ => return Err(outside(name)),
+        }
     };
-    let ud: AnyUserData = ud;
     ud.borrow_mut_scoped::<World, _>(|world| f(world, fish))
         .map_err(|_| outside(name))?
 }
@@ -170,6 +168,165 @@ fn fill_percept(
     t.raw_set(&k.heading, p.heading)?;
     t.raw_set(&k.speed, p.speed)?;
     Ok(())
+}
+
+/// The nearest fish, predator or food pellet the fish sees — the same one [`World::vision`]
+/// lists first of that kind — found without building (and sorting) the whole percept list:
+/// neighbours come from the world's grid, bearings are computed for the winner only.
+fn nearest_of(
+    w: &World,
+    f: FishId,
+    kind: PerceptKind,
+    species: Option<SpeciesId>,
+    ids: &mut Vec<FishId>,
+) -> Option<Percept> {
+    let me = *w.root(f)?;
+    let my_species = w.species_of(f)?;
+    let desc = &w.species(my_species).desc;
+    let (range, angle) = (desc.view_range, desc.view_angle_deg);
+    let fwd = sense::forward(me.heading, me.pitch);
+    let mut best: Option<Percept> = None;
+    let mut best_d = f32::INFINITY;
+    let blank = |kind, pos: Vec3, distance| Percept {
+        kind,
+        fish: None,
+        food: None,
+        obstacle: None,
+        species: None,
+        pos,
+        distance,
+        bearing: sense::bearing(me.pos, me.heading, pos),
+        elevation: sense::elevation(me.pos, pos),
+        heading: 0.0,
+        speed: 0.0,
+    };
+    if kind == PerceptKind::Predator
+        && !(0..w.num_species()).any(|i| {
+            let s = SpeciesId(i as u16);
+            s != my_species && w.species(s).desc.predator
+        })
+    {
+        return None; // no predator species in the world: nothing to look for
+    }
+    match kind {
+        PerceptKind::Fish | PerceptKind::Predator => {
+            w.neighbors(me.pos, range, ids);
+            let mut winner = None;
+            for &o in ids.iter() {
+                if o == f {
+                    continue;
+                }
+                let (Some(sp), Some(r)) = (w.species_of(o), w.root(o)) else {
+                    continue;
+                };
+                let predator = sp != my_species && w.species(sp).desc.predator;
+                if (kind == PerceptKind::Predator) != predator || species.is_some_and(|s| s != sp) {
+                    continue;
+                }
+                let d = r.pos.distance(me.pos);
+                let better = d < best_d
+                    || (d == best_d && winner.is_some_and(|(b, _, _): (FishId, _, _)| o < b));
+                if better && d <= range && sense::in_view_cone(me.pos, fwd, angle, r.pos) {
+                    best_d = d;
+                    winner = Some((o, sp, *r));
+                }
+            }
+            if let Some((o, sp, r)) = winner {
+                best = Some(Percept {
+                    fish: Some(o),
+                    species: Some(sp),
+                    heading: r.heading,
+                    speed: r.speed,
+                    ..blank(kind, r.pos, best_d)
+                });
+            }
+        }
+        PerceptKind::Food => {
+            let mut winner = None;
+            for (id, food) in w.foods() {
+                if food.eaten {
+                    continue;
+                }
+                let d = food.pos.distance(me.pos);
+                if d < best_d && d <= range && sense::in_view_cone(me.pos, fwd, angle, food.pos) {
+                    best_d = d;
+                    winner = Some((id, food.pos));
+                }
+            }
+            if let Some((id, pos)) = winner {
+                best = Some(Percept {
+                    food: Some(id),
+                    ..blank(kind, pos, best_d)
+                });
+            }
+        }
+        PerceptKind::Obstacle => {}
+    }
+    best
+}
+
+/// A percept as the values `shoal.nearest` returns: kind, species, id, distance, bearing,
+/// elevation, x, y, z, heading, speed (all nil when nothing is seen).
+type PerceptValues = (
+    Option<LuaString>,
+    Option<LuaString>,
+    Option<u32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+    Option<f32>,
+);
+
+const NOTHING_SEEN: PerceptValues = (
+    None, None, None, None, None, None, None, None, None, None, None,
+);
+
+fn percept_values(
+    lua: &Lua,
+    ctx: &mut Ctx,
+    world: &World,
+    p: &Percept,
+) -> mlua::Result<PerceptValues> {
+    let species = match p.species {
+        Some(s) => Some(species_name(lua, ctx, world, s)?),
+        None => None,
+    };
+    let id = p
+        .fish
+        .map(|f| f.index)
+        .or(p.food.map(|f| f.0))
+        .or(p.obstacle.map(|o| o.0));
+    Ok((
+        Some(kind_key(&ctx.keys, p.kind).clone()),
+        species,
+        id,
+        Some(p.distance),
+        Some(p.bearing),
+        Some(p.elevation),
+        Some(p.pos.x),
+        Some(p.pos.y),
+        Some(p.pos.z),
+        Some(p.heading),
+        Some(p.speed),
+    ))
+}
+
+/// The motion layer's motion names, interned once.
+fn motion_name(lua: &Lua, name: &'static str) -> mlua::Result<LuaString> {
+    if let Some(ctx) = lua.app_data_ref::<Ctx>()
+        && let Some((_, s)) = ctx.motion_names.iter().find(|(n, _)| *n == name)
+    {
+        return Ok(s.clone());
+    }
+    let s = lua.create_string(name)?;
+    if let Some(mut ctx) = lua.app_data_mut::<Ctx>() {
+        ctx.motion_names.push((name, s.clone()));
+    }
+    Ok(s)
 }
 
 fn parse_side(name: &str, s: &LuaString) -> mlua::Result<Side> {
@@ -264,17 +421,17 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     };
     lua.set_app_data(Ctx {
         fish: None,
+        world: None,
         perception_ns: 0,
         percepts_of: None,
         percepts: Vec::with_capacity(64),
+        neighbor_ids: Vec::with_capacity(64),
+        motion_names: Vec::new(),
         keys,
         species_names: Vec::new(),
         species_tables: Vec::new(),
         see_out: lua.create_table()?,
         see_pool: Vec::new(),
-        nearest_out: lua.create_table()?,
-        body_out: lua.create_table()?,
-        tank_out: lua.create_table()?,
     });
 
     let shoal = lua.create_table()?;
@@ -324,8 +481,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?,
     )?;
-    shoal.set(
-        "nearest",
+    let nearest_raw =
         lua.create_function(|lua, (kind, species): (LuaString, Option<LuaString>)| {
             let kind = parse_kind(&kind.as_bytes()).ok_or_else(|| {
                 rt("shoal.nearest: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
@@ -336,64 +492,59 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     .app_data_mut::<Ctx>()
                     .ok_or_else(|| outside("nearest"))?;
                 let ctx = &mut *ctx;
-                if ctx.percepts_of != Some(f) {
-                    w.vision(f, &mut ctx.percepts);
-                    ctx.percepts_of = Some(f);
-                }
                 let want = match &species {
-                    Some(s) => w.species_by_name(&s.to_str()?),
+                    Some(s) => match w.species_by_name(&s.to_str()?) {
+                        Some(id) => Some(id),
+                        None => return Ok(NOTHING_SEEN),
+                    },
                     None => None,
                 };
-                if species.is_some() && want.is_none() {
-                    return Ok(Value::Nil);
-                }
-                let found = ctx
-                    .percepts
-                    .iter()
-                    .find(|p| p.kind == kind && (want.is_none() || p.species == want))
-                    .copied();
-                let r = match found {
-                    Some(p) => {
-                        let t = ctx.nearest_out.clone();
-                        fill_percept(lua, ctx, w, &t, &p)?;
-                        Value::Table(t)
+                let found = if ctx.percepts_of == Some(f) || kind == PerceptKind::Obstacle {
+                    // The full vision list is at hand (or obstacles, which it handles best).
+                    if ctx.percepts_of != Some(f) {
+                        w.vision(f, &mut ctx.percepts);
+                        ctx.percepts_of = Some(f);
                     }
-                    None => Value::Nil,
+                    ctx.percepts
+                        .iter()
+                        .find(|p| p.kind == kind && (want.is_none() || p.species == want))
+                        .copied()
+                } else {
+                    nearest_of(w, f, kind, want, &mut ctx.neighbor_ids)
+                };
+                let r = match found {
+                    Some(p) => percept_values(lua, ctx, w, &p)?,
+                    None => NOTHING_SEEN,
                 };
                 ctx.perception_ns += start.elapsed().as_nanos() as u64;
                 Ok(r)
             })
-        })?,
-    )?;
-    shoal.set(
-        "body",
-        lua.create_function(|lua, ()| {
-            with_world(lua, "body", |w, f| {
-                let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
-                let t = lua
-                    .app_data_ref::<Ctx>()
-                    .map(|c| c.body_out.clone())
-                    .ok_or_else(|| outside("body"))?;
-                t.raw_set("x", b.pos.x)?;
-                t.raw_set("y", b.pos.y)?;
-                t.raw_set("z", b.pos.z)?;
-                t.raw_set("depth", b.depth)?;
-                t.raw_set("to_floor", b.to_floor)?;
-                t.raw_set("to_surface", b.to_surface)?;
-                t.raw_set("to_wall", b.to_wall)?;
-                t.raw_set("wall_x", b.wall_normal.x)?;
-                t.raw_set("wall_y", b.wall_normal.y)?;
-                t.raw_set("wall_z", b.wall_normal.z)?;
-                t.raw_set("contact", b.contact)?;
-                t.raw_set("speed", b.speed)?;
-                t.raw_set("heading", b.heading)?;
-                t.raw_set("pitch", b.pitch)?;
-                t.raw_set("motion", w.current_motion(f).unwrap_or("idle"))?;
-                t.raw_set("queue", w.queue_len(f).unwrap_or(0))?;
-                Ok(t)
-            })
-        })?,
-    )?;
+        })?;
+    let body_raw = lua.create_function(|lua, ()| {
+        with_world(lua, "body", |w, f| {
+            let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
+            let motion = motion_name(lua, w.current_motion(f).unwrap_or("idle"))?;
+            let n = b.wall_normal;
+            Ok((
+                b.pos.x,
+                b.pos.y,
+                b.pos.z,
+                b.depth,
+                b.to_floor,
+                b.to_surface,
+                b.to_wall,
+                n.x,
+                n.y,
+                n.z,
+                b.contact,
+                b.speed,
+                b.heading,
+                b.pitch,
+                motion,
+                w.queue_len(f).unwrap_or(0),
+            ))
+        })
+    })?;
     shoal.set(
         "species",
         lua.create_function(|lua, ()| {
@@ -419,30 +570,21 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 t.raw_set("view_angle", d.view_angle_deg.to_radians())?;
                 t.raw_set("turn_time", d.motion.tt)?;
                 t.raw_set("predator", d.predator)?;
+                t.raw_set("hunger_per_s", d.drives.hunger_per_s)?;
+                t.raw_set("satiation_per_food", d.drives.satiation_per_food)?;
+                t.raw_set("fear_decay_per_s", d.drives.fear_decay_per_s)?;
+                t.raw_set("sociability", d.drives.sociability)?;
                 ctx.species_tables[i] = Some(t.clone());
                 Ok(t)
             })
         })?,
     )?;
-    shoal.set(
-        "tank",
-        lua.create_function(|lua, ()| {
-            with_world(lua, "tank", |w, _| {
-                let t = *w.tank();
-                let out = lua
-                    .app_data_ref::<Ctx>()
-                    .map(|c| c.tank_out.clone())
-                    .ok_or_else(|| outside("tank"))?;
-                out.raw_set("min_x", t.min.x)?;
-                out.raw_set("min_y", t.min.y)?;
-                out.raw_set("min_z", t.min.z)?;
-                out.raw_set("max_x", t.max.x)?;
-                out.raw_set("max_y", t.max.y)?;
-                out.raw_set("max_z", t.max.z)?;
-                Ok(out)
-            })
-        })?,
-    )?;
+    let tank_raw = lua.create_function(|lua, ()| {
+        with_world(lua, "tank", |w, _| {
+            let t = *w.tank();
+            Ok((t.min.x, t.min.y, t.min.z, t.max.x, t.max.y, t.max.z))
+        })
+    })?;
     shoal.set(
         "time",
         lua.create_function(|lua, ()| with_world(lua, "time", |w, _| Ok(w.time())))?,
@@ -694,9 +836,45 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         })?,
     )?;
 
+    // Tables are filled on the Lua side: a field store there is a VM instruction, while one
+    // made from Rust is a protected call under the memory limit.
+    lua.load(WRAPPERS).set_name("=shoal api").call::<()>((
+        &shoal,
+        body_raw,
+        nearest_raw,
+        tank_raw,
+    ))?;
     lua.globals().set("shoal", shoal)?;
     Ok(())
 }
+
+/// `shoal.body`, `shoal.nearest` and `shoal.tank`: Rust returns plain values, these fill one
+/// reused table each.
+const WRAPPERS: &str = r#"
+local shoal, body_raw, nearest_raw, tank_raw = ...
+local body, near, tank = {}, {}, {}
+function shoal.body()
+  local b = body
+  b.x, b.y, b.z, b.depth, b.to_floor, b.to_surface, b.to_wall,
+    b.wall_x, b.wall_y, b.wall_z, b.contact, b.speed, b.heading, b.pitch, b.motion,
+    b.queue = body_raw()
+  return b
+end
+function shoal.nearest(kind, species)
+  local n = near
+  local k
+  k, n.species, n.id, n.distance, n.bearing, n.elevation, n.x, n.y, n.z, n.heading,
+    n.speed = nearest_raw(kind, species)
+  if k == nil then return nil end
+  n.kind = k
+  return n
+end
+function shoal.tank()
+  local t = tank
+  t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z = tank_raw()
+  return t
+end
+"#;
 
 /// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).
 pub fn registered_names(lua: &Lua) -> mlua::Result<Vec<String>> {

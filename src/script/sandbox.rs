@@ -33,6 +33,7 @@ pub struct Limits {
     pub instructions_per_load: u64,
     /// Bytes the whole Lua state may allocate (default 256 MiB). A call that grows the state past
     /// 15/16 of it is stopped with an error naming its line; the hard limit is a backstop.
+    /// 0 disables both (for measurements only: a script could then exhaust the process).
     pub memory_bytes: usize,
 }
 
@@ -185,7 +186,11 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Rc<Budget>), Scrip
         remaining: Cell::new(0),
         granted: Cell::new(0),
         abort: Cell::new(None),
-        soft_memory: limits.memory_bytes / 16 * 15,
+        soft_memory: if limits.memory_bytes == 0 {
+            usize::MAX
+        } else {
+            limits.memory_bytes / 16 * 15
+        },
     });
     install(&lua, &root, &budget).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_memory_limit(limits.memory_bytes)

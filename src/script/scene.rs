@@ -149,12 +149,12 @@ fn base_desc(name: &str) -> Option<SpeciesDesc> {
 }
 
 /// Copies `over` into `base`, merging nested tables key by key.
-fn merge(lua: &Lua, base: &Table, over: &Table) -> mlua::Result<()> {
+fn merge(base: &Table, over: &Table) -> mlua::Result<()> {
     for kv in over.pairs::<Value, Value>() {
         let (k, v) = kv?;
         match (&v, base.raw_get::<Value>(k.clone())?) {
             (Value::Table(o), Value::Table(b)) if o.raw_len() == 0 && !is_array_like(&b) => {
-                merge(lua, &b, o)?
+                merge(&b, o)?
             }
             _ => base.raw_set(k, v)?,
         }
@@ -198,7 +198,7 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
                 return Err(format!("{file}: base species did not serialize to a table"));
             };
             t.raw_set("base", Value::Nil).map_err(err)?;
-            merge(lua, &b, &t).map_err(err)?;
+            merge(&b, &t).map_err(err)?;
             b
         }
         None => t,

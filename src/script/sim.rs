@@ -20,7 +20,7 @@ use mlua::{Table, Value};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use super::api::{self, Ctx, WORLD_KEY};
+use super::api::{self, Ctx};
 use super::error::{ScriptError, describe};
 use super::host::{ModuleIndex, Reloaded, ScriptHost};
 use super::log::{LogEntry, LogLevel};
@@ -473,7 +473,9 @@ impl Simulation {
         let host = &mut self.host;
         let result = lua.scope(|scope| {
             let ud = scope.create_any_userdata_ref_mut(world)?;
-            lua.set_named_registry_value(WORLD_KEY, &ud)?;
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.world = Some(ud);
+            }
             for (id, module, table) in &due {
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     c.fish = Some(*id);
@@ -484,8 +486,8 @@ impl Simulation {
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                 c.fish = None;
                 c.percepts_of = None;
+                c.world = None;
             }
-            lua.set_named_registry_value(WORLD_KEY, Value::Nil)?;
             Ok(())
         });
         if let Err(e) = result {

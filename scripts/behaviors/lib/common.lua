@@ -1,10 +1,11 @@
 -- Shared pieces of the shipped behaviours: drives (after Tu & Terzopoulos, "Artificial Fishes",
 -- 1994), reflexes every behaviour runs first (collision avoidance, escape), and held wishes.
 --
--- Drives live in fish.memory so they persist across ticks and reloads:
---   hunger in [0, 1]: rises at HUNGER_RATE per second, falls by MEAL per pellet eaten.
+-- Drives live in fish.memory so they persist across ticks and reloads; their rates are species
+-- data (scripts/species/*.lua, `drives = { ... }`):
+--   hunger in [0, 1]: rises at hunger_per_s, falls by satiation_per_food per pellet eaten.
 --   fear   in [0, 1]: FEAR_LENGTHS body lengths / distance to the nearest predator seen, decaying
---                     at FEAR_DECAY per second once none is seen (the fish remembers where it was).
+--                     at fear_decay_per_s once none is seen (the fish remembers where it was).
 --
 -- Wishes that need a whole turn to carry out (avoiding a wall, a new wander direction) are held
 -- for a moment in memory rather than recomputed every decision: recomputing them as the fish
@@ -13,11 +14,21 @@
 local shoal = shoal
 local C = {}
 
-C.HUNGER_RATE = 0.01   -- per second: from sated to starving in 100 s
-C.MEAL = 0.4           -- hunger removed by one pellet
+-- What every layer of one decision needs, read once at its start by C.begin (decisions run one
+-- after another, so one table serves them all): time, species data, body sensor.
+local cur = { now = 0, me = nil, body = nil }
+C.cur = cur
+
+-- Starts a decision: refreshes `cur` and returns the fish's percept table (reused).
+function C.begin(fish)
+  cur.now = shoal.time()
+  cur.me = shoal.species()
+  cur.body = shoal.body()
+  return fish.percepts or {}
+end
+
 C.HUNGRY = 0.3         -- above this, food in sight wins over crowding/wandering
 C.FEAR_LENGTHS = 6     -- a predator within this many body lengths is frightening
-C.FEAR_DECAY = 0.1     -- per second, once no predator is seen
 C.AFRAID = 0.5         -- fear above this: flee
 C.AVOID_HOLD = 1.5     -- seconds an avoidance manoeuvre is held
 C.AVOID_RETARGET = math.rad(60)  -- a new manoeuvre this different replaces a held one
@@ -28,7 +39,7 @@ C.WANDER_HOLD = { 2, 5 }  -- seconds a wander direction is held (random in this 
 -- Seconds since this fish's previous decision (0 on its first).
 function C.elapsed(fish)
   local m = fish.memory
-  local now = shoal.time()
+  local now = cur.now
   local dt = m.last_time and (now - m.last_time) or 0
   m.last_time = now
   return dt
@@ -37,7 +48,7 @@ end
 -- Updates hunger; returns it.
 function C.hunger(fish, dt)
   local m = fish.memory
-  local h = (m.hunger or 0.5) + C.HUNGER_RATE * dt
+  local h = (m.hunger or 0.5) + cur.me.hunger_per_s * dt
   if h > 1 then h = 1 end
   m.hunger = h
   return h
@@ -46,9 +57,9 @@ end
 -- Updates fear from the predator in p (if any) and remembers where it was; returns fear.
 function C.fear(fish, p, dt)
   local m = fish.memory
-  local f = (m.fear or 0) - C.FEAR_DECAY * dt
+  local f = (m.fear or 0) - cur.me.fear_decay_per_s * dt
   if p.predator_id then
-    local length = shoal.species().length
+    local length = cur.me.length
     local f_now = C.FEAR_LENGTHS * length / math.max(p.predator_distance, 1e-3)
     if f_now > f then f = f_now end
     m.threat_x, m.threat_y, m.threat_z = p.predator_x, p.predator_y, p.predator_z
@@ -64,7 +75,7 @@ end
 -- so the motion layer carries out one whole turn). Floor and surface use shoal.avoid_walls.
 function C.sense_collision(p)
   p.rock_heading, p.rock_depth, p.rock_speed = shoal.avoid_obstacles()
-  local b, s, t = shoal.body(), shoal.species(), shoal.tank()
+  local b, s, t = cur.body, cur.me, shoal.tank()
   local look = C.WALL_LOOKAHEAD * s.cruise_speed
   local x = b.x + math.cos(b.heading) * look
   local z = b.z - math.sin(b.heading) * look
@@ -94,7 +105,7 @@ local AVOID_KEYS = {
 
 function C.avoiding(fish, p, which)
   local m = fish.memory
-  local now = shoal.time()
+  local now = cur.now
   local k = AVOID_KEYS[which]
   local h = p[k.heading]
   local held = m.avoid_kind == which and m.avoid_until and now < m.avoid_until
@@ -115,7 +126,7 @@ end
 -- spins away from the wall) unless `smooth`, anything else through shoal.steer.
 function C.avoid(fish, smooth)
   local m = fish.memory
-  local b = shoal.body()
+  local b = cur.body
   if b.motion == "quick_turn" then return end   -- let it finish
   local err = (m.avoid_heading - b.heading + math.pi) % (2 * math.pi) - math.pi
   if not smooth and math.abs(err) > C.SHARP_TURN then
@@ -158,11 +169,11 @@ end
 -- Go for the food in p; eat it when within reach. Returns true if it ate.
 function C.feed(fish, p)
   local ate = false
-  if p.food_distance < 0.5 * shoal.species().length then
+  if p.food_distance < 0.5 * cur.me.length then
     ate = shoal.eat(p.food_id)
     if ate then
       local m = fish.memory
-      m.hunger = math.max(0, (m.hunger or 0) - C.MEAL)
+      m.hunger = math.max(0, (m.hunger or 0) - cur.me.satiation_per_food)
       m.meals = (m.meals or 0) + 1
     end
   end
@@ -176,7 +187,7 @@ end
 -- heading, default 0.6), held in between.
 function C.wander(fish, turn)
   local m = fish.memory
-  local now = shoal.time()
+  local now = cur.now
   if not m.wander_until or now >= m.wander_until then
     m.wander_heading, m.wander_depth, m.wander_speed = shoal.wander(turn)
     local lo, hi = C.WANDER_HOLD[1], C.WANDER_HOLD[2]
