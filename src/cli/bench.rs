@@ -69,6 +69,9 @@ pub struct SimArgs {
     /// Repository root holding `scripts/` and `assets/` (Lua driver).
     #[arg(long, default_value = ".")]
     pub root: PathBuf,
+    /// Also draw milliseconds per tick against fish count into this PNG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 /// Who decides what the fish do in `shoal bench sim`.
@@ -171,14 +174,15 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         }
         results.push(result);
     }
+    let driver = match args.driver {
+        Driver::Lua => "lua (shipped behaviours: school, forage, predator)",
+        Driver::Rust => "rust-wander (built-in; no Lua)",
+    };
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "driver": match args.driver {
-                    Driver::Lua => "lua (shipped behaviours: school, forage, predator)",
-                    Driver::Rust => "rust-wander (built-in; no Lua)",
-                },
+                "driver": driver,
                 "tick_hz": TICK_HZ,
                 "results": results,
             }))?
@@ -190,6 +194,13 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             last.us_per_fish / first.us_per_fish,
             first.fish
         );
+    }
+    if let Some(path) = &args.plot {
+        plot_sim(path, &results, &format!("shoal bench sim, driver {driver}"))
+            .with_context(|| format!("drawing {}", path.display()))?;
+        if !args.json {
+            println!("plot written to {}", path.display());
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -325,6 +336,77 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Draws median and p99 milliseconds per tick against fish count (log–log), with the issue's
+/// 8 ms target and the line of constant cost per fish through the smallest count.
+fn plot_sim(path: &Path, results: &[SimBenchResult], title: &str) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let area = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    area.fill(&WHITE)?;
+    let fish_max = results.iter().map(|r| r.fish).max().unwrap_or(1) as f64;
+    let fish_min = results.iter().map(|r| r.fish).min().unwrap_or(1) as f64;
+    let ms_max = results.iter().map(|r| r.p99_ms).fold(8.0f64, f64::max);
+    let ms_min = results.iter().map(|r| r.median_ms).fold(8.0f64, f64::min);
+    let mut chart = ChartBuilder::on(&area)
+        .caption(title, ("sans-serif", 22))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d(
+            (fish_min * 0.7..fish_max * 1.4).log_scale(),
+            (ms_min * 0.5..ms_max * 2.0).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("fish")
+        .y_desc("milliseconds per 60 Hz tick")
+        .x_labels(8)
+        .y_labels(8)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y}"))
+        .draw()?;
+    let target = [(fish_min * 0.7, 8.0), (fish_max * 1.4, 8.0)];
+    chart
+        .draw_series(DashedLineSeries::new(target, 6, 4, RED.stroke_width(2)))?
+        .label("8 ms: the target at 10,000 fish")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED));
+    if let Some(first) = results.iter().min_by_key(|r| r.fish) {
+        let per_fish = first.median_ms / first.fish as f64;
+        let linear = [
+            (fish_min * 0.7, per_fish * fish_min * 0.7),
+            (fish_max * 1.4, per_fish * fish_max * 1.4),
+        ];
+        chart
+            .draw_series(DashedLineSeries::new(linear, 3, 5, BLACK.mix(0.4).into()))?
+            .label("constant cost per fish")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.mix(0.4)));
+    }
+    let mut sorted: Vec<&SimBenchResult> = results.iter().collect();
+    sorted.sort_by_key(|r| r.fish);
+    for (series, color, pick) in [
+        (
+            "median",
+            BLUE,
+            (|r: &SimBenchResult| r.median_ms) as fn(&SimBenchResult) -> f64,
+        ),
+        ("p99", RGBColor(0, 150, 60), |r: &SimBenchResult| r.p99_ms),
+    ] {
+        let pts: Vec<(f64, f64)> = sorted.iter().map(|r| (r.fish as f64, pick(r))).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
+            .label(series)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    area.present()?;
+    Ok(())
 }
 
 #[cfg(test)]

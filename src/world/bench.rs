@@ -2,8 +2,8 @@
 //! figures `shoal bench sim` prints.
 //!
 //! The loop drives anything that implements [`Ticker`]: the built-in
-//! [`super::driver::WanderDriver`] today, the Lua `script::Simulation` (behaviour
-//! scripts) once it implements the trait — that is the seam.
+//! [`super::driver::WanderDriver`] ([`RustSim`]) and the Lua `script::Simulation` with the shipped
+//! behaviours (wrapped in `cli::bench`).
 
 use std::time::Instant;
 

@@ -1,0 +1,77 @@
+//! `shoal bench sim` runs both drivers and reports one result per fish count (no timing is
+//! asserted: speed is measured by the benchmark, not by tests).
+
+use std::process::Command;
+
+fn bench(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "sim", "--seconds", "0.2", "--json"])
+        .args(args)
+        .output()
+        .expect("run shoal");
+    assert!(
+        out.status.success(),
+        "shoal bench sim failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
+fn check(report: &serde_json::Value, counts: &[u64]) {
+    let results = report["results"].as_array().unwrap();
+    assert_eq!(results.len(), counts.len());
+    for (r, &n) in results.iter().zip(counts) {
+        assert_eq!(r["fish"].as_u64(), Some(n));
+        assert_eq!(r["ticks"].as_u64(), Some(12), "0.2 s at 60 Hz");
+        let median = r["median_ms"].as_f64().unwrap();
+        assert!(median > 0.0 && r["p99_ms"].as_f64().unwrap() >= median);
+        for stage in [
+            "perception",
+            "behavior",
+            "motion",
+            "skeleton",
+            "palette",
+            "grid",
+        ] {
+            assert!(r["stages"][stage].as_f64().unwrap() >= 0.0, "{stage}");
+        }
+        assert!(r["stages"]["motion"].as_f64().unwrap() > 0.0);
+    }
+}
+
+#[test]
+fn rust_driver_reports_each_count_and_draws_the_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("sim.png");
+    let report = bench(&[
+        "--driver",
+        "rust",
+        "--fish",
+        "20,40",
+        "--plot",
+        png.to_str().unwrap(),
+    ]);
+    check(&report, &[20, 40]);
+    assert!(report["driver"].as_str().unwrap().starts_with("rust"));
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+#[test]
+fn lua_driver_runs_the_shipped_behaviours() {
+    let report = bench(&["--driver", "lua", "--fish", "30"]);
+    check(&report, &[30]);
+    let r = &report["results"][0];
+    assert!(r["stages"]["behavior"].as_f64().unwrap() > 0.0, "Lua ran");
+}
+
+#[test]
+fn bad_arguments_are_errors_naming_them() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["bench", "sim", "--seconds=-1"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--seconds"));
+}
