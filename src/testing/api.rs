@@ -349,6 +349,16 @@ impl WorldHandle {
         test.last_time = now;
     }
 
+    /// Root positions of the live fish among `fishes` (a Lua array of fish).
+    fn positions_of(&self, fishes: &Table) -> mlua::Result<Vec<Vec3>> {
+        let ids = Self::ids_of(fishes)?;
+        let world = self.world.borrow();
+        Ok(ids
+            .iter()
+            .filter_map(|&id| world.sim.world().root(id).map(|r| r.pos))
+            .collect())
+    }
+
     fn ids_of(fishes: &Table) -> mlua::Result<Vec<FishId>> {
         let mut ids = Vec::new();
         for value in fishes.sequence_values::<mlua::AnyUserData>() {
@@ -450,30 +460,13 @@ impl UserData for WorldHandle {
             })))
         });
         methods.add_method("nearest_distance", |_, this, fishes: Table| {
-            let ids = Self::ids_of(&fishes)?;
-            let world = this.world.borrow();
-            let points: Vec<Vec3> = ids
-                .iter()
-                .filter_map(|&id| world.sim.world().root(id).map(|r| r.pos))
-                .collect();
-            Ok(nearest_distances(&points).0)
+            Ok(nearest_distances(&this.positions_of(&fishes)?).0)
         });
         methods.add_method("min_distance", |_, this, fishes: Table| {
-            let ids = Self::ids_of(&fishes)?;
-            let world = this.world.borrow();
-            let points: Vec<Vec3> = ids
-                .iter()
-                .filter_map(|&id| world.sim.world().root(id).map(|r| r.pos))
-                .collect();
-            Ok(nearest_distances(&points).1)
+            Ok(nearest_distances(&this.positions_of(&fishes)?).1)
         });
         methods.add_method("centroid", |lua, this, fishes: Table| {
-            let ids = Self::ids_of(&fishes)?;
-            let world = this.world.borrow();
-            let points: Vec<Vec3> = ids
-                .iter()
-                .filter_map(|&id| world.sim.world().root(id).map(|r| r.pos))
-                .collect();
+            let points = this.positions_of(&fishes)?;
             let c = points.iter().copied().sum::<Vec3>() / points.len().max(1) as f32;
             vec3_to(lua, c)
         });
