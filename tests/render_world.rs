@@ -111,3 +111,66 @@ fn renders_the_world_offscreen() {
     // Species meshes plus props: background, floor, shadow + fish for the porgy mesh, tank.
     assert_eq!(renderer.timings().num_draw_calls, 5);
 }
+
+/// Editing the scene file of a running Lua scene: the scene reports the change (the panel then
+/// offers a restart) and restarting loads the edited file, with its new fish and meshes.
+#[test]
+fn an_edited_scene_file_restarts_with_its_new_contents() {
+    use shoal::script::Simulation;
+    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["scripts", "assets"] {
+        copy_dir(&repo.join(sub), &dir.path().join(sub));
+    }
+    let scene_path = dir.path().join("scripts/scenes/restart.lua");
+    let scene_text = |count: usize| {
+        format!(
+            "return {{ tank = {{ min = {{ -500, 0, -300 }}, max = {{ 500, 400, 300 }} }},\n\
+             fish = {{ {{ species = \"black_porgy\", count = {count}, behavior = \"wander\",\n\
+             region = {{ min = {{ -200, 150, -120 }}, max = {{ 200, 260, 120 }} }} }} }} }}\n"
+        )
+    };
+    std::fs::write(&scene_path, scene_text(3)).unwrap();
+    let sim = Simulation::from_scene(dir.path(), &scene_path, 5).unwrap();
+    let mut scene = WorldScene::new(sim);
+    assert_eq!(scene.num_fish(), 3);
+    assert!(!SceneDriver::scene_changed(&scene));
+
+    std::fs::write(&scene_path, scene_text(7)).unwrap();
+    // What the file watcher does on a save.
+    let mut sim_events = Vec::new();
+    {
+        let sim = scene.sim_mut();
+        sim_events.extend(sim.reload_changed(std::slice::from_ref(&scene_path)));
+    }
+    assert!(!sim_events.is_empty());
+    assert!(
+        SceneDriver::scene_changed(&scene),
+        "the panel must offer a restart"
+    );
+    assert_eq!(
+        scene.num_fish(),
+        3,
+        "nothing changes until the designer restarts"
+    );
+
+    assert_eq!(scene.restart_scene(), Ok(true));
+    assert_eq!(scene.num_fish(), 7);
+    assert!(!SceneDriver::scene_changed(&scene));
+    let input = scene.frame_input();
+    assert_eq!(input.instances.len(), 7);
+    assert_eq!(input.palettes.len(), scene.sim().world().palettes().len());
+}
+
+fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let path = entry.path();
+        if path.is_dir() {
+            copy_dir(&path, &to.join(entry.file_name()));
+        } else {
+            std::fs::copy(&path, to.join(entry.file_name())).unwrap();
+        }
+    }
+}

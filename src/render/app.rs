@@ -126,6 +126,8 @@ struct UiState {
     watcher: Option<ShaderWatcher>,
     shader_error: Option<String>,
     scratch_log: Vec<String>,
+    /// Set by the panel's "restart scene" button; handled at the start of the next frame.
+    restart_requested: bool,
 }
 
 impl UiState {
@@ -137,6 +139,7 @@ impl UiState {
             species: 0,
             paused: false,
             step_once: false,
+            restart_requested: false,
             speed: 1.0,
             toggles: OverlayToggles::default(),
             overlay: Vec::new(),
@@ -363,6 +366,25 @@ impl App {
         let Some(ws) = self.window.as_mut() else {
             return Ok(());
         };
+        // The scene file was edited and the designer asked for a restart.
+        if std::mem::take(&mut self.ui.restart_requested) {
+            match self.scene.restart_scene() {
+                Ok(meshes_changed) => {
+                    if meshes_changed {
+                        ws.renderer.clear_meshes();
+                        for mesh in self.scene.meshes() {
+                            if let Err(e) = ws.renderer.upload_mesh(&ws.gpu, &mesh) {
+                                self.ui.log(format!("scene restart: {e}"));
+                            }
+                        }
+                    }
+                    self.ui.selected = None;
+                    self.ui
+                        .log(format!("scene restarted: {} fish", self.scene.num_fish()));
+                }
+                Err(e) => self.ui.log(format!("scene restart failed: {e}")),
+            }
+        }
         // Shader hot reload: keep the old pipelines on error.
         if let Some(w) = &self.ui.watcher
             && w.changed()
@@ -604,6 +626,17 @@ fn mean_max(times: &VecDeque<FrameTimes>, f: impl Fn(&FrameTimes) -> f32) -> (f3
 /// The tuning panel.
 fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
     ui.heading("shoal");
+    if scene.scene_changed() {
+        ui.horizontal(|ui| {
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 210, 90),
+                "the scene file changed",
+            );
+            if ui.button("restart scene").clicked() {
+                st.restart_requested = true;
+            }
+        });
+    }
     if let Some(err) = &st.shader_error {
         ui.colored_label(
             egui::Color32::from_rgb(255, 110, 90),

@@ -330,6 +330,12 @@ impl Renderer {
         Ok(())
     }
 
+    /// Forgets every uploaded mesh (before uploading a restarted scene's meshes again, whose ids
+    /// then start from 0 as before).
+    pub fn clear_meshes(&mut self) {
+        self.meshes.clear();
+    }
+
     /// Uploads one species' mesh; the returned id is used by [`super::FishInstance::mesh`].
     pub fn upload_mesh(&mut self, gpu: &Gpu, mesh: &MeshUpload<'_>) -> Result<MeshId, RenderError> {
         let bad = |why: String| RenderError::InvalidMesh {

@@ -114,6 +114,16 @@ pub trait SceneDriver {
     }
     /// Moves log lines (script errors, warnings) into `out`.
     fn drain_log(&mut self, _out: &mut Vec<String>) {}
+    /// True when the scene's own file was edited since it was loaded (the panel offers a
+    /// restart).
+    fn scene_changed(&self) -> bool {
+        false
+    }
+    /// Reloads the scene file and starts it again. `Ok(true)` means the species (and so the
+    /// meshes of [`SceneDriver::meshes`]) may have changed and must be uploaded again.
+    fn restart_scene(&mut self) -> Result<bool, String> {
+        Err("this scene has no scene file to restart from".into())
+    }
     /// Named simulation stage timings of the last step, milliseconds.
     fn stage_timings_ms(&self) -> Vec<(&'static str, f32)> {
         Vec::new()

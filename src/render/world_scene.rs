@@ -54,6 +54,14 @@ pub trait WorldSim {
     fn poll_reload(&mut self) -> Vec<String> {
         Vec::new()
     }
+    /// True when the scene file was edited since it was loaded.
+    fn scene_changed(&self) -> bool {
+        false
+    }
+    /// Reloads the scene file and starts it again.
+    fn restart_scene(&mut self) -> Result<(), String> {
+        Err("this simulation has no scene file".into())
+    }
 }
 
 impl WorldSim for Simulation {
@@ -83,6 +91,12 @@ impl WorldSim for Simulation {
             .into_iter()
             .map(|e| format!("scripts: {e:?}"))
             .collect()
+    }
+    fn scene_changed(&self) -> bool {
+        Simulation::scene_changed(self)
+    }
+    fn restart_scene(&mut self) -> Result<(), String> {
+        Simulation::restart_scene(self).map_err(|e| e.to_string())
     }
 }
 
@@ -143,21 +157,7 @@ impl<S: WorldSim> WorldScene<S> {
     pub fn new(mut sim: S) -> Self {
         // Palettes exist only after a pose pass; a fresh world has not run one.
         sim.world_mut().update_pose();
-        let w = sim.world();
-        let species = (0..w.num_species())
-            .map(|i| {
-                let model = w.species(SpeciesId(i as u16)).model.clone();
-                let bind_joint_pos = model
-                    .inverse_bind_poses
-                    .iter()
-                    .map(|ibm| ibm.inverse().w_axis.truncate())
-                    .collect();
-                SpeciesDraw {
-                    model,
-                    bind_joint_pos,
-                }
-            })
-            .collect();
+        let species = Self::species_draws(sim.world());
         let mut scene = Self {
             sim,
             species,
@@ -174,6 +174,23 @@ impl<S: WorldSim> WorldScene<S> {
         };
         scene.rebuild_instances();
         scene
+    }
+
+    fn species_draws(w: &World) -> Vec<SpeciesDraw> {
+        (0..w.num_species())
+            .map(|i| {
+                let model = w.species(SpeciesId(i as u16)).model.clone();
+                let bind_joint_pos = model
+                    .inverse_bind_poses
+                    .iter()
+                    .map(|ibm| ibm.inverse().w_axis.truncate())
+                    .collect();
+                SpeciesDraw {
+                    model,
+                    bind_joint_pos,
+                }
+            })
+            .collect()
     }
 
     /// The simulation.
@@ -480,6 +497,20 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
     fn enable_hot_reload(&mut self) -> Result<(), String> {
         self.hot_reload = true;
         self.sim.watch()
+    }
+
+    fn scene_changed(&self) -> bool {
+        self.sim.scene_changed()
+    }
+
+    fn restart_scene(&mut self) -> Result<bool, String> {
+        self.sim.restart_scene()?;
+        self.sim.world_mut().update_pose();
+        self.species = Self::species_draws(self.sim.world());
+        self.selected = None;
+        self.accumulator_s = 0.0;
+        self.rebuild_instances();
+        Ok(true)
     }
 
     fn stage_timings_ms(&self) -> Vec<(&'static str, f32)> {
