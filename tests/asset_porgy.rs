@@ -4,10 +4,10 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use shoal::asset::{DRIVEN_JOINTS, JOINT_NAMES};
 use shoal::skeleton::JointTransform;
-use shoal::skin::{FishModel, LinearBlendSkinningJob, palette};
+use shoal::skin::FishModel;
 use shoal::species::{SpeciesDesc, SpeciesError, SpeciesRig};
 
 mod common;
@@ -142,31 +142,6 @@ fn eel_is_long_and_slender_with_the_same_joint_layout() {
     assert!(rig.body.joints_x[0] < porgy.body.joints_x[0] - 0.08);
 }
 
-fn skin(model: &FishModel, locals: &[JointTransform]) -> Vec<Vec3> {
-    let n = model.skeleton.num_joints();
-    let mut models = vec![Mat4::IDENTITY; n];
-    model
-        .skeleton
-        .local_to_model(Mat4::IDENTITY, locals, &mut models)
-        .run()
-        .unwrap();
-    let mut pal = vec![Mat4::IDENTITY; n];
-    palette(&models, &model.inverse_bind_poses, &mut pal).unwrap();
-    let mut out = vec![Vec3::ZERO; model.mesh.num_vertices()];
-    LinearBlendSkinningJob {
-        palette: &pal,
-        positions_in: &model.mesh.positions,
-        normals_in: &[],
-        joints: &model.mesh.joints,
-        weights: &model.mesh.weights,
-        positions_out: &mut out,
-        normals_out: &mut [],
-    }
-    .run()
-    .unwrap();
-    out
-}
-
 #[test]
 fn porgy_binds_as_a_species() {
     let model = FishModel::load(&repo("assets/black_porgy.glb")).unwrap();
@@ -217,12 +192,12 @@ fn porgy_binds_as_a_species() {
 fn positive_yaw_bends_the_tail_to_the_left_and_leaves_the_head() {
     let model = FishModel::load(&repo("assets/black_porgy.glb")).unwrap();
     let rig = SpeciesRig::bind(&SpeciesDesc::black_porgy(), &model).unwrap();
-    let rest = skin(&model, model.skeleton.rest_locals());
+    let rest = common::skin(&model, model.skeleton.rest_locals());
     let mut locals = vec![JointTransform::IDENTITY; model.skeleton.num_joints()];
     let mut yaw = [0.0f32; 6];
     yaw[2] = 0.4; // spine_3, mid body
     rig.pose(&yaw, &mut locals);
-    let bent = skin(&model, &locals);
+    let bent = common::skin(&model, &locals);
     let x3 = rig.body.joints_x[2];
     let mut tail_moves = 0.0f32;
     let mut n_tail = 0;

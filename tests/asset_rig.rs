@@ -3,40 +3,14 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Mat4, Vec3};
 use shoal::asset::rig::{Axis, HeadEnd, RigError, RigOptions, rig_file};
-use shoal::skin::{FishModel, LinearBlendSkinningJob, palette};
+use shoal::skin::FishModel;
 use shoal::species::{SpeciesDesc, SpeciesRig};
 
 mod common;
 
 fn red_finned_fish() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples/RedFinnedFish/scene.gltf")
-}
-
-fn skin(model: &FishModel, locals: &[shoal::skeleton::JointTransform]) -> Vec<Vec3> {
-    let n = model.skeleton.num_joints();
-    let mut models = vec![Mat4::IDENTITY; n];
-    model
-        .skeleton
-        .local_to_model(Mat4::IDENTITY, locals, &mut models)
-        .run()
-        .unwrap();
-    let mut pal = vec![Mat4::IDENTITY; n];
-    palette(&models, &model.inverse_bind_poses, &mut pal).unwrap();
-    let mut out = vec![Vec3::ZERO; model.mesh.num_vertices()];
-    LinearBlendSkinningJob {
-        palette: &pal,
-        positions_in: &model.mesh.positions,
-        normals_in: &[],
-        joints: &model.mesh.joints,
-        weights: &model.mesh.weights,
-        positions_out: &mut out,
-        normals_out: &mut [],
-    }
-    .run()
-    .unwrap();
-    out
 }
 
 #[test]
@@ -82,13 +56,13 @@ fn rigged_red_finned_fish_loads_binds_bends_and_validates() {
     assert!(rig.model_forward.x.abs() > 0.99, "{}", rig.model_forward);
 
     // Bend the middle joint: the tail swings sideways, the head stays.
-    let rest = skin(&model, model.skeleton.rest_locals());
+    let rest = common::skin(&model, model.skeleton.rest_locals());
     let mut locals = model.skeleton.rest_locals().to_vec();
     let mut yaw = vec![0.0; rig.num_driven()];
     let mid = rig.num_driven() / 2;
     yaw[mid] = 0.5;
     rig.pose(&yaw, &mut locals);
-    let bent = skin(&model, &locals);
+    let bent = common::skin(&model, &locals);
     let forward = rig.model_forward;
     let up = rig.model_up;
     let left = up.cross(forward);

@@ -1,6 +1,8 @@
 //! The world seam: `WorldScene` over the real world (black porgies from the generated asset,
 //! built-in Rust driver) feeds the renderer the world's own palettes, one instance per fish.
 
+mod common;
+
 use shoal::motion::MotionRequest;
 use shoal::render::{Gpu, OffscreenTarget, Renderer, SceneDriver, WorldScene};
 use shoal::world::bench::{RustSim, bench_world};
@@ -117,11 +119,7 @@ fn renders_the_world_offscreen() {
 #[test]
 fn an_edited_scene_file_restarts_with_its_new_contents() {
     use shoal::script::Simulation;
-    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let dir = tempfile::tempdir().unwrap();
-    for sub in ["scripts", "assets"] {
-        copy_dir(&repo.join(sub), &dir.path().join(sub));
-    }
+    let (dir, _root) = common::scratch_repo();
     let scene_path = dir.path().join("scripts/scenes/restart.lua");
     let scene_text = |count: usize| {
         format!(
@@ -160,17 +158,4 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
     let input = scene.frame_input();
     assert_eq!(input.instances.len(), 7);
     assert_eq!(input.palettes.len(), scene.sim().world().palettes().len());
-}
-
-fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let path = entry.path();
-        if path.is_dir() {
-            copy_dir(&path, &to.join(entry.file_name()));
-        } else {
-            std::fs::copy(&path, to.join(entry.file_name())).unwrap();
-        }
-    }
 }

@@ -4,8 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use glam::{Mat4, Vec3};
 use shoal::motion::MotionParams;
 use shoal::script::Simulation;
+use shoal::skeleton::JointTransform;
+use shoal::skin::FishModel;
 use shoal::world::{Species, SpeciesDesc};
 
 /// The repository root (holds `scripts/`).
@@ -92,4 +95,31 @@ pub fn validate(files: &[&Path]) {
             "{report}"
         );
     }
+}
+
+/// Skins `model`'s bind-shape positions with the local joint transforms `locals` (forward
+/// kinematics, palette, eq. (1)) and returns the skinned positions.
+pub fn skin(model: &FishModel, locals: &[JointTransform]) -> Vec<Vec3> {
+    let n = model.skeleton.num_joints();
+    let mut models = vec![Mat4::IDENTITY; n];
+    model
+        .skeleton
+        .local_to_model(Mat4::IDENTITY, locals, &mut models)
+        .run()
+        .unwrap();
+    let mut pal = vec![Mat4::IDENTITY; n];
+    shoal::skin::palette(&models, &model.inverse_bind_poses, &mut pal).unwrap();
+    let mut out = vec![Vec3::ZERO; model.mesh.num_vertices()];
+    shoal::skin::LinearBlendSkinningJob {
+        palette: &pal,
+        positions_in: &model.mesh.positions,
+        normals_in: &[],
+        joints: &model.mesh.joints,
+        weights: &model.mesh.weights,
+        positions_out: &mut out,
+        normals_out: &mut [],
+    }
+    .run()
+    .unwrap();
+    out
 }
