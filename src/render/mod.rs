@@ -188,6 +188,36 @@ pub struct OverlayLine {
     pub color: [f32; 4],
 }
 
+impl OverlayLine {
+    /// Appends a skeleton overlay: a bone from each joint to its parent (parents as stored by
+    /// [`crate::skeleton::Skeleton::parents`]; roots and out-of-range parents draw none) and a
+    /// small cross of half-size `cross` at every joint. `joint(j)` is joint j's world position.
+    pub fn push_skeleton(
+        out: &mut Vec<OverlayLine>,
+        parents: &[u16],
+        joint: impl Fn(usize) -> Vec3,
+        cross: f32,
+    ) {
+        for (j, &parent) in parents.iter().enumerate() {
+            let a = joint(j);
+            if usize::from(parent) < parents.len() {
+                out.push(OverlayLine {
+                    a: joint(usize::from(parent)),
+                    b: a,
+                    color: [1.0, 0.85, 0.2, 1.0],
+                });
+            }
+            for d in [Vec3::X, Vec3::Y, Vec3::Z] {
+                out.push(OverlayLine {
+                    a: a - d * cross,
+                    b: a + d * cross,
+                    color: [1.0, 0.3, 0.2, 1.0],
+                });
+            }
+        }
+    }
+}
+
 /// Water, light and caustics settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Look {

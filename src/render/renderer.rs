@@ -1049,23 +1049,25 @@ fn build_pipelines(
             shader_location: 7,
         },
     ];
+    // Fish and their shadows read the same mesh vertices and per-instance data.
+    let fish_buffers = [
+        Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &vertex_attrs,
+        }),
+        Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &instance_attrs,
+        }),
+    ];
     let fish = simple(
         "fish pipeline",
         &fish_mod,
         "vs_main",
         "fs_main",
-        &[
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<Vertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &vertex_attrs,
-            }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attrs,
-            }),
-        ],
+        &fish_buffers,
         wgpu::PrimitiveState {
             cull_mode: None,
             ..Default::default()
@@ -1091,18 +1093,7 @@ fn build_pipelines(
         &fish_mod,
         "vs_shadow",
         "fs_shadow",
-        &[
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<Vertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &vertex_attrs,
-            }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attrs,
-            }),
-        ],
+        &fish_buffers,
         wgpu::PrimitiveState {
             cull_mode: None,
             ..Default::default()

@@ -589,25 +589,7 @@ impl SceneDriver for DemoScene {
             let pal = &self.palettes[i * nj..(i + 1) * nj];
             let joint = |j: usize| pal[j].transform_point3(bind_pos[j]);
             if toggles.skeleton {
-                for j in 0..nj {
-                    let a = joint(j);
-                    if let Some(&p) = parents.get(j)
-                        && usize::from(p) < nj
-                    {
-                        out.push(OverlayLine {
-                            a: joint(usize::from(p)),
-                            b: a,
-                            color: [1.0, 0.85, 0.2, 1.0],
-                        });
-                    }
-                    for d in [Vec3::X, Vec3::Y, Vec3::Z] {
-                        out.push(OverlayLine {
-                            a: a - d * 0.8,
-                            b: a + d * 0.8,
-                            color: [1.0, 0.3, 0.2, 1.0],
-                        });
-                    }
-                }
+                OverlayLine::push_skeleton(out, &parents[..nj.min(parents.len())], joint, 0.8);
             }
             if toggles.midline {
                 // The motion layer's midline: lateral offsets from the travel line.

@@ -423,24 +423,7 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
                 })
             };
             if toggles.skeleton {
-                let parents = draw.model.skeleton.parents();
-                for (j, &parent) in parents.iter().enumerate() {
-                    let a = joint(j);
-                    if let Some(p) = (usize::from(parent) < parents.len()).then_some(parent) {
-                        out.push(OverlayLine {
-                            a: joint(usize::from(p)),
-                            b: a,
-                            color: [1.0, 0.85, 0.2, 1.0],
-                        });
-                    }
-                    for d in [Vec3::X, Vec3::Y, Vec3::Z] {
-                        out.push(OverlayLine {
-                            a: a - d * 0.6,
-                            b: a + d * 0.6,
-                            color: [1.0, 0.3, 0.2, 1.0],
-                        });
-                    }
-                }
+                OverlayLine::push_skeleton(out, draw.model.skeleton.parents(), joint, 0.6);
             }
             let l = species.body_length();
             if toggles.midline
