@@ -81,24 +81,23 @@ impl GlbBuilder {
 
     /// VEC2 float (texture coordinates).
     pub fn vec2s(&mut self, data: &[[f32; 2]]) -> usize {
-        let bytes: Vec<u8> = data
-            .iter()
-            .flatten()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
-        let view = self.view(&bytes, Some(ARRAY_BUFFER));
-        self.accessor(view, FLOAT, data.len(), "VEC2")
+        self.float_vectors(data, "VEC2")
     }
 
     /// VEC4 float (weights, tangents, float colours).
     pub fn vec4s(&mut self, data: &[[f32; 4]]) -> usize {
+        self.float_vectors(data, "VEC4")
+    }
+
+    /// A float vertex attribute of `N` components, little-endian, as accessor type `ty`.
+    fn float_vectors<const N: usize>(&mut self, data: &[[f32; N]], ty: &str) -> usize {
         let bytes: Vec<u8> = data
             .iter()
             .flatten()
             .flat_map(|f| f.to_le_bytes())
             .collect();
         let view = self.view(&bytes, Some(ARRAY_BUFFER));
-        self.accessor(view, FLOAT, data.len(), "VEC4")
+        self.accessor(view, FLOAT, data.len(), ty)
     }
 
     /// VEC4 normalized unsigned byte (vertex colours, linear).
