@@ -321,6 +321,59 @@ fn test_steering_helpers_return_heading_depth_speed() {
     assert_eq!(m["blend_nil"], serde_json::json!({}));
 }
 
+/// `shoal.crowd` is `shoal.blend` of separation, alignment and cohesion with their own radii,
+/// among neighbours of two species at several distances.
+#[test]
+fn test_crowd_is_the_blend_of_the_three_rules() {
+    let (_d, mut sim) = probe(
+        "return { tick = function(fish)\n  local m = fish.memory\n  local hs, ds, ss = shoal.separation(60)\n  local ha, da, sa = shoal.alignment(200)\n  local hc, dc, sc = shoal.cohesion(300)\n  m.blend = { shoal.blend(hs, ds, ss, 1.5, ha, da, sa, 2, hc, dc, sc, 0.5) }\n  m.crowd = { shoal.crowd(60, 1.5, 200, 2, 300, 0.5) }\n  m.alone = { shoal.crowd(1, 1, 1, 1, 1, 1) }\n  m.bad = tostring(select(2, pcall(shoal.crowd, 0/0, 1, 1, 1, 1, 1)))\nend }\n",
+    );
+    let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
+    for (i, (x, z, heading)) in [
+        (20.0, 30.0, 1.0),
+        (-40.0, 10.0, 2.0),
+        (100.0, -80.0, -0.5),
+        (-150.0, 120.0, 0.3),
+        (250.0, 0.0, 2.5),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let species = if i == 1 { "barracuda" } else { "black_porgy" };
+        sim.spawn(
+            species,
+            Vec3::new(x, 200.0 + 5.0 * i as f32, z),
+            heading,
+            0.0,
+            Some(0.0),
+            None,
+        )
+        .unwrap();
+    }
+    sim.world_mut().rebuild_grid();
+    sim.step();
+    let m = mem(&sim, id);
+    let (blend, crowd) = (
+        m["blend"].as_array().unwrap(),
+        m["crowd"].as_array().unwrap(),
+    );
+    assert_eq!(crowd.len(), 3, "{m}");
+    for i in 0..3 {
+        let (b, c) = (blend[i].as_f64().unwrap(), crowd[i].as_f64().unwrap());
+        assert!((b - c).abs() < 1e-9, "value {i}: blend {b}, crowd {c}");
+    }
+    assert_eq!(
+        m["alone"],
+        serde_json::json!({}),
+        "no neighbour within 1 unit"
+    );
+    let bad = m["bad"].as_str().unwrap_or_else(|| panic!("{m}"));
+    assert!(
+        bad.contains("shoal.crowd: separation radius is NaN"),
+        "{bad}"
+    );
+}
+
 #[test]
 fn test_avoid_walls_points_back_into_the_tank() {
     let (_d, mut sim) =

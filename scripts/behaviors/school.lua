@@ -38,13 +38,12 @@ function M.behave(fish, intention, p)
   elseif intention == "eat" then
     common.feed(fish, p)
   else
+    -- The three rules in one pass over the neighbours (the same as shoal.blend of
+    -- shoal.separation, shoal.alignment and shoal.cohesion, each with its own radius).
     local l = common.cur.me.length
-    local hs, ds, ss = shoal.separation(M.SEPARATION_RADIUS * l)
-    local ha, da, sa = shoal.alignment(M.ALIGNMENT_RADIUS * l)
-    local hc, dc, sc = shoal.cohesion(M.COHESION_RADIUS * l)
-    local h, d, s = shoal.blend(hs, ds, ss, M.SEPARATION,
-                                ha, da, sa, M.ALIGNMENT,
-                                hc, dc, sc, M.COHESION)
+    local h, d, s = shoal.crowd(M.SEPARATION_RADIUS * l, M.SEPARATION,
+                                M.ALIGNMENT_RADIUS * l, M.ALIGNMENT,
+                                M.COHESION_RADIUS * l, M.COHESION)
     if h then
       shoal.steer(h, d, s)
     else

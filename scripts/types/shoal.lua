@@ -184,7 +184,9 @@ function shoal.descend(depth, now) end
 ---@param speed? number
 function shoal.steer(heading, depth, speed) end
 
----Eat a food pellet if it is within reach of the mouth and not eaten yet.
+---Bite a food pellet: true if it is within reach of the mouth and was not eaten when this tick
+---began. Fish decide in parallel, so the pellet is taken when the tick's decisions are done, by
+---the first fish in decision order that bit it; every fish that bit it on that tick gets true.
 ---@param food integer  a food percept's id
 ---@return boolean ate
 function shoal.eat(food) end
@@ -257,6 +259,20 @@ function shoal.avoid_obstacles(lookahead, clearance, speed) end
 ---@param speed? number
 ---@return number? heading, number? depth, number? speed
 function shoal.avoid_walls(margin, speed) end
+
+---The crowding rules of a school in one pass over the neighbours: separation from any fish within
+---`sep_radius`, alignment with and cohesion towards fish of the same species within `ali_radius`
+---and `coh_radius`, mixed with the given weights — the same as shoal.blend of shoal.separation,
+---shoal.alignment and shoal.cohesion. nil when no neighbour is in range.
+---@param sep_radius number
+---@param sep_weight number
+---@param ali_radius number
+---@param ali_weight number
+---@param coh_radius number
+---@param coh_weight number
+---@param speed? number
+---@return number? heading, number? depth, number? speed
+function shoal.crowd(sep_radius, sep_weight, ali_radius, ali_weight, coh_radius, coh_weight, speed) end
 
 ---Weighted mix of steering wishes: groups of heading, depth, speed, weight. Groups whose heading
 ---is nil are skipped; nil when no group remains. Keep helper results in locals first (a call in

@@ -17,13 +17,13 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use mlua::{AnyUserData, Lua, LuaString, Table, Value, Variadic};
+use mlua::{AnyUserData, Function, Lua, LuaString, Table, Value, Variadic};
 use rand::Rng;
 
 use crate::motion::{MotionRequest, Side, TurnKind};
 use crate::world::sense;
 use crate::world::steer::Steer;
-use crate::world::{FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
+use crate::world::{FishControls, FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
 
 /// Default number of percepts `shoal.see` returns.
 pub const DEFAULT_SEE_MAX: usize = 32;
@@ -51,8 +51,14 @@ struct Keys {
 pub struct Ctx {
     /// The fish whose behaviour is running, if any.
     pub fish: Option<FishId>,
-    /// The world, as scoped userdata, while behaviours run (`None` otherwise).
+    /// The world, as scoped (read-only) userdata, while behaviours run (`None` otherwise).
     pub world: Option<AnyUserData>,
+    /// The running fish's controls (motion player, steering memo, random generator), checked
+    /// out of the world for its decision (see [`World::check_out`]).
+    pub controls: FishControls,
+    /// Pellets the fish of this lane bit during the stage, in decision order; the host applies
+    /// them to the world after every lane has run (see `shoal.eat`).
+    pub claims: Vec<(FishId, FoodId)>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
     /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
@@ -86,11 +92,12 @@ fn outside(name: &str) -> mlua::Error {
     ))
 }
 
-/// Runs `f` with the world and the current fish.
+/// Runs `f` with the world (read-only: decisions of different lanes share it) and the current
+/// fish.
 fn with_world<R>(
     lua: &Lua,
     name: &str,
-    f: impl FnOnce(&mut World, FishId) -> mlua::Result<R>,
+    f: impl FnOnce(&World, FishId) -> mlua::Result<R>,
 ) -> mlua::Result<R> {
     let (fish, ud) = {
         let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside(name))?;
@@ -99,8 +106,21 @@ fn with_world<R>(
             _ => return Err(outside(name)),
         }
     };
-    ud.borrow_mut_scoped::<World, _>(|world| f(world, fish))
+    ud.borrow_scoped::<World, _>(|world| f(world, fish))
         .map_err(|_| outside(name))?
+}
+
+/// Runs `f` with the world, the current fish and its checked-out controls (for motion requests
+/// and random numbers). `f` must not call back into Lua or borrow the API context.
+fn with_controls<R>(
+    lua: &Lua,
+    name: &str,
+    f: impl FnOnce(&World, FishId, &mut FishControls) -> mlua::Result<R>,
+) -> mlua::Result<R> {
+    with_world(lua, name, |w, fish| {
+        let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside(name))?;
+        f(w, fish, &mut ctx.controls)
+    })
 }
 
 fn world_err(name: &str, e: crate::world::WorldError) -> mlua::Error {
@@ -353,8 +373,8 @@ fn parse_turn(name: &str, s: &LuaString) -> mlua::Result<TurnKind> {
 }
 
 fn request(lua: &Lua, name: &str, r: MotionRequest, now: Option<bool>) -> mlua::Result<()> {
-    with_world(lua, name, |w, f| {
-        w.request(f, r, now.unwrap_or(false))
+    with_controls(lua, name, |w, f, c| {
+        w.request_with(f, c, r, now.unwrap_or(false))
             .map_err(|e| world_err(name, e))
     })
 }
@@ -399,6 +419,36 @@ fn timed<R>(lua: &Lua, f: impl FnOnce() -> R) -> R {
     r
 }
 
+/// The weighted mix of steering wishes `shoal.blend` and `shoal.crowd` return: headings averaged
+/// as unit vectors, depth and speed as numbers; wishes that are `None` and weights ≤ 0 (or NaN)
+/// count for nothing; nothing when no weight remains.
+fn blend(groups: impl Iterator<Item = (Option<(f64, f64, f64)>, f64)>) -> Triple64 {
+    let (mut hx, mut hy, mut depth, mut speed, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (wish, wgt) in groups {
+        let Some((h, d, s)) = wish else {
+            continue;
+        };
+        let wgt = wgt.max(0.0);
+        hx += wgt * h.cos();
+        hy += wgt * h.sin();
+        depth += wgt * d;
+        speed += wgt * s;
+        total += wgt;
+    }
+    if total <= 0.0 {
+        return (None, None, None);
+    }
+    let heading = if hx * hx + hy * hy > 1e-12 {
+        hy.atan2(hx)
+    } else {
+        0.0
+    };
+    (Some(heading), Some(depth / total), Some(speed / total))
+}
+
+/// `heading, depth, speed` in double precision, or three nils.
+type Triple64 = (Option<f64>, Option<f64>, Option<f64>);
+
 /// Creates the `shoal` global and the API context.
 pub fn register(lua: &Lua) -> mlua::Result<()> {
     let key = |s: &str| lua.create_string(s);
@@ -422,6 +472,8 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     lua.set_app_data(Ctx {
         fish: None,
         world: None,
+        controls: FishControls::default(),
+        claims: Vec::new(),
         perception_ns: 0,
         percepts_of: None,
         percepts: Vec::with_capacity(64),
@@ -521,9 +573,12 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?;
     let body_raw = lua.create_function(|lua, ()| {
+        let (playing, queued) = with_controls(lua, "body", |_, _, c| {
+            Ok((c.player().current_name(), c.player().queue_len()))
+        })?;
+        let motion = motion_name(lua, playing)?;
         with_world(lua, "body", |w, f| {
             let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
-            let motion = motion_name(lua, w.current_motion(f).unwrap_or("idle"))?;
             let n = b.wall_normal;
             Ok((
                 b.pos.x,
@@ -541,7 +596,7 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 b.heading,
                 b.pitch,
                 motion,
-                w.queue_len(f).unwrap_or(0),
+                queued,
             ))
         })
     })?;
@@ -579,32 +634,21 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?,
     )?;
-    let tank_raw = lua.create_function(|lua, ()| {
-        with_world(lua, "tank", |w, _| {
-            let t = *w.tank();
-            Ok((t.min.x, t.min.y, t.min.z, t.max.x, t.max.y, t.max.z))
-        })
-    })?;
-    shoal.set(
-        "time",
-        lua.create_function(|lua, ()| with_world(lua, "time", |w, _| Ok(w.time())))?,
-    )?;
+    let outside_fn =
+        lua.create_function(|_, name: String| -> mlua::Result<()> { Err(outside(&name)) })?;
     shoal.set(
         "motion",
         lua.create_function(|lua, ()| {
-            with_world(lua, "motion", |w, f| {
-                Ok((
-                    w.current_motion(f).unwrap_or("idle"),
-                    w.queue_len(f).unwrap_or(0),
-                ))
+            with_controls(lua, "motion", |_, _, c| {
+                Ok((c.player().current_name(), c.player().queue_len()))
             })
         })?,
     )?;
     shoal.set(
         "random",
         lua.create_function(|lua, (m, n): (Option<i64>, Option<i64>)| {
-            with_world(lua, "random", |w, f| {
-                let rng = w.rng_mut(f).ok_or_else(|| outside("random"))?;
+            with_controls(lua, "random", |_, _, c| {
+                let rng = c.rng();
                 Ok(match (m, n) {
                     (None, _) => Value::Number(rng.random::<f64>()),
                     (Some(m), None) if m >= 1 => Value::Integer(rng.random_range(1..=m)),
@@ -686,9 +730,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                         "shoal.steer: heading and depth are required (a steering helper returned nothing?)",
                     ));
                 };
-                with_world(lua, "steer", |w, f| {
+                with_controls(lua, "steer", |w, f, c| {
                     let speed = speed.unwrap_or_else(|| cruise_and_length(w, f).0);
-                    w.steer_to(f, h, d, speed).map_err(|e| world_err("steer", e))
+                    w.steer_to_with(f, c, h, d, speed)
+                        .map_err(|e| world_err("steer", e))
                 })
             },
         )?,
@@ -696,7 +741,16 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     shoal.set(
         "eat",
         lua.create_function(|lua, food: u32| {
-            with_world(lua, "eat", |w, f| Ok(w.try_eat(f, FoodId(food))))
+            // A bite is a claim: the pellet is eaten when the stage ends (lanes decide in
+            // parallel), by the first fish in decision order that bit it this tick.
+            let food = FoodId(food);
+            let fish = with_world(lua, "eat", |w, f| Ok(w.can_eat(f, food).then_some(f)))?;
+            if let Some(f) = fish
+                && let Some(mut ctx) = lua.app_data_mut::<Ctx>()
+            {
+                ctx.claims.push((f, food));
+            }
+            Ok(fish.is_some())
         })?,
     )?;
 
@@ -744,14 +798,17 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         "wander",
         lua.create_function(
             |lua, (max_turn, max_depth_change, speed): (Option<f32>, Option<f32>, Option<f32>)| {
-                with_world(lua, "wander", |w, f| {
+                with_controls(lua, "wander", |w, f, c| {
                     let (s, l) = cruise_and_length(w, f);
-                    Ok(triple(w.steer_wander(
-                        f,
-                        max_turn.unwrap_or(0.6),
-                        max_depth_change.unwrap_or(0.5 * l),
-                        speed.unwrap_or(s),
-                    )))
+                    Ok(triple(w.agent(f).map(|agent| {
+                        crate::world::steer::wander(
+                            c.rng(),
+                            &agent,
+                            max_turn.unwrap_or(0.6),
+                            max_depth_change.unwrap_or(0.5 * l),
+                            speed.unwrap_or(s),
+                        )
+                    })))
                 })
             },
         )?,
@@ -812,47 +869,90 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     args.len()
                 )));
             }
-            let (mut hx, mut hy, mut depth, mut speed, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            for g in args.chunks_exact(4) {
-                let (Some(h), Some(d), Some(s)) = (num(&g[0]), num(&g[1]), num(&g[2])) else {
-                    continue;
+            Ok(blend(args.chunks_exact(4).map(|g| {
+                let wish = match (num(&g[0]), num(&g[1]), num(&g[2])) {
+                    (Some(h), Some(d), Some(s)) => Some((h, d, s)),
+                    _ => None,
                 };
-                let wgt = num(&g[3]).unwrap_or(0.0).max(0.0);
-                hx += wgt * h.cos();
-                hy += wgt * h.sin();
-                depth += wgt * d;
-                speed += wgt * s;
-                total += wgt;
-            }
-            if total <= 0.0 {
-                return Ok((None, None, None));
-            }
-            let heading = if hx * hx + hy * hy > 1e-12 {
-                hy.atan2(hx)
-            } else {
-                0.0
-            };
-            Ok((Some(heading), Some(depth / total), Some(speed / total)))
+                (wish, num(&g[3]).unwrap_or(0.0))
+            })))
         })?,
+    )?;
+    shoal.set(
+        "crowd",
+        lua.create_function(
+            |lua, (rs, ws, ra, wa, rc, wc, speed): (f32, f64, f32, f64, f32, f64, Option<f32>)| {
+                with_world(lua, "crowd", |w, fish| {
+                    let s = speed.unwrap_or_else(|| cruise_and_length(w, fish).0);
+                    let rs = finite_arg("crowd", "separation radius", rs)?;
+                    let ra = finite_arg("crowd", "alignment radius", ra)?;
+                    let rc = finite_arg("crowd", "cohesion radius", rc)?;
+                    let (sep, ali, coh) = timed(lua, || {
+                        (
+                            w.steer_separation(fish, rs, s),
+                            w.steer_alignment(fish, ra, s),
+                            w.steer_cohesion(fish, rc, s),
+                        )
+                    });
+                    let wish = |st: Option<Steer>| {
+                        st.map(|st| {
+                            (
+                                f64::from(st.heading),
+                                f64::from(st.depth),
+                                f64::from(st.speed),
+                            )
+                        })
+                    };
+                    Ok(blend(
+                        [(wish(sep), ws), (wish(ali), wa), (wish(coh), wc)].into_iter(),
+                    ))
+                })
+            },
+        )?,
     )?;
 
     // Tables are filled on the Lua side: a field store there is a VM instruction, while one
     // made from Rust is a protected call under the memory limit.
-    lua.load(WRAPPERS).set_name("=shoal api").call::<()>((
+    let stage: Function = lua.load(WRAPPERS).set_name("=shoal api").call((
         &shoal,
         body_raw,
         nearest_raw,
-        tank_raw,
+        outside_fn,
     ))?;
+    lua.set_named_registry_value(STAGE_KEY, stage)?;
     lua.globals().set("shoal", shoal)?;
     Ok(())
 }
 
+/// Registry key of the function that opens (`stage(time, tank…)`) and closes (`stage(nil)`) a
+/// behaviour stage on the Lua side: `shoal.time` and `shoal.tank` answer from what it was given,
+/// without a call into Rust per decision.
+const STAGE_KEY: &str = "shoal.stage";
+
+/// Tells the Lua side of the API that a behaviour stage starts at `time` in `world`'s tank
+/// (`Some`) or has ended (`None`).
+pub fn set_stage(lua: &Lua, stage: Option<(f64, &World)>) -> mlua::Result<()> {
+    let f: Function = lua.named_registry_value(STAGE_KEY)?;
+    match stage {
+        Some((time, w)) => {
+            let t = w.tank();
+            f.call((time, t.min.x, t.min.y, t.min.z, t.max.x, t.max.y, t.max.z))
+        }
+        None => f.call(()),
+    }
+}
+
 /// `shoal.body`, `shoal.nearest` and `shoal.tank`: Rust returns plain values, these fill one
-/// reused table each.
+/// reused table each; `shoal.time` and `shoal.tank` answer from the stage's values. Returns the
+/// stage function (see [`set_stage`]).
 const WRAPPERS: &str = r#"
-local shoal, body_raw, nearest_raw, tank_raw = ...
+local shoal, body_raw, nearest_raw, outside = ...
 local body, near, tank = {}, {}, {}
+local now, x0, y0, z0, x1, y1, z1
+local function stage(time, ...)
+  now = time
+  x0, y0, z0, x1, y1, z1 = ...
+end
 function shoal.body()
   local b = body
   b.x, b.y, b.z, b.depth, b.to_floor, b.to_surface, b.to_wall,
@@ -870,10 +970,16 @@ function shoal.nearest(kind, species)
   return n
 end
 function shoal.tank()
+  if now == nil then outside("tank") end
   local t = tank
-  t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z = tank_raw()
+  t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z = x0, y0, z0, x1, y1, z1
   return t
 end
+function shoal.time()
+  if now == nil then outside("time") end
+  return now
+end
+return stage
 "#;
 
 /// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).

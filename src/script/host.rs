@@ -19,7 +19,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::Arc;
 
 use mlua::{Function, Lua, LuaSerdeExt, Table, Value};
 
@@ -78,7 +78,7 @@ pub enum Reloaded {
 /// One Lua state shared by all fish.
 pub struct ScriptHost {
     lua: Lua,
-    budget: Rc<Budget>,
+    budget: Arc<Budget>,
     limits: Limits,
     root: ScriptRoot,
     driver: Function,
@@ -393,6 +393,13 @@ impl ScriptHost {
                 Err(msg)
             }
         }
+    }
+
+    /// Opens (`Some`) or closes (`None`) a behaviour stage on the Lua side of the API (see
+    /// [`super::api::set_stage`]), under a fresh call budget.
+    pub fn set_stage(&self, stage: Option<(f64, &crate::world::World)>) -> mlua::Result<()> {
+        self.budget.arm(self.limits.instructions_per_call);
+        super::api::set_stage(&self.lua, stage)
     }
 
     /// The last error a fish's script raised, if any.

@@ -9,9 +9,9 @@
 //! Everything else — `io`, the rest of `os`, `debug`, `package`, `dofile`, `loadfile`, binary
 //! chunks — is absent.
 
-use std::cell::Cell;
 use std::path::{Component, Path, PathBuf};
-use std::rc::Rc;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicI64, AtomicU8, AtomicU64, Ordering};
 
 use mlua::chunk::ChunkMode;
 use mlua::{Function, HookTriggers, Lua, LuaOptions, StdLib, Table, Value, VmState};
@@ -60,11 +60,12 @@ pub enum Abort {
 #[derive(Debug)]
 pub struct Budget {
     /// Instructions left in the current call (negative once exhausted).
-    remaining: Cell<i64>,
+    remaining: AtomicI64,
     /// The budget the current call started with (for the message).
-    granted: Cell<u64>,
-    /// Set when the hook stopped the call; `pcall` rethrows while it is set.
-    abort: Cell<Option<Abort>>,
+    granted: AtomicU64,
+    /// Set when the hook stopped the call; `pcall` rethrows while it is set
+    /// (0: running, 1: [`Abort::Budget`], 2: [`Abort::Memory`]).
+    abort: AtomicU8,
     /// Soft memory limit, bytes.
     soft_memory: usize,
 }
@@ -72,15 +73,29 @@ pub struct Budget {
 impl Budget {
     /// Arms the budget for a call of at most `instructions` instructions.
     pub fn arm(&self, instructions: u64) {
-        self.remaining
-            .set(i64::try_from(instructions).unwrap_or(i64::MAX));
-        self.granted.set(instructions);
-        self.abort.set(None);
+        self.remaining.store(
+            i64::try_from(instructions).unwrap_or(i64::MAX),
+            Ordering::Relaxed,
+        );
+        self.granted.store(instructions, Ordering::Relaxed);
+        self.abort.store(0, Ordering::Relaxed);
     }
 
     /// Why the last call was stopped, if it was.
     pub fn aborted(&self) -> Option<Abort> {
-        self.abort.get()
+        match self.abort.load(Ordering::Relaxed) {
+            1 => Some(Abort::Budget),
+            2 => Some(Abort::Memory),
+            _ => None,
+        }
+    }
+
+    fn set_aborted(&self, why: Abort) {
+        let v = match why {
+            Abort::Budget => 1,
+            Abort::Memory => 2,
+        };
+        self.abort.store(v, Ordering::Relaxed);
     }
 }
 
@@ -172,7 +187,7 @@ pub const LOADED_KEY: &str = "shoal.loaded";
 
 /// Creates the sandboxed state. The returned [`Budget`] must be armed before every call into
 /// Lua ([`Budget::arm`]).
-pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Rc<Budget>), ScriptError> {
+pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>), ScriptError> {
     let root = ScriptRoot::new(root)?;
     let libs = StdLib::TABLE
         | StdLib::STRING
@@ -182,10 +197,10 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Rc<Budget>), Scrip
         | StdLib::OS;
     let lua =
         Lua::new_with(libs, LuaOptions::default()).map_err(|e| ScriptError::Lua(describe(&e)))?;
-    let budget = Rc::new(Budget {
-        remaining: Cell::new(0),
-        granted: Cell::new(0),
-        abort: Cell::new(None),
+    let budget = Arc::new(Budget {
+        remaining: AtomicI64::new(0),
+        granted: AtomicU64::new(0),
+        abort: AtomicU8::new(0),
         soft_memory: if limits.memory_bytes == 0 {
             usize::MAX
         } else {
@@ -200,7 +215,7 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Rc<Budget>), Scrip
     Ok((lua, budget))
 }
 
-fn install(lua: &Lua, root: &ScriptRoot, budget: &Rc<Budget>) -> mlua::Result<()> {
+fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<()> {
     let g = lua.globals();
 
     // os: only the clock.
@@ -296,7 +311,7 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Rc<Budget>) -> mlua::Result<()
 
     // pcall / xpcall / coroutine.resume must not swallow the host's stop: rethrow while set.
     let b = budget.clone();
-    let aborted = lua.create_function(move |_, ()| Ok(b.abort.get().is_some()))?;
+    let aborted = lua.create_function(move |_, ()| Ok(b.aborted().is_some()))?;
     let wrap: Function = lua
         .load(
             r#"
@@ -327,10 +342,10 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Rc<Budget>) -> mlua::Result<()
     lua.set_global_hook(
         HookTriggers::new().every_nth_instruction(HOOK_INTERVAL),
         move |lua, debug| {
-            let left = b.remaining.get() - i64::from(HOOK_INTERVAL);
-            b.remaining.set(left);
+            let left = b.remaining.load(Ordering::Relaxed) - i64::from(HOOK_INTERVAL);
+            b.remaining.store(left, Ordering::Relaxed);
             let over_memory = lua.used_memory() > b.soft_memory;
-            if left >= 0 && !over_memory && b.abort.get().is_none() {
+            if left >= 0 && !over_memory && b.aborted().is_none() {
                 return Ok(VmState::Continue);
             }
             let src = debug.source();
@@ -349,11 +364,11 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Rc<Budget>) -> mlua::Result<()
                     Abort::Budget,
                     format!(
                         "instruction budget exceeded ({} instructions per call)",
-                        b.granted.get()
+                        b.granted.load(Ordering::Relaxed)
                     ),
                 )
             };
-            b.abort.set(Some(kind));
+            b.set_aborted(kind);
             Err(mlua::Error::RuntimeError(format!("{file}:{line}: {what}")))
         },
     )?;

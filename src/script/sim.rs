@@ -7,9 +7,23 @@
 //! 2. behaviour scripts of the fish whose staggered slot is due — fish `i` decides on ticks where
 //!    `(tick + i) % period == 0`, `period = round(60 / decision_hz)` (default 10 Hz → every 6th
 //!    tick), so the Lua cost per frame stays flat — timed into `lua_ns`, with the sensor queries
-//!    they make timed separately into `perception_ns`;
+//!    they make timed separately into `perception_ns`. The decisions run in parallel **script
+//!    lanes** (see below);
 //! 3. `World::step_motion` (the motion layer, every tick), `World::update_pose`,
 //!    `World::rebuild_grid`.
+//!
+//! ## Script lanes
+//!
+//! Lua runs one thread per state, so the simulation keeps several Lua states — lanes, one per
+//! rayon thread by default ([`Simulation::set_lanes`]) — each with its own copy of the behaviour
+//! modules, and fish `i` always decides in lane `i % lanes` (its table and `memory` live there).
+//! During the stage the world is shared read-only by every lane: each deciding fish's motion
+//! player, steering memo and random generator are checked out of the world for its decision
+//! ([`World::check_out`]) and put back after, and the pellets fish bite (`shoal.eat`) are
+//! applied when every lane is done, in decision order. A decision therefore depends only on the
+//! world as the tick began, on the fish's own state and on its script, never on which lane ran
+//! it or when, so results are the same whatever the number of lanes or threads — as long as
+//! scripts keep per-fish state in `fish.memory`: a module-level variable is per lane.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -27,7 +41,9 @@ use super::log::{LogEntry, LogLevel};
 use super::reload::ScriptWatcher;
 use super::sandbox::Limits;
 use super::scene::{BoxDesc, SceneDesc, SpeciesFile, species_from_table};
-use crate::world::{Current, FishId, SpawnParams, Species, SpeciesId, TICK_HZ, Tank, World};
+use crate::world::{
+    Current, FishControls, FishId, FoodId, SpawnParams, Species, SpeciesId, TICK_HZ, Tank, World,
+};
 
 /// A species the simulation loaded from `scripts/species/`.
 #[derive(Debug, Clone)]
@@ -51,10 +67,137 @@ pub enum ReloadEvent {
     Failed(String),
 }
 
+/// A decision due this tick, in the lane of its fish.
+struct Due {
+    id: FishId,
+    module: ModuleIndex,
+    table: Table,
+    /// Position in this tick's decision order (all lanes).
+    order: u32,
+    /// The fish's controls while it decides (checked out of the world).
+    controls: FishControls,
+}
+
+/// One script lane: a Lua state with its own copy of the behaviour modules, running the decisions
+/// of the fish whose slot index ≡ the lane's number (mod the number of lanes).
+struct Lane {
+    host: ScriptHost,
+    module_of: HashMap<String, Option<ModuleIndex>>,
+    due: Vec<Due>,
+    /// `due.len()` entries are live; the rest keep their buffers for later ticks.
+    num_due: usize,
+    /// Pellets bitten this stage: (decision order, fish, pellet).
+    claims: Vec<(u32, FishId, FoodId)>,
+    /// Sensor nanoseconds and total nanoseconds of the lane's last stage.
+    perception_ns: u64,
+    total_ns: u64,
+}
+
+impl Lane {
+    fn new(scripts_dir: &Path, limits: Limits) -> Result<Self, ScriptError> {
+        let host = ScriptHost::new(scripts_dir, limits)?;
+        api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
+        Ok(Self {
+            host,
+            module_of: HashMap::new(),
+            due: Vec::new(),
+            num_due: 0,
+            claims: Vec::new(),
+            perception_ns: 0,
+            total_ns: 0,
+        })
+    }
+
+    /// The lane's module for `behavior`, loading it on first use.
+    fn module(&mut self, behavior: &str, time_s: f64) -> Option<ModuleIndex> {
+        if let Some(m) = self.module_of.get(behavior) {
+            return *m;
+        }
+        let m = self.host.module(behavior, time_s);
+        self.module_of.insert(behavior.to_owned(), m);
+        m
+    }
+
+    /// Queues a decision (reusing a buffer of an earlier tick).
+    fn push(&mut self, id: FishId, module: ModuleIndex, table: Table, order: u32) {
+        if let Some(d) = self.due.get_mut(self.num_due) {
+            d.id = id;
+            d.module = module;
+            d.table = table;
+            d.order = order;
+        } else {
+            self.due.push(Due {
+                id,
+                module,
+                table,
+                order,
+                controls: FishControls::default(),
+            });
+        }
+        self.num_due += 1;
+    }
+
+    /// Runs the queued decisions against the shared world, one after another.
+    fn run(&mut self, world: &World, time_s: f64) {
+        let start = Instant::now();
+        let lua = self.host.lua().clone();
+        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+            c.perception_ns = 0;
+            c.claims.clear();
+        }
+        self.claims.clear();
+        let host = &mut self.host;
+        let due = &mut self.due[..self.num_due];
+        let claims = &mut self.claims;
+        let result = lua.scope(|scope| {
+            host.set_stage(Some((time_s, world)))?;
+            let ud = scope.create_any_userdata_ref(world)?;
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.world = Some(ud);
+            }
+            for d in due.iter_mut() {
+                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                    c.fish = Some(d.id);
+                    c.percepts_of = None;
+                    std::mem::swap(&mut c.controls, &mut d.controls);
+                }
+                let _ = host.run(d.module, d.id, &d.table, time_s);
+                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                    std::mem::swap(&mut c.controls, &mut d.controls);
+                    let order = d.order;
+                    claims.extend(c.claims.drain(..).map(|(f, food)| (order, f, food)));
+                }
+            }
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.fish = None;
+                c.percepts_of = None;
+                c.world = None;
+            }
+            host.set_stage(None)
+        });
+        if let Err(e) = result {
+            self.host.log(
+                LogLevel::Error,
+                &format!("script host: {}", describe(&e)),
+                None,
+                time_s,
+            );
+        }
+        self.perception_ns = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+        self.total_ns = start.elapsed().as_nanos() as u64;
+    }
+}
+
+/// Default number of script lanes: one per rayon thread (at most 16).
+pub fn default_lanes() -> usize {
+    rayon::current_num_threads().clamp(1, 16)
+}
+
 /// The aquarium: world, scripts, scene.
 pub struct Simulation {
     world: World,
-    host: ScriptHost,
+    /// Script lanes; lane 0 also reads data files and reports load errors.
+    lanes: Vec<Lane>,
     scripts_dir: PathBuf,
     assets_dir: PathBuf,
     scene_path: Option<PathBuf>,
@@ -65,8 +208,6 @@ pub struct Simulation {
     next_drop_s: f64,
     watcher: Option<ScriptWatcher>,
     scene_changed: bool,
-    due: Vec<(FishId, ModuleIndex, Table)>,
-    module_of: HashMap<String, Option<ModuleIndex>>,
     reload_events: Vec<ReloadEvent>,
 }
 
@@ -137,14 +278,45 @@ impl Simulation {
         limits: Limits,
     ) -> Result<Self, ScriptError> {
         let mut sim = Self::from_scene(root, scene, seed)?;
-        if limits != sim.host.limits() {
-            // Rebuild the host under the new limits; the scene's fish have not run yet.
-            let mut host = ScriptHost::new(&sim.scripts_dir, limits)?;
-            api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
-            std::mem::swap(&mut sim.host, &mut host);
-            sim.module_of.clear();
+        if limits != sim.host().limits() {
+            // Rebuild the hosts under the new limits; the scene's fish have not run yet.
+            sim.rebuild_lanes(limits, sim.lanes.len())?;
         }
         Ok(sim)
+    }
+
+    /// Runs the decisions in `n` script lanes (at least 1) from now on. Rebuilds the Lua states:
+    /// behaviours reload and every fish's `memory` starts empty again, so call it before the
+    /// first tick.
+    pub fn set_lanes(&mut self, n: usize) -> Result<(), ScriptError> {
+        self.rebuild_lanes(self.host().limits(), n.max(1))
+    }
+
+    /// Number of script lanes.
+    pub fn num_lanes(&self) -> usize {
+        self.lanes.len()
+    }
+
+    fn rebuild_lanes(&mut self, limits: Limits, n: usize) -> Result<(), ScriptError> {
+        let lanes = (0..n)
+            .map(|_| Lane::new(&self.scripts_dir, limits))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.lanes = lanes;
+        Ok(())
+    }
+
+    /// The lane fish `id` decides in.
+    fn lane_of(&self, id: FishId) -> &Lane {
+        &self.lanes[id.index as usize % self.lanes.len()]
+    }
+
+    /// Lane 0's script host: it reads data files and logs what concerns no fish.
+    fn host(&self) -> &ScriptHost {
+        &self.lanes[0].host
+    }
+
+    fn host_mut(&mut self) -> &mut ScriptHost {
+        &mut self.lanes[0].host
     }
 
     fn with_host(
@@ -154,6 +326,20 @@ impl Simulation {
         seed: u64,
     ) -> Result<Self, ScriptError> {
         api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
+        let scripts_dir = root.join("scripts");
+        let limits = host.limits();
+        let mut lanes = vec![Lane {
+            host,
+            module_of: HashMap::new(),
+            due: Vec::new(),
+            num_due: 0,
+            claims: Vec::new(),
+            perception_ns: 0,
+            total_ns: 0,
+        }];
+        for _ in 1..default_lanes() {
+            lanes.push(Lane::new(&scripts_dir, limits)?);
+        }
         let tank = tank_of(&desc.tank, "scene tank")?;
         let assets_dir = root.join(desc.assets.as_deref().unwrap_or("assets"));
         let first_drop = desc
@@ -162,8 +348,8 @@ impl Simulation {
             .unwrap_or(f64::INFINITY);
         Ok(Self {
             world: World::new(tank, seed),
-            scripts_dir: root.join("scripts"),
-            host,
+            scripts_dir,
+            lanes,
             assets_dir,
             scene_path: None,
             scene: None,
@@ -173,8 +359,6 @@ impl Simulation {
             next_drop_s: first_drop,
             watcher: None,
             scene_changed: false,
-            due: Vec::new(),
-            module_of: HashMap::new(),
             reload_events: Vec::new(),
         })
     }
@@ -280,7 +464,7 @@ impl Simulation {
             return Ok(id);
         }
         let path = self
-            .host
+            .host()
             .root()
             .resolve_module(&format!("species/{name}"))
             .map_err(|why| ScriptError::Data {
@@ -320,9 +504,9 @@ impl Simulation {
     }
 
     fn load_species(&self, path: &Path) -> Result<(Species, u64), ScriptError> {
-        let file = read_species(&self.host, path)?;
+        let file = read_species(self.host(), path)?;
         let period = (TICK_HZ / file.decision_hz).round().max(1.0) as u64;
-        let display = self.host.root().display_of(path);
+        let display = self.host().root().display_of(path);
         let species =
             Species::load(file.desc, &self.assets_dir).map_err(|source| ScriptError::World {
                 context: display,
@@ -362,7 +546,8 @@ impl Simulation {
 
     /// Removes a fish and forgets its script table and memory. False if it was already gone.
     pub fn despawn(&mut self, id: FishId) -> bool {
-        self.host.forget_fish(id);
+        let n = self.lanes.len();
+        self.lanes[id.index as usize % n].host.forget_fish(id);
         self.world.despawn(id)
     }
 
@@ -374,11 +559,6 @@ impl Simulation {
     /// The world, mutable (spawn, food, obstacles…).
     pub fn world_mut(&mut self) -> &mut World {
         &mut self.world
-    }
-
-    /// The script host.
-    pub fn host(&self) -> &ScriptHost {
-        &self.host
     }
 
     /// The scene this simulation was built from.
@@ -427,11 +607,15 @@ impl Simulation {
     /// Stage 2 alone: runs the behaviour scripts of the fish whose staggered slot is due this
     /// tick (without advancing time; [`Simulation::step`] calls it). Public for benchmarks.
     pub fn run_behaviors(&mut self) {
+        use rayon::prelude::*;
         let start = Instant::now();
         let tick = self.world.tick_count();
         let time_s = self.world.time();
-        let mut due = std::mem::take(&mut self.due);
-        due.clear();
+        let num_lanes = self.lanes.len();
+        for lane in &mut self.lanes {
+            lane.num_due = 0;
+        }
+        let mut order = 0u32;
         for id in self.world.fish_ids() {
             let Some(behavior) = self.world.behavior_of(id) else {
                 continue;
@@ -446,65 +630,63 @@ impl Simulation {
             if !(tick + u64::from(id.index)).is_multiple_of(period) {
                 continue;
             }
-            let module = match self.module_of.get(behavior) {
-                Some(m) => *m,
-                None => {
-                    let m = self.host.module(behavior, time_s);
-                    self.module_of.insert(behavior.to_owned(), m);
-                    m
-                }
-            };
-            let Some(module) = module else {
+            let lane = &mut self.lanes[id.index as usize % num_lanes];
+            let Some(module) = lane.module(behavior, time_s) else {
                 continue;
             };
             let species = &self.world.species(sid).desc.name;
-            match self.host.fish_table(id, species, behavior) {
-                Ok(t) => due.push((id, module, t)),
-                Err(e) => self
+            match lane.host.fish_table(id, species, behavior) {
+                Ok(t) => {
+                    lane.push(id, module, t, order);
+                    order += 1;
+                }
+                Err(e) => lane
                     .host
                     .log(LogLevel::Error, &e.to_string(), Some(id), time_s),
             }
         }
-        let lua = self.host.lua().clone();
-        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-            c.perception_ns = 0;
+        for lane in &mut self.lanes {
+            for d in &mut lane.due[..lane.num_due] {
+                self.world.check_out(d.id, &mut d.controls);
+            }
         }
-        let world = &mut self.world;
-        let host = &mut self.host;
-        let result = lua.scope(|scope| {
-            let ud = scope.create_any_userdata_ref_mut(world)?;
-            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                c.world = Some(ud);
+        let world = &self.world;
+        let busy = self.lanes.iter().filter(|l| l.num_due > 0).count();
+        if busy > 1 {
+            self.lanes
+                .par_iter_mut()
+                .with_max_len(1)
+                .for_each(|lane| lane.run(world, time_s));
+        } else {
+            for lane in &mut self.lanes {
+                lane.run(world, time_s);
             }
-            for (id, module, table) in &due {
-                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                    c.fish = Some(*id);
-                    c.percepts_of = None;
-                }
-                let _ = host.run(*module, *id, table, time_s);
-            }
-            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                c.fish = None;
-                c.percepts_of = None;
-                c.world = None;
-            }
-            Ok(())
-        });
-        if let Err(e) = result {
-            self.host.log(
-                LogLevel::Error,
-                &format!("script host: {}", describe(&e)),
-                None,
-                time_s,
-            );
         }
-        due.clear();
-        self.due = due;
-        let perception = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+        let mut claims = Vec::new();
+        let (mut perception, mut lanes_total) = (0u64, 0u64);
+        for lane in &mut self.lanes {
+            for d in &mut lane.due[..lane.num_due] {
+                self.world.check_in(d.id, &mut d.controls);
+            }
+            claims.append(&mut lane.claims);
+            perception += lane.perception_ns;
+            lanes_total += lane.total_ns;
+        }
+        // Bites in decision order: the first fish to bite a pellet this tick eats it.
+        claims.sort_by_key(|c| c.0);
+        for (_, fish, food) in claims {
+            self.world.try_eat(fish, food);
+        }
+        // The stage's wall time, split between sensing and Lua as the lanes' CPU time was.
         let total = start.elapsed().as_nanos() as u64;
+        let perception = if lanes_total > 0 {
+            (u128::from(total) * u128::from(perception) / u128::from(lanes_total)) as u64
+        } else {
+            0
+        };
         let c = self.world.counters_mut();
-        c.perception_ns = perception;
-        c.lua_ns = total.saturating_sub(perception);
+        c.perception_ns = perception.min(total);
+        c.lua_ns = total.saturating_sub(c.perception_ns);
     }
 
     /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,
@@ -550,7 +732,8 @@ impl Simulation {
             "depth".into(),
             format!("{:.1}", w.tank().depth_of(root.pos.y)),
         ));
-        if let Some(t) = self.host.existing_fish_table(id) {
+        let host = &self.lane_of(id).host;
+        if let Some(t) = host.existing_fish_table(id) {
             let intention: Value = t.raw_get("intention").unwrap_or(Value::Nil);
             out.push(("intention".into(), short(&intention)));
             if let Ok(Value::Table(p)) = t.raw_get::<Value>("percepts") {
@@ -564,7 +747,7 @@ impl Simulation {
                 }
             }
         }
-        if let Some(e) = self.host.fish_error(id) {
+        if let Some(e) = host.fish_error(id) {
             out.push(("error".into(), e.to_owned()));
         }
         out
@@ -572,26 +755,49 @@ impl Simulation {
 
     /// A fish's memory table as JSON.
     pub fn memory_json(&self, id: FishId) -> serde_json::Value {
-        self.host.memory_json(id)
+        self.lane_of(id).host.memory_json(id)
     }
 
-    /// Console entries logged since the last call (each distinct message once).
+    /// Console entries logged since the last call (each distinct message once), from every
+    /// lane, oldest first. A message every lane logged (a file failing to load) appears once.
     pub fn drain_log(&mut self) -> Vec<LogEntry> {
-        self.host.drain_log()
+        let mut all: Vec<LogEntry> = Vec::new();
+        for lane in &mut self.lanes {
+            for e in lane.host.drain_log() {
+                let seen = all
+                    .iter()
+                    .any(|a| a.fish.is_none() && e.fish.is_none() && a.message == e.message);
+                if !seen {
+                    all.push(e);
+                }
+            }
+        }
+        all.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        all
     }
 
-    /// Every distinct script error so far, oldest first (`file:line: message`).
+    /// Every distinct script error so far (`file:line: message`), lane by lane, oldest first.
     pub fn error_messages(&self) -> Vec<String> {
-        self.host.error_messages().to_vec()
+        let mut all: Vec<String> = Vec::new();
+        for lane in &self.lanes {
+            for m in lane.host.error_messages() {
+                if !all.contains(m) {
+                    all.push(m.clone());
+                }
+            }
+        }
+        all
     }
 
     /// Script files that currently fail to load, with their errors (shown until fixed).
     pub fn load_errors(&self) -> Vec<(String, String)> {
-        self.host
-            .load_errors()
-            .iter()
-            .map(|(k, v)| (k.clone(), v.clone()))
-            .collect()
+        let mut all = std::collections::BTreeMap::new();
+        for lane in &self.lanes {
+            for (k, v) in lane.host.load_errors() {
+                all.entry(k.clone()).or_insert_with(|| v.clone());
+            }
+        }
+        all.into_iter().collect()
     }
 
     /// Starts watching `scripts/` so that [`Simulation::poll_reload`] picks up saved files.
@@ -623,15 +829,11 @@ impl Simulation {
             let real = p.canonicalize().unwrap_or_else(|_| p.clone());
             if self.scene_path.as_deref() == Some(real.as_path()) {
                 self.scene_changed = true;
-                self.host.log(
-                    LogLevel::Info,
-                    &format!(
-                        "{}: scene changed — restart?",
-                        self.host.root().display_of(&real)
-                    ),
-                    None,
-                    time_s,
+                let msg = format!(
+                    "{}: scene changed — restart?",
+                    self.host().root().display_of(&real)
                 );
+                self.host_mut().log(LogLevel::Info, &msg, None, time_s);
                 events.push(ReloadEvent::SceneChanged);
                 continue;
             }
@@ -639,42 +841,56 @@ impl Simulation {
                 events.push(self.reload_species(i, &real, time_s));
                 continue;
             }
-            match self.host.reload_path(&real, time_s) {
-                Reloaded::Modules(names) => {
+            // Every lane reloads; lane 0's outcome is reported (the lanes run the same files).
+            let mut outcome = None;
+            for lane in &mut self.lanes {
+                let r = lane.host.reload_path(&real, time_s);
+                match &r {
                     // Modules that failed their first load may load now.
-                    self.module_of.retain(|_, m| m.is_some());
-                    events.push(ReloadEvent::Behaviors(names));
-                }
-                Reloaded::Failed(msg) => events.push(ReloadEvent::Failed(msg)),
-                Reloaded::NotAModule => {
-                    let stem = real.file_stem().map(|s| s.to_string_lossy().into_owned());
-                    let in_behaviors = real.parent().is_some_and(|d| d.ends_with("behaviors"));
-                    if let (Some(stem), true) = (stem, in_behaviors)
-                        && self.module_of.get(&stem) == Some(&None)
-                    {
-                        // A behaviour that never loaded: try again on next use.
-                        self.module_of.remove(&stem);
-                        events.push(ReloadEvent::Behaviors(vec![stem]));
+                    Reloaded::Modules(_) => lane.module_of.retain(|_, m| m.is_some()),
+                    Reloaded::NotAModule => {
+                        let stem = real.file_stem().map(|s| s.to_string_lossy().into_owned());
+                        let in_behaviors = real.parent().is_some_and(|d| d.ends_with("behaviors"));
+                        if let (Some(stem), true) = (stem, in_behaviors)
+                            && lane.module_of.get(&stem) == Some(&None)
+                        {
+                            // A behaviour that never loaded: try again on next use.
+                            lane.module_of.remove(&stem);
+                            outcome.get_or_insert(ReloadEvent::Behaviors(vec![stem]));
+                        }
                     }
+                    Reloaded::Failed(_) => {}
+                }
+                match r {
+                    Reloaded::Modules(names) => {
+                        outcome.get_or_insert(ReloadEvent::Behaviors(names));
+                    }
+                    Reloaded::Failed(msg) => {
+                        outcome.get_or_insert(ReloadEvent::Failed(msg));
+                    }
+                    Reloaded::NotAModule => {}
                 }
             }
+            events.extend(outcome);
         }
         self.reload_events.extend(events.iter().cloned());
         events
     }
 
     fn reload_species(&mut self, i: usize, path: &Path, time_s: f64) -> ReloadEvent {
-        let display = self.host.root().display_of(path);
+        let display = self.host().root().display_of(path);
         match self.load_species(path) {
             Ok((species, period)) => {
                 let name = species.desc.name.clone();
                 match self.world.replace_species(SpeciesId(i as u16), species) {
                     Ok(()) => {
                         self.species[i].period_ticks = period;
-                        if let Some(mut c) = self.host.lua().app_data_mut::<Ctx>() {
-                            c.invalidate_species();
+                        for lane in &self.lanes {
+                            if let Some(mut c) = lane.host.lua().app_data_mut::<Ctx>() {
+                                c.invalidate_species();
+                            }
                         }
-                        self.host.log(
+                        self.host_mut().log(
                             LogLevel::Info,
                             &format!("{display}: species '{name}' reloaded"),
                             None,
@@ -684,14 +900,14 @@ impl Simulation {
                     }
                     Err(e) => {
                         let msg = format!("{display}: {e}");
-                        self.host.log(LogLevel::Error, &msg, None, time_s);
+                        self.host_mut().log(LogLevel::Error, &msg, None, time_s);
                         ReloadEvent::Failed(msg)
                     }
                 }
             }
             Err(e) => {
                 let msg = e.to_string();
-                self.host.log(LogLevel::Error, &msg, None, time_s);
+                self.host_mut().log(LogLevel::Error, &msg, None, time_s);
                 ReloadEvent::Failed(msg)
             }
         }
@@ -714,6 +930,9 @@ impl Simulation {
             .map(Path::to_path_buf)
             .unwrap_or_default();
         let mut fresh = Self::from_scene(&root, &scene, self.seed)?;
+        if fresh.lanes.len() != self.lanes.len() {
+            fresh.set_lanes(self.lanes.len())?;
+        }
         fresh.watcher = self.watcher.take();
         *self = fresh;
         Ok(())

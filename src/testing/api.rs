@@ -35,9 +35,8 @@
 //!   `t:greater(a, b, msg)`: record a failure (with file, line, expected, actual, simulated time)
 //!   and carry on; a Lua error ends the test as a failure.
 
-use std::cell::RefCell;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -60,7 +59,7 @@ struct TestState {
     num_checks: usize,
     sim_seconds: f64,
     last_time: f64,
-    worlds: Vec<Rc<RefCell<WorldState>>>,
+    worlds: Vec<Cell<WorldState>>,
 }
 
 struct WorldState {
@@ -120,26 +119,52 @@ impl WorldState {
     }
 }
 
-type Shared = Rc<RefCell<TestState>>;
+type Shared = Cell<TestState>;
+
+/// State a test's userdata share. The Lua state is `Send` (mlua's `send` feature, which script
+/// lanes need), so userdata hold it behind a mutex; a test uses it from one thread only, and no
+/// borrow is held across a call back into Lua.
+struct Cell<T>(Arc<Mutex<T>>);
+
+impl<T> Clone for Cell<T> {
+    fn clone(&self) -> Self {
+        Self(self.0.clone())
+    }
+}
+
+impl<T> Cell<T> {
+    fn new(value: T) -> Self {
+        Self(Arc::new(Mutex::new(value)))
+    }
+
+    /// The value (a panic in an earlier borrow leaves it usable).
+    fn borrow(&self) -> MutexGuard<'_, T> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn borrow_mut(&self) -> MutexGuard<'_, T> {
+        self.borrow()
+    }
+}
 
 /// The `t` argument of a test function.
 struct TestHandle(Shared);
 /// A world created by `t:world`.
 #[derive(Clone)]
 struct WorldHandle {
-    world: Rc<RefCell<WorldState>>,
+    world: Cell<WorldState>,
     test: Shared,
 }
 /// A fish spawned by `w:spawn`.
 #[derive(Clone)]
 struct FishHandle {
-    world: Rc<RefCell<WorldState>>,
+    world: Cell<WorldState>,
     id: FishId,
 }
 /// Food added by `w:food`.
 #[derive(Clone)]
 struct FoodHandle {
-    world: Rc<RefCell<WorldState>>,
+    world: Cell<WorldState>,
     id: FoodId,
 }
 
@@ -272,13 +297,13 @@ impl UserData for TestHandle {
                 sim.set_tank(min, max)
                     .map_err(|e| located(lua, format!("t:world: {e}")))?;
             }
-            let world = Rc::new(RefCell::new(WorldState {
+            let world = Cell::new(WorldState {
                 sim,
                 scratch,
                 trace: Vec::new(),
                 fish: Vec::new(),
                 foods: Vec::new(),
-            }));
+            });
             this.0.borrow_mut().worlds.push(world.clone());
             Ok(WorldHandle {
                 world,
@@ -785,7 +810,7 @@ pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
         Ok(lua) => lua,
         Err(e) => return vec![load_failure(format!("cannot create a Lua state: {e}"))],
     };
-    let declared: Rc<RefCell<Vec<(String, mlua::Function)>>> = Rc::default();
+    let declared: Cell<Vec<(String, mlua::Function)>> = Cell::new(Vec::new());
     let register = {
         let declared = declared.clone();
         lua.create_function(move |_, (name, f): (String, mlua::Function)| {
@@ -826,7 +851,7 @@ fn run_one(
     options: &RunOptions,
 ) -> TestOutcome {
     let start = Instant::now();
-    let state: Shared = Rc::new(RefCell::new(TestState {
+    let state: Shared = Cell::new(TestState {
         file: file.to_path_buf(),
         root: options.root.clone(),
         failures: Vec::new(),
@@ -834,7 +859,7 @@ fn run_one(
         sim_seconds: 0.0,
         last_time: 0.0,
         worlds: Vec::new(),
-    }));
+    });
     let result = lua
         .create_userdata(TestHandle(state.clone()))
         .and_then(|t| function.call::<()>(t));
@@ -851,10 +876,10 @@ fn run_one(
     }
     // Free the test's worlds before the next test (userdata may linger until GC).
     let _ = lua.gc_collect();
-    let state = Rc::try_unwrap(state)
-        .map(RefCell::into_inner)
+    let state = Arc::try_unwrap(state.0)
+        .map(|m| m.into_inner().unwrap_or_else(|e| e.into_inner()))
         .unwrap_or_else(|rc| {
-            let s = rc.borrow();
+            let s = rc.lock().unwrap_or_else(|e| e.into_inner());
             TestState {
                 file: s.file.clone(),
                 root: s.root.clone(),

@@ -38,7 +38,7 @@ use rand_pcg::Pcg32;
 use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
 use grid::Grid;
 use sense::{ViewCone, bearing, elevation, forward, tank_distances, wrap_angle};
-use steer::{Agent, Steer, SteerParams};
+use steer::{Agent, Steer, SteerMemo, SteerParams};
 use store::{FishStore, NewFish};
 
 pub use crate::skin::FishModel;
@@ -492,6 +492,36 @@ fn finite3(what: [&'static str; 3], v: Vec3) -> Result<(), WorldError> {
 }
 
 /// Rejects a request carrying NaN or infinity, naming the field.
+/// What a fish's behaviour may change while it decides, checked out of the world by
+/// [`World::check_out`]: its motion player, its steering memo and its random generator.
+pub struct FishControls {
+    player: MotionPlayer,
+    steer: SteerMemo,
+    rng: Pcg32,
+}
+
+impl Default for FishControls {
+    fn default() -> Self {
+        Self {
+            player: MotionPlayer::new(),
+            steer: SteerMemo::default(),
+            rng: Pcg32::seed_from_u64(0),
+        }
+    }
+}
+
+impl FishControls {
+    /// The fish's motion player (current motion, queue).
+    pub fn player(&self) -> &MotionPlayer {
+        &self.player
+    }
+
+    /// The fish's own random generator.
+    pub fn rng(&mut self) -> &mut Pcg32 {
+        &mut self.rng
+    }
+}
+
 fn validate_request(r: &MotionRequest) -> Result<(), WorldError> {
     match *r {
         MotionRequest::Swim { speed } => finite("swim speed", speed),
@@ -760,6 +790,27 @@ impl World {
         self.fish.dense(id).map(|d| &mut self.fish.rngs[d])
     }
 
+    /// Moves what a fish's behaviour may change while it decides — its motion player, steering
+    /// memo and random generator — out of the world into `controls` (swapping, so `controls`'
+    /// previous contents wait in the world). With every deciding fish's controls checked out,
+    /// decisions of different fish can run in parallel against a shared `&World` (script lanes);
+    /// [`World::check_in`] puts them back. Until then the world's own copy of the fish's motion
+    /// state is a stand-in: read it from `controls`. False if `id` is stale.
+    pub fn check_out(&mut self, id: FishId, controls: &mut FishControls) -> bool {
+        let Some(d) = self.fish.dense(id) else {
+            return false;
+        };
+        std::mem::swap(&mut self.fish.players[d], &mut controls.player);
+        std::mem::swap(&mut self.fish.steer[d], &mut controls.steer);
+        std::mem::swap(&mut self.fish.rngs[d], &mut controls.rng);
+        true
+    }
+
+    /// Puts back what [`World::check_out`] took (the same swap). False if `id` is stale.
+    pub fn check_in(&mut self, id: FishId, controls: &mut FishControls) -> bool {
+        self.check_out(id, controls)
+    }
+
     /// Name of the motion a fish is playing (see `MotionPlayer::current_name`).
     pub fn current_motion(&self, id: FishId) -> Option<&'static str> {
         self.fish
@@ -811,9 +862,20 @@ impl World {
         r: MotionRequest,
         interrupt: bool,
     ) -> Result<(), WorldError> {
-        let d = self.fish.dense(id).ok_or(WorldError::StaleFish(id))?;
+        self.with_controls(id, |w, c| w.request_with(id, c, r, interrupt))
+    }
+
+    /// [`World::request`] for a fish whose controls are checked out into `controls`.
+    pub fn request_with(
+        &self,
+        id: FishId,
+        controls: &mut FishControls,
+        r: MotionRequest,
+        interrupt: bool,
+    ) -> Result<(), WorldError> {
+        self.fish.dense(id).ok_or(WorldError::StaleFish(id))?;
         validate_request(&r)?;
-        let player = &mut self.fish.players[d];
+        let player = &mut controls.player;
         if interrupt {
             player.interrupt(r)?;
         } else {
@@ -835,6 +897,18 @@ impl World {
         depth: f32,
         speed: f32,
     ) -> Result<(), WorldError> {
+        self.with_controls(id, |w, c| w.steer_to_with(id, c, heading, depth, speed))
+    }
+
+    /// [`World::steer_to`] for a fish whose controls are checked out into `controls`.
+    pub fn steer_to_with(
+        &self,
+        id: FishId,
+        controls: &mut FishControls,
+        heading: f32,
+        depth: f32,
+        speed: f32,
+    ) -> Result<(), WorldError> {
         let d = self.fish.dense(id).ok_or(WorldError::StaleFish(id))?;
         finite("steer heading", heading)?;
         finite("steer depth", depth)?;
@@ -851,12 +925,12 @@ impl World {
             ),
             speed: speed.clamp(0.0, species.desc.max_speed.max(0.0)),
         };
-        let player = &mut self.fish.players[d];
+        let player = &mut controls.player;
         let plan = steer::plan_steer(
             &self.fish.roots[d],
             self.tank.max.y,
             player.current_name(),
-            &mut self.fish.steer[d],
+            &mut controls.steer,
             want,
             &params,
         );
@@ -868,6 +942,21 @@ impl World {
             }
         }
         Ok(())
+    }
+
+    /// Runs `f` with the fish's controls checked out (for the `&mut self` conveniences).
+    fn with_controls<R>(
+        &mut self,
+        id: FishId,
+        f: impl FnOnce(&Self, &mut FishControls) -> Result<R, WorldError>,
+    ) -> Result<R, WorldError> {
+        let mut c = FishControls::default();
+        if !self.check_out(id, &mut c) {
+            return Err(WorldError::StaleFish(id));
+        }
+        let r = f(self, &mut c);
+        self.check_in(id, &mut c);
+        r
     }
 
     // ---- food, obstacles, currents ----------------------------------------------------------
@@ -900,22 +989,29 @@ impl World {
             .map(|(i, f)| (FoodId(i as u32), f))
     }
 
-    /// The fish eats the pellet if it is not eaten yet and within [`EAT_REACH_LENGTHS`] body
-    /// lengths of the fish's mouth (its root). Returns whether it ate.
-    pub fn try_eat(&mut self, fish: FishId, food: FoodId) -> bool {
+    /// Whether the fish could eat the pellet now: it is not eaten yet and lies within
+    /// [`EAT_REACH_LENGTHS`] body lengths of the fish's mouth (its root).
+    pub fn can_eat(&self, fish: FishId, food: FoodId) -> bool {
         let Some(d) = self.fish.dense(fish) else {
             return false;
         };
         let reach =
             EAT_REACH_LENGTHS * self.species[usize::from(self.fish.species[d].0)].body_length();
         let mouth = self.fish.roots[d].pos;
+        self.foods
+            .get(food.0 as usize)
+            .is_some_and(|f| !f.eaten && f.pos.distance(mouth) <= reach)
+    }
+
+    /// The fish eats the pellet if [`World::can_eat`]. Returns whether it ate.
+    pub fn try_eat(&mut self, fish: FishId, food: FoodId) -> bool {
+        if !self.can_eat(fish, food) {
+            return false;
+        }
         let time = self.time;
         let Some(f) = self.foods.get_mut(food.0 as usize) else {
             return false;
         };
-        if f.eaten || f.pos.distance(mouth) > reach {
-            return false;
-        }
         f.eaten = true;
         f.eaten_by = Some(fish);
         f.eaten_at = Some(time);
