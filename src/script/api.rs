@@ -14,10 +14,11 @@
 //! To keep a decision cheap the tables returned by `see`, `nearest` and `body` are reused on the
 //! next call of the same function: copy what you want to keep (or keep the `id`).
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
-use mlua::{AnyUserData, Function, Lua, LuaString, Table, Value, Variadic};
+use mlua::{Function, Lua, LuaString, Table, Value, Variadic};
 use rand::Rng;
 
 use crate::motion::{MotionRequest, Side, TurnKind};
@@ -51,8 +52,8 @@ struct Keys {
 pub struct Ctx {
     /// The fish whose behaviour is running, if any.
     pub fish: Option<FishId>,
-    /// The world, as scoped (read-only) userdata, while behaviours run (`None` otherwise).
-    pub world: Option<AnyUserData>,
+    /// The world, shared read-only by every lane while behaviours run (`None` otherwise).
+    pub world: Option<Arc<World>>,
     /// The running fish's controls (motion player, steering memo, random generator), checked
     /// out of the world for its decision (see [`World::check_out`]).
     pub controls: FishControls,
@@ -92,35 +93,48 @@ fn outside(name: &str) -> mlua::Error {
     ))
 }
 
-/// Runs `f` with the world (read-only: decisions of different lanes share it) and the current
-/// fish.
+/// Runs `f` with the world (read-only: decisions of different lanes share it), the current fish
+/// and the rest of the API context. The context stays borrowed while `f` runs, so `f` must not
+/// borrow it again (pass `ctx` on instead).
+fn with_ctx<R>(
+    lua: &Lua,
+    name: &str,
+    f: impl FnOnce(&World, FishId, &mut Ctx) -> mlua::Result<R>,
+) -> mlua::Result<R> {
+    let mut ctx = lua
+        .try_app_data_mut::<Ctx>()
+        .ok()
+        .flatten()
+        .ok_or_else(|| outside(name))?;
+    let Some(fish) = ctx.fish else {
+        return Err(outside(name));
+    };
+    let Some(world) = ctx.world.take() else {
+        return Err(outside(name));
+    };
+    // The world is moved out of the context for the call (no reference count changes) and back.
+    let r = f(&world, fish, &mut ctx);
+    ctx.world = Some(world);
+    r
+}
+
+/// Runs `f` with the world and the current fish.
 fn with_world<R>(
     lua: &Lua,
     name: &str,
     f: impl FnOnce(&World, FishId) -> mlua::Result<R>,
 ) -> mlua::Result<R> {
-    let (fish, ud) = {
-        let ctx = lua.app_data_ref::<Ctx>().ok_or_else(|| outside(name))?;
-        match (ctx.fish, &ctx.world) {
-            (Some(fish), Some(ud)) => (fish, ud.clone()),
-            _ => return Err(outside(name)),
-        }
-    };
-    ud.borrow_scoped::<World, _>(|world| f(world, fish))
-        .map_err(|_| outside(name))?
+    with_ctx(lua, name, |w, fish, _| f(w, fish))
 }
 
 /// Runs `f` with the world, the current fish and its checked-out controls (for motion requests
-/// and random numbers). `f` must not call back into Lua or borrow the API context.
+/// and random numbers).
 fn with_controls<R>(
     lua: &Lua,
     name: &str,
     f: impl FnOnce(&World, FishId, &mut FishControls) -> mlua::Result<R>,
 ) -> mlua::Result<R> {
-    with_world(lua, name, |w, fish| {
-        let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside(name))?;
-        f(w, fish, &mut ctx.controls)
-    })
+    with_ctx(lua, name, |w, fish, ctx| f(w, fish, &mut ctx.controls))
 }
 
 fn world_err(name: &str, e: crate::world::WorldError) -> mlua::Error {
@@ -336,16 +350,12 @@ fn percept_values(
 }
 
 /// The motion layer's motion names, interned once.
-fn motion_name(lua: &Lua, name: &'static str) -> mlua::Result<LuaString> {
-    if let Some(ctx) = lua.app_data_ref::<Ctx>()
-        && let Some((_, s)) = ctx.motion_names.iter().find(|(n, _)| *n == name)
-    {
+fn motion_name(lua: &Lua, ctx: &mut Ctx, name: &'static str) -> mlua::Result<LuaString> {
+    if let Some((_, s)) = ctx.motion_names.iter().find(|(n, _)| *n == name) {
         return Ok(s.clone());
     }
     let s = lua.create_string(name)?;
-    if let Some(mut ctx) = lua.app_data_mut::<Ctx>() {
-        ctx.motion_names.push((name, s.clone()));
-    }
+    ctx.motion_names.push((name, s.clone()));
     Ok(s)
 }
 
@@ -409,13 +419,11 @@ fn finite_arg(name: &str, what: &str, v: f32) -> mlua::Result<f32> {
     }
 }
 
-fn timed<R>(lua: &Lua, f: impl FnOnce() -> R) -> R {
+/// Runs a sensor query, adding its time to the stage's perception time.
+fn timed<R>(ctx: &mut Ctx, f: impl FnOnce() -> R) -> R {
     let start = Instant::now();
     let r = f();
-    let ns = start.elapsed().as_nanos() as u64;
-    if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-        c.perception_ns += ns;
-    }
+    ctx.perception_ns += start.elapsed().as_nanos() as u64;
     r
 }
 
@@ -499,10 +507,8 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 None => None,
             };
             let max = max.unwrap_or(DEFAULT_SEE_MAX);
-            with_world(lua, "see", |w, f| {
+            with_ctx(lua, "see", |w, f, ctx| {
                 let start = Instant::now();
-                let mut ctx = lua.app_data_mut::<Ctx>().ok_or_else(|| outside("see"))?;
-                let ctx = &mut *ctx;
                 if ctx.percepts_of != Some(f) {
                     w.vision(f, &mut ctx.percepts);
                     ctx.percepts_of = Some(f);
@@ -538,12 +544,8 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             let kind = parse_kind(&kind.as_bytes()).ok_or_else(|| {
                 rt("shoal.nearest: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
             })?;
-            with_world(lua, "nearest", |w, f| {
+            with_ctx(lua, "nearest", |w, f, ctx| {
                 let start = Instant::now();
-                let mut ctx = lua
-                    .app_data_mut::<Ctx>()
-                    .ok_or_else(|| outside("nearest"))?;
-                let ctx = &mut *ctx;
                 let want = match &species {
                     Some(s) => match w.species_by_name(&s.to_str()?) {
                         Some(id) => Some(id),
@@ -573,12 +575,13 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             })
         })?;
     let body_raw = lua.create_function(|lua, ()| {
-        let (playing, queued) = with_controls(lua, "body", |_, _, c| {
-            Ok((c.player().current_name(), c.player().queue_len()))
-        })?;
-        let motion = motion_name(lua, playing)?;
-        with_world(lua, "body", |w, f| {
-            let b = timed(lua, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
+        with_ctx(lua, "body", |w, f, ctx| {
+            let (playing, queued) = (
+                ctx.controls.player().current_name(),
+                ctx.controls.player().queue_len(),
+            );
+            let motion = motion_name(lua, ctx, playing)?;
+            let b = timed(ctx, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
             let n = b.wall_normal;
             Ok((
                 b.pos.x,
@@ -603,12 +606,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     shoal.set(
         "species",
         lua.create_function(|lua, ()| {
-            with_world(lua, "species", |w, f| {
+            with_ctx(lua, "species", |w, f, ctx| {
                 let s = w.species_of(f).ok_or_else(|| outside("species"))?;
                 let i = usize::from(s.0);
-                let mut ctx = lua
-                    .app_data_mut::<Ctx>()
-                    .ok_or_else(|| outside("species"))?;
                 if ctx.species_tables.len() <= i {
                     ctx.species_tables.resize(i + 1, None);
                 }
@@ -744,13 +744,13 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             // A bite is a claim: the pellet is eaten when the stage ends (lanes decide in
             // parallel), by the first fish in decision order that bit it this tick.
             let food = FoodId(food);
-            let fish = with_world(lua, "eat", |w, f| Ok(w.can_eat(f, food).then_some(f)))?;
-            if let Some(f) = fish
-                && let Some(mut ctx) = lua.app_data_mut::<Ctx>()
-            {
-                ctx.claims.push((f, food));
-            }
-            Ok(fish.is_some())
+            with_ctx(lua, "eat", |w, f, ctx| {
+                let ok = w.can_eat(f, food);
+                if ok {
+                    ctx.claims.push((f, food));
+                }
+                Ok(ok)
+            })
         })?,
     )?;
 
@@ -822,10 +822,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         shoal.set(
             name,
             lua.create_function(move |lua, (radius, speed): (Option<f32>, Option<f32>)| {
-                with_world(lua, name, |w, fish| {
+                with_ctx(lua, name, |w, fish, ctx| {
                     let (s, l) = cruise_and_length(w, fish);
                     let r = finite_arg(name, "radius", radius.unwrap_or(default_lengths * l))?;
-                    Ok(triple(timed(lua, || f(w, fish, r, speed.unwrap_or(s)))))
+                    Ok(triple(timed(ctx, || f(w, fish, r, speed.unwrap_or(s)))))
                 })
             })?,
         )?;
@@ -834,9 +834,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         "avoid_obstacles",
         lua.create_function(
             |lua, (lookahead, clearance, speed): (Option<f32>, Option<f32>, Option<f32>)| {
-                with_world(lua, "avoid_obstacles", |w, f| {
+                with_ctx(lua, "avoid_obstacles", |w, f, ctx| {
                     let (s, l) = cruise_and_length(w, f);
-                    Ok(triple(timed(lua, || {
+                    Ok(triple(timed(ctx, || {
                         w.steer_avoid_obstacles(
                             f,
                             lookahead.unwrap_or(3.0 * l),
@@ -851,9 +851,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     shoal.set(
         "avoid_walls",
         lua.create_function(|lua, (margin, speed): (Option<f32>, Option<f32>)| {
-            with_world(lua, "avoid_walls", |w, f| {
+            with_ctx(lua, "avoid_walls", |w, f, ctx| {
                 let (s, l) = cruise_and_length(w, f);
-                Ok(triple(timed(lua, || {
+                Ok(triple(timed(ctx, || {
                     w.steer_avoid_walls(f, margin.unwrap_or(2.0 * l), speed.unwrap_or(s))
                 })))
             })
@@ -882,12 +882,12 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         "crowd",
         lua.create_function(
             |lua, (rs, ws, ra, wa, rc, wc, speed): (f32, f64, f32, f64, f32, f64, Option<f32>)| {
-                with_world(lua, "crowd", |w, fish| {
+                with_ctx(lua, "crowd", |w, fish, ctx| {
                     let s = speed.unwrap_or_else(|| cruise_and_length(w, fish).0);
                     let rs = finite_arg("crowd", "separation radius", rs)?;
                     let ra = finite_arg("crowd", "alignment radius", ra)?;
                     let rc = finite_arg("crowd", "cohesion radius", rc)?;
-                    let (sep, ali, coh) = timed(lua, || {
+                    let (sep, ali, coh) = timed(ctx, || {
                         (
                             w.steer_separation(fish, rs, s),
                             w.steer_alignment(fish, ra, s),

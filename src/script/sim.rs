@@ -27,6 +27,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -138,7 +139,7 @@ impl Lane {
     }
 
     /// Runs the queued decisions against the shared world, one after another.
-    fn run(&mut self, world: &World, time_s: f64) {
+    fn run(&mut self, world: &Arc<World>, time_s: f64) {
         let start = Instant::now();
         let lua = self.host.lua().clone();
         if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -149,11 +150,10 @@ impl Lane {
         let host = &mut self.host;
         let due = &mut self.due[..self.num_due];
         let claims = &mut self.claims;
-        let result = lua.scope(|scope| {
+        let result = (|| {
             host.set_stage(Some((time_s, world)))?;
-            let ud = scope.create_any_userdata_ref(world)?;
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                c.world = Some(ud);
+                c.world = Some(Arc::clone(world));
             }
             for d in due.iter_mut() {
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -174,7 +174,12 @@ impl Lane {
                 c.world = None;
             }
             host.set_stage(None)
-        });
+        })();
+        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+            // Let go of the world even if the stage stopped half-way.
+            c.world = None;
+            c.fish = None;
+        }
         if let Err(e) = result {
             self.host.log(
                 LogLevel::Error,
@@ -195,7 +200,8 @@ pub fn default_lanes() -> usize {
 
 /// The aquarium: world, scripts, scene.
 pub struct Simulation {
-    world: World,
+    /// Shared read-only with the script lanes during the behaviour stage; unique otherwise.
+    world: Arc<World>,
     /// Script lanes; lane 0 also reads data files and reports load errors.
     lanes: Vec<Lane>,
     scripts_dir: PathBuf,
@@ -347,7 +353,7 @@ impl Simulation {
             .map(|d| f64::from(d.start.unwrap_or(d.every)))
             .unwrap_or(f64::INFINITY);
         Ok(Self {
-            world: World::new(tank, seed),
+            world: Arc::new(World::new(tank, seed)),
             scripts_dir,
             lanes,
             assets_dir,
@@ -383,7 +389,7 @@ impl Simulation {
             let s = self.world.species(SpeciesId(i as u16)).clone();
             world.add_species(s);
         }
-        self.world = world;
+        self.world = Arc::new(world);
         Ok(())
     }
 
@@ -412,7 +418,7 @@ impl Simulation {
                         .random_range(-std::f32::consts::PI..std::f32::consts::PI),
                 };
                 let seed = self.rng.random::<u64>();
-                self.world
+                wm(&mut self.world)
                     .spawn(SpawnParams {
                         species: sid,
                         pos,
@@ -429,19 +435,19 @@ impl Simulation {
             }
         }
         for f in &desc.food {
-            self.world.add_food(v3(*f));
+            wm(&mut self.world).add_food(v3(*f));
         }
         for o in &desc.obstacles {
-            self.world.add_obstacle(v3(o.pos), o.radius);
+            wm(&mut self.world).add_obstacle(v3(o.pos), o.radius);
         }
         for c in &desc.currents {
-            self.world.add_current(Current {
+            wm(&mut self.world).add_current(Current {
                 pos: v3(c.pos),
                 radius: c.radius,
                 velocity: v3(c.velocity),
             });
         }
-        self.world.rebuild_grid();
+        wm(&mut self.world).rebuild_grid();
         Ok(())
     }
 
@@ -472,7 +478,7 @@ impl Simulation {
                 why,
             })?;
         let (species, period_ticks) = self.load_species(&path)?;
-        let id = self.world.add_species(species);
+        let id = wm(&mut self.world).add_species(species);
         let slot = SpeciesSlot { path, period_ticks };
         let i = usize::from(id.0);
         if self.species.len() <= i {
@@ -490,7 +496,7 @@ impl Simulation {
         } else {
             10.0
         };
-        let id = self.world.add_species(species);
+        let id = wm(&mut self.world).add_species(species);
         let slot = SpeciesSlot {
             path: PathBuf::new(),
             period_ticks: (TICK_HZ / hz).round().max(1.0) as u64,
@@ -528,7 +534,7 @@ impl Simulation {
         let sid = self.species_id(species)?;
         let speed = speed.unwrap_or(self.world.species(sid).desc.motion.s);
         let seed = self.rng.random::<u64>();
-        self.world
+        wm(&mut self.world)
             .spawn(SpawnParams {
                 species: sid,
                 pos,
@@ -548,7 +554,7 @@ impl Simulation {
     pub fn despawn(&mut self, id: FishId) -> bool {
         let n = self.lanes.len();
         self.lanes[id.index as usize % n].host.forget_fish(id);
-        self.world.despawn(id)
+        wm(&mut self.world).despawn(id)
     }
 
     /// The world.
@@ -558,7 +564,7 @@ impl Simulation {
 
     /// The world, mutable (spawn, food, obstacles…).
     pub fn world_mut(&mut self) -> &mut World {
-        &mut self.world
+        wm(&mut self.world)
     }
 
     /// The scene this simulation was built from.
@@ -571,9 +577,9 @@ impl Simulation {
         self.drop_food();
         self.run_behaviors();
         let dt = (1.0 / TICK_HZ) as f32;
-        self.world.step_motion(dt);
-        self.world.update_pose();
-        self.world.rebuild_grid();
+        wm(&mut self.world).step_motion(dt);
+        wm(&mut self.world).update_pose();
+        wm(&mut self.world).rebuild_grid();
     }
 
     /// Runs `seconds` of simulated time (rounded to whole ticks).
@@ -600,7 +606,7 @@ impl Simulation {
         });
         for _ in 0..drops.count {
             let p = self.random_in(&region);
-            self.world.add_food(p);
+            wm(&mut self.world).add_food(p);
         }
     }
 
@@ -647,7 +653,7 @@ impl Simulation {
         }
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
-                self.world.check_out(d.id, &mut d.controls);
+                wm(&mut self.world).check_out(d.id, &mut d.controls);
             }
         }
         let world = &self.world;
@@ -666,7 +672,7 @@ impl Simulation {
         let (mut perception, mut lanes_total) = (0u64, 0u64);
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
-                self.world.check_in(d.id, &mut d.controls);
+                wm(&mut self.world).check_in(d.id, &mut d.controls);
             }
             claims.append(&mut lane.claims);
             perception += lane.perception_ns;
@@ -675,7 +681,7 @@ impl Simulation {
         // Bites in decision order: the first fish to bite a pellet this tick eats it.
         claims.sort_by_key(|c| c.0);
         for (_, fish, food) in claims {
-            self.world.try_eat(fish, food);
+            wm(&mut self.world).try_eat(fish, food);
         }
         // The stage's wall time, split between sensing and Lua as the lanes' CPU time was.
         let total = start.elapsed().as_nanos() as u64;
@@ -684,7 +690,7 @@ impl Simulation {
         } else {
             0
         };
-        let c = self.world.counters_mut();
+        let c = wm(&mut self.world).counters_mut();
         c.perception_ns = perception.min(total);
         c.lua_ns = total.saturating_sub(c.perception_ns);
     }
@@ -882,7 +888,7 @@ impl Simulation {
         match self.load_species(path) {
             Ok((species, period)) => {
                 let name = species.desc.name.clone();
-                match self.world.replace_species(SpeciesId(i as u16), species) {
+                match wm(&mut self.world).replace_species(SpeciesId(i as u16), species) {
                     Ok(()) => {
                         self.species[i].period_ticks = period;
                         for lane in &self.lanes {
@@ -937,6 +943,12 @@ impl Simulation {
         *self = fresh;
         Ok(())
     }
+}
+
+/// The world for changing it: only the behaviour stage shares it, and the lanes let go of it
+/// before the stage ends.
+fn wm(world: &mut Arc<World>) -> &mut World {
+    Arc::get_mut(world).expect("the script lanes hold the world only during the behaviour stage")
 }
 
 fn tank_of(b: &BoxDesc, what: &str) -> Result<Tank, ScriptError> {
