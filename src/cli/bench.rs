@@ -72,6 +72,9 @@ pub struct SimArgs {
     /// Also draw milliseconds per tick against fish count into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Script lanes (Lua states deciding in parallel; Lua driver). Default: one per thread.
+    #[arg(long)]
+    pub lanes: Option<usize>,
 }
 
 /// Who decides what the fish do in `shoal bench sim`.
@@ -98,9 +101,15 @@ impl Ticker for LuaSim {
 
 /// The constant-density bench tank populated through the Lua simulation with the shipped
 /// behaviours (see [`Driver::Lua`]).
-fn lua_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<LuaSim> {
+fn lua_sim(root: &Path, fish: usize, seed: u64, lanes: Option<usize>) -> anyhow::Result<LuaSim> {
     let mut sim = Simulation::empty(root, seed)
         .with_context(|| format!("loading the scripts under {}", root.display()))?;
+    if let Some(n) = lanes {
+        if n == 0 {
+            anyhow::bail!("--lanes must be at least 1");
+        }
+        sim.set_lanes(n)?;
+    }
     let porgy = sim.species_id("black_porgy")?;
     let l = sim.world().species(porgy).body_length();
     let tank = bench_tank(l, fish);
@@ -161,7 +170,10 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
-                let mut sim = lua_sim(&args.root, fish, args.seed)?;
+                let mut sim = lua_sim(&args.root, fish, args.seed, args.lanes)?;
+                if results.is_empty() && !args.json {
+                    println!("script lanes: {}", sim.0.num_lanes());
+                }
                 let result = measure(&mut sim, TICK_HZ as usize, ticks);
                 if let Some(e) = sim.0.error_messages().first() {
                     eprintln!("script error during the bench: {e}");
