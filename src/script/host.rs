@@ -1,6 +1,6 @@
-//! The script host: one Lua state for every fish, behaviour modules loaded once per file, a
-//! per-fish table (with its `memory`) kept in the Lua registry, and one protected call per fish
-//! decision.
+//! The script host: one Lua state for the fish of one script lane (see [`super::sim`]),
+//! behaviour modules loaded once per file, a per-fish table (with its `memory`) kept in the Lua
+//! registry, and one protected call per fish decision.
 //!
 //! A behaviour module is a Lua file in `scripts/behaviors/` returning a table with either the
 //! three layers of the paper's section 3.1
@@ -75,7 +75,7 @@ pub enum Reloaded {
     NotAModule,
 }
 
-/// One Lua state shared by all fish.
+/// One Lua state: the fish of one script lane.
 pub struct ScriptHost {
     lua: Lua,
     budget: Arc<Budget>,

@@ -8,8 +8,9 @@
 //!
 //! - [`sandbox`]: the Lua state — trimmed standard library, `require` confined to `scripts/`,
 //!   text-only chunks, an instruction budget per call and a memory limit.
-//! - [`host`]: one state for all fish, modules loaded once per file, per-fish tables with their
-//!   `memory`, one protected call per decision, error formatting and deduplication ([`log`]).
+//! - [`host`]: one Lua state (a script lane) — modules loaded once per file, per-fish tables with
+//!   their `memory`, one protected call per decision, error formatting and deduplication
+//!   ([`log`]). [`Simulation`] runs several lanes in parallel.
 //! - [`api`]: the `shoal` table scripts program against (documented for editors in
 //!   `scripts/types/shoal.lua`).
 //! - [`scene`]: species and scene files read through serde.
