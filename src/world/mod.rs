@@ -17,18 +17,21 @@
 //! root, the head end of the vertebral column.
 
 pub mod bench;
+mod crowd;
 pub mod driver;
 pub mod grid;
 pub mod pose;
 pub mod sense;
 pub mod steer;
 mod store;
+#[cfg(test)]
+mod test_world;
 
 use std::f32::consts::TAU;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::{Mat4, Vec3};
@@ -43,6 +46,7 @@ use store::{FishStore, NewFish};
 
 pub use crate::skin::FishModel;
 pub use crate::species::{SpeciesDesc, SpeciesRig};
+pub use crowd::Crowd;
 
 /// The fixed motion tick, Hz.
 pub const TICK_HZ: f64 = 60.0;
@@ -466,6 +470,14 @@ pub struct World {
     grid_positions_current: bool,
     /// Fish spawned since the last rebuild (searched linearly until the next one).
     spawned_since_grid: Vec<FishId>,
+    /// Per grid slot (the grid's cell order): the fish's species at the rebuild.
+    grid_species: Vec<SpeciesId>,
+    /// Per grid slot: (cos, sin) of the fish's heading at the rebuild (what alignment sums);
+    /// filled only while crowd queries are being made (`crowd_wanted`), else empty.
+    grid_heading: Vec<glam::Vec2>,
+    /// A crowd query ran without `grid_heading` since the last rebuild: the next rebuild fills
+    /// it. Worlds whose behaviours never ask do not pay for the cosines.
+    crowd_wanted: AtomicBool,
     food_grid: Grid,
     /// Foods `0..food_in_grid` are in `food_grid`; later ones are searched linearly.
     food_in_grid: usize,
@@ -527,6 +539,9 @@ impl World {
             grid_exact: true,
             grid_positions_current: true,
             spawned_since_grid: Vec::new(),
+            grid_species: Vec::new(),
+            grid_heading: Vec::new(),
+            crowd_wanted: AtomicBool::new(false),
             food_grid,
             food_in_grid: 0,
             palette_offsets: vec![0],
@@ -1262,54 +1277,6 @@ impl World {
         ))
     }
 
-    /// [`steer::separation`] from every fish (any species) within `radius`, found on the grid.
-    pub fn steer_separation(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let mut push = Vec3::ZERO;
-        self.for_each_fish_near(agent.pos, radius, |o, pos, d2| {
-            if o != me && d2 > 0.0 {
-                push += (agent.pos - pos) / d2;
-            }
-        });
-        // Same weighting as steer::separation (1/d along the unit direction).
-        (push.length_squared() > 1e-12).then(|| agent.toward(push, speed))
-    }
-
-    /// [`steer::alignment`] with the fish's own species within `radius`, found on the grid.
-    pub fn steer_alignment(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let species = self.fish.species[me];
-        let mut sum = glam::Vec2::ZERO;
-        self.for_each_fish_near(agent.pos, radius, |o, _, _| {
-            if o != me && self.fish.species[o] == species {
-                let h = self.fish.roots[o].heading;
-                sum += glam::Vec2::new(h.cos(), h.sin());
-            }
-        });
-        (sum.length_squared() > 1e-8).then(|| Steer {
-            heading: sum.y.atan2(sum.x),
-            depth: agent.depth(),
-            speed,
-        })
-    }
-
-    /// [`steer::cohesion`] with the fish's own species within `radius`, found on the grid.
-    pub fn steer_cohesion(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let species = self.fish.species[me];
-        let (mut sum, mut n) = (Vec3::ZERO, 0u32);
-        self.for_each_fish_near(agent.pos, radius, |o, pos, _| {
-            if o != me && self.fish.species[o] == species {
-                sum += pos;
-                n += 1;
-            }
-        });
-        (n > 0).then(|| steer::seek(&agent, sum / n as f32, speed))
-    }
-
     /// [`steer::avoid_obstacles`] for a fish against the world's obstacles.
     pub fn steer_avoid_obstacles(
         &self,
@@ -1481,6 +1448,25 @@ impl World {
                 .map(|(i, r)| (i as u32, r.pos)),
         );
         self.grid_ids.clone_from(&self.fish.ids);
+        // What the crowding rules read per neighbour, copied into the grid's cell order so
+        // their scans read contiguous memory (see `crowd.rs`); the headings' cosines and sines
+        // (over both cores) only if crowd queries were made since the last rebuild.
+        let (roots, species) = (&self.fish.roots, &self.fish.species);
+        let keys = self.grid.keys();
+        self.grid_species.clear();
+        self.grid_species
+            .extend(keys.iter().map(|&k| species[k as usize]));
+        let wanted = self.crowd_wanted.swap(false, Ordering::Relaxed);
+        self.grid_heading.clear();
+        if wanted {
+            use rayon::prelude::*;
+            self.grid_heading.resize(keys.len(), glam::Vec2::ZERO);
+            self.grid_heading
+                .par_iter_mut()
+                .zip(keys.par_iter())
+                .with_min_len(1024)
+                .for_each(|(out, &k)| *out = crowd::heading_vector(roots[k as usize].heading));
+        }
         self.grid_exact = true;
         self.grid_positions_current = true;
         self.spawned_since_grid.clear();
