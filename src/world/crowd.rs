@@ -364,7 +364,7 @@ mod tests {
         }
         let centre = (world.tank().min + world.tank().max) * 0.5;
         for k in 0..30 {
-            let mut p = world.roots()[k].clone();
+            let mut p = world.roots()[k];
             p.pos = (p.pos + centre) * 0.5;
             world
                 .spawn(super::super::SpawnParams {
