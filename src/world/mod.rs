@@ -20,6 +20,7 @@ pub mod bench;
 mod crowd;
 pub mod driver;
 pub mod grid;
+mod nearest;
 pub mod pose;
 pub mod sense;
 pub mod steer;
@@ -460,6 +461,8 @@ pub struct World {
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
     currents: Vec<Current>,
+    /// Live fish of species whose description marks them predators (see `nearest.rs`).
+    predators: Vec<FishId>,
 
     grid: Grid,
     /// Fish in the grid, by grid key (the dense index at rebuild time).
@@ -534,6 +537,7 @@ impl World {
             foods: Vec::new(),
             obstacles: Vec::new(),
             currents: Vec::new(),
+            predators: Vec::new(),
             grid,
             grid_ids: Vec::new(),
             grid_exact: true,
@@ -594,8 +598,12 @@ impl World {
             .ok_or(WorldError::UnknownSpecies(id))?;
         let joints_changed = slot.rig.body.power.len() != s.rig.body.power.len()
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
+        let predator_changed = slot.desc.predator != s.desc.predator;
         self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
         *slot = s;
+        if predator_changed {
+            self.refresh_predators();
+        }
         if joints_changed {
             for i in 0..self.fish.len() {
                 if self.fish.species[i] == id {
@@ -668,6 +676,7 @@ impl World {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }
         let joints = species.model.skeleton.num_joints() as u32;
+        let predator = species.desc.predator;
         let id = self.fish.insert(NewFish {
             root: RootState {
                 pos: p.pos,
@@ -682,6 +691,9 @@ impl World {
         });
         let last = *self.palette_offsets.last().unwrap_or(&0);
         self.palette_offsets.push(last + joints);
+        if predator {
+            self.predators.push(id);
+        }
         self.spawned_since_grid.push(id);
         self.grid_exact = false;
         Ok(id)
@@ -691,6 +703,9 @@ impl World {
     pub fn despawn(&mut self, id: FishId) -> bool {
         if self.fish.remove(id).is_none() {
             return false;
+        }
+        if let Some(k) = self.predators.iter().position(|&p| p == id) {
+            self.predators.swap_remove(k);
         }
         self.grid_exact = false;
         self.spawned_since_grid.retain(|&f| f != id);
@@ -1089,50 +1104,84 @@ impl World {
 
     /// Everything in view of dense fish `d`, as sort keys (see [`Seen`]).
     fn collect_seen(&self, d: usize, seen: &mut Vec<Seen>) {
-        let me = self.fish.roots[d];
-        let my_species = self.fish.species[d];
-        let desc = &self.species[usize::from(my_species.0)].desc;
-        let range = desc.view_range;
-        let angle = desc.view_angle_deg;
-        let fwd = forward(me.heading, me.pitch);
-        let cone = ViewCone::new(me.pos, fwd, angle);
+        let view = self.view_of(d);
+        self.fish_seen(d, &view, |_, _| true, |s| seen.push(s));
+        self.food_seen(&view, |s| seen.push(s));
+        self.obstacles_seen(&view, |s| seen.push(s));
+    }
 
-        self.for_each_fish_near(me.pos, range, |o, pos, d2| {
+    /// How dense fish `d` sees: from where, how far, how wide.
+    fn view_of(&self, d: usize) -> View {
+        let me = self.fish.roots[d];
+        let species = self.fish.species[d];
+        let desc = &self.species[usize::from(species.0)].desc;
+        let fwd = forward(me.heading, me.pitch);
+        View {
+            pos: me.pos,
+            species,
+            range: desc.view_range,
+            angle: desc.view_angle_deg,
+            fwd,
+            cone: ViewCone::new(me.pos, fwd, desc.view_angle_deg),
+        }
+    }
+
+    /// How a fish of species `viewer` perceives a fish of species `other`.
+    fn fish_kind(&self, viewer: SpeciesId, other: SpeciesId) -> PerceptKind {
+        if other != viewer && self.species[usize::from(other.0)].desc.predator {
+            PerceptKind::Predator
+        } else {
+            PerceptKind::Fish
+        }
+    }
+
+    /// Calls `found` with every fish in `view` of dense fish `d` (itself excluded) that `want`
+    /// (dense index, kind) accepts; `want` is asked before the view-cone test.
+    fn fish_seen(
+        &self,
+        d: usize,
+        view: &View,
+        want: impl Fn(usize, PerceptKind) -> bool,
+        mut found: impl FnMut(Seen),
+    ) {
+        self.for_each_fish_near(view.pos, view.range, |o, pos, d2| {
             if o == d {
                 return;
             }
-            if !cone.contains(pos) {
+            let kind = self.fish_kind(view.species, self.fish.species[o]);
+            if !want(o, kind) || !view.cone.contains(pos) {
                 return;
             }
-            let species = self.fish.species[o];
-            let kind =
-                if species != my_species && self.species[usize::from(species.0)].desc.predator {
-                    PerceptKind::Predator
-                } else {
-                    PerceptKind::Fish
-                };
-            seen.push(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
+            found(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
         });
+    }
 
+    /// Calls `found` with every uneaten food pellet in `view`.
+    fn food_seen(&self, view: &View, mut found: impl FnMut(Seen)) {
         let mut see_food = |i: usize, f: &Food| {
-            if f.eaten || !cone.contains(f.pos) {
+            if f.eaten || !view.cone.contains(f.pos) {
                 return;
             }
-            let dist = f.pos.distance(me.pos);
-            if dist <= range {
-                seen.push(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
+            let dist = f.pos.distance(view.pos);
+            if dist <= view.range {
+                found(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
             }
         };
-        self.food_grid.for_each_within(me.pos, range, |key, _, _| {
-            see_food(key as usize, &self.foods[key as usize]);
-            true
-        });
+        self.food_grid
+            .for_each_within(view.pos, view.range, |key, _, _| {
+                see_food(key as usize, &self.foods[key as usize]);
+                true
+            });
         for (i, f) in self.foods.iter().enumerate().skip(self.food_in_grid) {
             see_food(i, f);
         }
+    }
 
+    /// Calls `found` with every obstacle any part of which is in `view`.
+    fn obstacles_seen(&self, view: &View, mut found: impl FnMut(Seen)) {
+        let (range, angle) = (view.range, view.angle);
         for (i, o) in self.obstacles.iter().enumerate() {
-            let to_centre = o.pos.distance(me.pos);
+            let to_centre = o.pos.distance(view.pos);
             let distance = to_centre - o.radius;
             if distance > range {
                 continue;
@@ -1144,14 +1193,15 @@ impl World {
             } else {
                 let half = (angle.max(0.0) * 0.5).to_radians();
                 let angular_radius = (o.radius / to_centre).clamp(0.0, 1.0).asin();
-                let off_axis = fwd
-                    .dot((o.pos - me.pos) / to_centre)
+                let off_axis = view
+                    .fwd
+                    .dot((o.pos - view.pos) / to_centre)
                     .clamp(-1.0, 1.0)
                     .acos();
                 off_axis <= half + angular_radius
             };
             if visible {
-                seen.push(Seen::new(
+                found(Seen::new(
                     distance,
                     PerceptKind::Obstacle,
                     i as u32,
@@ -1542,6 +1592,17 @@ impl Seen {
         };
         (distance, kind)
     }
+}
+
+/// How a fish sees (see [`World::vision`]): its root position, species, view range and cone.
+#[derive(Clone, Copy, Debug)]
+struct View {
+    pos: Vec3,
+    species: SpeciesId,
+    range: f32,
+    angle: f32,
+    fwd: Vec3,
+    cone: ViewCone,
 }
 
 thread_local! {
