@@ -10,6 +10,8 @@
 //! clamping is monotonic, so an item within `radius` of the query point always lies in the (clamped)
 //! block of cells the query visits.
 
+use std::ops::Range;
+
 use glam::Vec3;
 
 /// Upper bound on the number of cells; a cell size that would give more is enlarged.
@@ -161,14 +163,29 @@ impl Grid {
         self.cell_start[0] = 0;
     }
 
-    /// Calls `visit(key, position, distance²)` for every item within `radius` of `center`
-    /// (inclusive), cell by cell in a deterministic order. Returns early if `visit` returns
-    /// `false`.
-    pub fn for_each_within(
+    /// Item keys in the grid's cell order (slot order): entry `s` is the item in slot `s`.
+    /// Callers that keep per-item data in this order (see [`Grid::for_each_run_within`]) scan
+    /// contiguous memory.
+    pub fn keys(&self) -> &[u32] {
+        &self.keys
+    }
+
+    /// Item positions as of the last rebuild, in slot order (parallel to [`Grid::keys`]).
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Calls `visit(slots)` for each run of contiguous slots (indices into [`Grid::keys`] and
+    /// [`Grid::positions`]) whose cells the sphere of `radius` around `center` reaches, in the
+    /// same deterministic order [`Grid::for_each_within`] visits items. The runs hold every item
+    /// within `radius` but also others nearby: the caller tests distances. Returns early if
+    /// `visit` returns `false`; visits nothing for a NaN or negative radius or a non-finite
+    /// centre.
+    pub fn for_each_run_within(
         &self,
         center: Vec3,
         radius: f32,
-        mut visit: impl FnMut(u32, Vec3, f32) -> bool,
+        mut visit: impl FnMut(Range<usize>) -> bool,
     ) {
         if self.keys.is_empty() || radius.is_nan() || radius < 0.0 || !center.is_finite() {
             return;
@@ -209,17 +226,32 @@ impl Grid {
                 let start = self.cell_start[row + x0 as usize] as usize;
                 let end = self.cell_start[row + x1 as usize + 1] as usize;
                 // Cells along x are contiguous, so a row of cells is one run of entries.
-                for (key, &p) in self.keys[start..end]
-                    .iter()
-                    .zip(&self.positions[start..end])
-                {
-                    let d2 = p.distance_squared(center);
-                    if d2 <= r2 && !visit(*key, p, d2) {
-                        return;
-                    }
+                if start < end && !visit(start..end) {
+                    return;
                 }
             }
         }
+    }
+
+    /// Calls `visit(key, position, distance²)` for every item within `radius` of `center`
+    /// (inclusive), cell by cell in a deterministic order. Returns early if `visit` returns
+    /// `false`.
+    pub fn for_each_within(
+        &self,
+        center: Vec3,
+        radius: f32,
+        mut visit: impl FnMut(u32, Vec3, f32) -> bool,
+    ) {
+        let r2 = radius * radius;
+        self.for_each_run_within(center, radius, |run| {
+            for (key, &p) in self.keys[run.clone()].iter().zip(&self.positions[run]) {
+                let d2 = p.distance_squared(center);
+                if d2 <= r2 && !visit(*key, p, d2) {
+                    return false;
+                }
+            }
+            true
+        });
     }
 }
 

@@ -17,18 +17,22 @@
 //! root, the head end of the vertebral column.
 
 pub mod bench;
+mod crowd;
 pub mod driver;
 pub mod grid;
+mod nearest;
 pub mod pose;
 pub mod sense;
 pub mod steer;
 mod store;
+#[cfg(test)]
+mod test_world;
 
 use std::f32::consts::TAU;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::{Mat4, Vec3};
@@ -43,6 +47,7 @@ use store::{FishStore, NewFish};
 
 pub use crate::skin::FishModel;
 pub use crate::species::{SpeciesDesc, SpeciesRig};
+pub use crowd::Crowd;
 
 /// The fixed motion tick, Hz.
 pub const TICK_HZ: f64 = 60.0;
@@ -456,6 +461,8 @@ pub struct World {
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
     currents: Vec<Current>,
+    /// Live fish of species whose description marks them predators (see `nearest.rs`).
+    predators: Vec<FishId>,
 
     grid: Grid,
     /// Fish in the grid, by grid key (the dense index at rebuild time).
@@ -466,6 +473,14 @@ pub struct World {
     grid_positions_current: bool,
     /// Fish spawned since the last rebuild (searched linearly until the next one).
     spawned_since_grid: Vec<FishId>,
+    /// Per grid slot (the grid's cell order): the fish's species at the rebuild.
+    grid_species: Vec<SpeciesId>,
+    /// Per grid slot: (cos, sin) of the fish's heading at the rebuild (what alignment sums);
+    /// filled only while crowd queries are being made (`crowd_wanted`), else empty.
+    grid_heading: Vec<glam::Vec2>,
+    /// A crowd query ran without `grid_heading` since the last rebuild: the next rebuild fills
+    /// it. Worlds whose behaviours never ask do not pay for the cosines.
+    crowd_wanted: AtomicBool,
     food_grid: Grid,
     /// Foods `0..food_in_grid` are in `food_grid`; later ones are searched linearly.
     food_in_grid: usize,
@@ -552,11 +567,15 @@ impl World {
             foods: Vec::new(),
             obstacles: Vec::new(),
             currents: Vec::new(),
+            predators: Vec::new(),
             grid,
             grid_ids: Vec::new(),
             grid_exact: true,
             grid_positions_current: true,
             spawned_since_grid: Vec::new(),
+            grid_species: Vec::new(),
+            grid_heading: Vec::new(),
+            crowd_wanted: AtomicBool::new(false),
             food_grid,
             food_in_grid: 0,
             palette_offsets: vec![0],
@@ -609,8 +628,12 @@ impl World {
             .ok_or(WorldError::UnknownSpecies(id))?;
         let joints_changed = slot.rig.body.power.len() != s.rig.body.power.len()
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
+        let predator_changed = slot.desc.predator != s.desc.predator;
         self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
         *slot = s;
+        if predator_changed {
+            self.refresh_predators();
+        }
         if joints_changed {
             for i in 0..self.fish.len() {
                 if self.fish.species[i] == id {
@@ -683,6 +706,7 @@ impl World {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }
         let joints = species.model.skeleton.num_joints() as u32;
+        let predator = species.desc.predator;
         let id = self.fish.insert(NewFish {
             root: RootState {
                 pos: p.pos,
@@ -697,6 +721,9 @@ impl World {
         });
         let last = *self.palette_offsets.last().unwrap_or(&0);
         self.palette_offsets.push(last + joints);
+        if predator {
+            self.predators.push(id);
+        }
         self.spawned_since_grid.push(id);
         self.grid_exact = false;
         Ok(id)
@@ -706,6 +733,9 @@ impl World {
     pub fn despawn(&mut self, id: FishId) -> bool {
         if self.fish.remove(id).is_none() {
             return false;
+        }
+        if let Some(k) = self.predators.iter().position(|&p| p == id) {
+            self.predators.swap_remove(k);
         }
         self.grid_exact = false;
         self.spawned_since_grid.retain(|&f| f != id);
@@ -1170,50 +1200,84 @@ impl World {
 
     /// Everything in view of dense fish `d`, as sort keys (see [`Seen`]).
     fn collect_seen(&self, d: usize, seen: &mut Vec<Seen>) {
-        let me = self.fish.roots[d];
-        let my_species = self.fish.species[d];
-        let desc = &self.species[usize::from(my_species.0)].desc;
-        let range = desc.view_range;
-        let angle = desc.view_angle_deg;
-        let fwd = forward(me.heading, me.pitch);
-        let cone = ViewCone::new(me.pos, fwd, angle);
+        let view = self.view_of(d);
+        self.fish_seen(d, &view, |_, _| true, |s| seen.push(s));
+        self.food_seen(&view, |s| seen.push(s));
+        self.obstacles_seen(&view, |s| seen.push(s));
+    }
 
-        self.for_each_fish_near(me.pos, range, |o, pos, d2| {
+    /// How dense fish `d` sees: from where, how far, how wide.
+    fn view_of(&self, d: usize) -> View {
+        let me = self.fish.roots[d];
+        let species = self.fish.species[d];
+        let desc = &self.species[usize::from(species.0)].desc;
+        let fwd = forward(me.heading, me.pitch);
+        View {
+            pos: me.pos,
+            species,
+            range: desc.view_range,
+            angle: desc.view_angle_deg,
+            fwd,
+            cone: ViewCone::new(me.pos, fwd, desc.view_angle_deg),
+        }
+    }
+
+    /// How a fish of species `viewer` perceives a fish of species `other`.
+    fn fish_kind(&self, viewer: SpeciesId, other: SpeciesId) -> PerceptKind {
+        if other != viewer && self.species[usize::from(other.0)].desc.predator {
+            PerceptKind::Predator
+        } else {
+            PerceptKind::Fish
+        }
+    }
+
+    /// Calls `found` with every fish in `view` of dense fish `d` (itself excluded) that `want`
+    /// (dense index, kind) accepts; `want` is asked before the view-cone test.
+    fn fish_seen(
+        &self,
+        d: usize,
+        view: &View,
+        want: impl Fn(usize, PerceptKind) -> bool,
+        mut found: impl FnMut(Seen),
+    ) {
+        self.for_each_fish_near(view.pos, view.range, |o, pos, d2| {
             if o == d {
                 return;
             }
-            if !cone.contains(pos) {
+            let kind = self.fish_kind(view.species, self.fish.species[o]);
+            if !want(o, kind) || !view.cone.contains(pos) {
                 return;
             }
-            let species = self.fish.species[o];
-            let kind =
-                if species != my_species && self.species[usize::from(species.0)].desc.predator {
-                    PerceptKind::Predator
-                } else {
-                    PerceptKind::Fish
-                };
-            seen.push(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
+            found(Seen::new(d2.sqrt(), kind, self.fish.ids[o].index, o as u32));
         });
+    }
 
+    /// Calls `found` with every uneaten food pellet in `view`.
+    fn food_seen(&self, view: &View, mut found: impl FnMut(Seen)) {
         let mut see_food = |i: usize, f: &Food| {
-            if f.eaten || !cone.contains(f.pos) {
+            if f.eaten || !view.cone.contains(f.pos) {
                 return;
             }
-            let dist = f.pos.distance(me.pos);
-            if dist <= range {
-                seen.push(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
+            let dist = f.pos.distance(view.pos);
+            if dist <= view.range {
+                found(Seen::new(dist, PerceptKind::Food, i as u32, i as u32));
             }
         };
-        self.food_grid.for_each_within(me.pos, range, |key, _, _| {
-            see_food(key as usize, &self.foods[key as usize]);
-            true
-        });
+        self.food_grid
+            .for_each_within(view.pos, view.range, |key, _, _| {
+                see_food(key as usize, &self.foods[key as usize]);
+                true
+            });
         for (i, f) in self.foods.iter().enumerate().skip(self.food_in_grid) {
             see_food(i, f);
         }
+    }
 
+    /// Calls `found` with every obstacle any part of which is in `view`.
+    fn obstacles_seen(&self, view: &View, mut found: impl FnMut(Seen)) {
+        let (range, angle) = (view.range, view.angle);
         for (i, o) in self.obstacles.iter().enumerate() {
-            let to_centre = o.pos.distance(me.pos);
+            let to_centre = o.pos.distance(view.pos);
             let distance = to_centre - o.radius;
             if distance > range {
                 continue;
@@ -1225,14 +1289,15 @@ impl World {
             } else {
                 let half = (angle.max(0.0) * 0.5).to_radians();
                 let angular_radius = (o.radius / to_centre).clamp(0.0, 1.0).asin();
-                let off_axis = fwd
-                    .dot((o.pos - me.pos) / to_centre)
+                let off_axis = view
+                    .fwd
+                    .dot((o.pos - view.pos) / to_centre)
                     .clamp(-1.0, 1.0)
                     .acos();
                 off_axis <= half + angular_radius
             };
             if visible {
-                seen.push(Seen::new(
+                found(Seen::new(
                     distance,
                     PerceptKind::Obstacle,
                     i as u32,
@@ -1356,54 +1421,6 @@ impl World {
             max_depth_change,
             speed,
         ))
-    }
-
-    /// [`steer::separation`] from every fish (any species) within `radius`, found on the grid.
-    pub fn steer_separation(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let mut push = Vec3::ZERO;
-        self.for_each_fish_near(agent.pos, radius, |o, pos, d2| {
-            if o != me && d2 > 0.0 {
-                push += (agent.pos - pos) / d2;
-            }
-        });
-        // Same weighting as steer::separation (1/d along the unit direction).
-        (push.length_squared() > 1e-12).then(|| agent.toward(push, speed))
-    }
-
-    /// [`steer::alignment`] with the fish's own species within `radius`, found on the grid.
-    pub fn steer_alignment(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let species = self.fish.species[me];
-        let mut sum = glam::Vec2::ZERO;
-        self.for_each_fish_near(agent.pos, radius, |o, _, _| {
-            if o != me && self.fish.species[o] == species {
-                let h = self.fish.roots[o].heading;
-                sum += glam::Vec2::new(h.cos(), h.sin());
-            }
-        });
-        (sum.length_squared() > 1e-8).then(|| Steer {
-            heading: sum.y.atan2(sum.x),
-            depth: agent.depth(),
-            speed,
-        })
-    }
-
-    /// [`steer::cohesion`] with the fish's own species within `radius`, found on the grid.
-    pub fn steer_cohesion(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let me = self.fish.dense(id)?;
-        let species = self.fish.species[me];
-        let (mut sum, mut n) = (Vec3::ZERO, 0u32);
-        self.for_each_fish_near(agent.pos, radius, |o, pos, _| {
-            if o != me && self.fish.species[o] == species {
-                sum += pos;
-                n += 1;
-            }
-        });
-        (n > 0).then(|| steer::seek(&agent, sum / n as f32, speed))
     }
 
     /// [`steer::avoid_obstacles`] for a fish against the world's obstacles.
@@ -1577,6 +1594,25 @@ impl World {
                 .map(|(i, r)| (i as u32, r.pos)),
         );
         self.grid_ids.clone_from(&self.fish.ids);
+        // What the crowding rules read per neighbour, copied into the grid's cell order so
+        // their scans read contiguous memory (see `crowd.rs`); the headings' cosines and sines
+        // (over both cores) only if crowd queries were made since the last rebuild.
+        let (roots, species) = (&self.fish.roots, &self.fish.species);
+        let keys = self.grid.keys();
+        self.grid_species.clear();
+        self.grid_species
+            .extend(keys.iter().map(|&k| species[k as usize]));
+        let wanted = self.crowd_wanted.swap(false, Ordering::Relaxed);
+        self.grid_heading.clear();
+        if wanted {
+            use rayon::prelude::*;
+            self.grid_heading.resize(keys.len(), glam::Vec2::ZERO);
+            self.grid_heading
+                .par_iter_mut()
+                .zip(keys.par_iter())
+                .with_min_len(1024)
+                .for_each(|(out, &k)| *out = crowd::heading_vector(roots[k as usize].heading));
+        }
         self.grid_exact = true;
         self.grid_positions_current = true;
         self.spawned_since_grid.clear();
@@ -1652,6 +1688,17 @@ impl Seen {
         };
         (distance, kind)
     }
+}
+
+/// How a fish sees (see [`World::vision`]): its root position, species, view range and cone.
+#[derive(Clone, Copy, Debug)]
+struct View {
+    pos: Vec3,
+    species: SpeciesId,
+    range: f32,
+    angle: f32,
+    fwd: Vec3,
+    cone: ViewCone,
 }
 
 thread_local! {
