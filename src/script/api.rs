@@ -22,7 +22,6 @@ use mlua::{Function, Lua, LuaString, Table, Value, Variadic};
 use rand::Rng;
 
 use crate::motion::{MotionRequest, Side, TurnKind};
-use crate::world::sense;
 use crate::world::steer::Steer;
 use crate::world::{FishControls, FishId, FoodId, Percept, PerceptKind, SpeciesId, World};
 
@@ -66,7 +65,6 @@ pub struct Ctx {
     /// `nearest`); reset whenever `fish` changes.
     pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
-    neighbor_ids: Vec<FishId>,
     motion_names: Vec<(&'static str, LuaString)>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
@@ -202,101 +200,6 @@ fn fill_percept(
     t.raw_set(&k.heading, p.heading)?;
     t.raw_set(&k.speed, p.speed)?;
     Ok(())
-}
-
-/// The nearest fish, predator or food pellet the fish sees — the same one [`World::vision`]
-/// lists first of that kind — found without building (and sorting) the whole percept list:
-/// neighbours come from the world's grid, bearings are computed for the winner only.
-fn nearest_of(
-    w: &World,
-    f: FishId,
-    kind: PerceptKind,
-    species: Option<SpeciesId>,
-    ids: &mut Vec<FishId>,
-) -> Option<Percept> {
-    let me = *w.root(f)?;
-    let my_species = w.species_of(f)?;
-    let desc = &w.species(my_species).desc;
-    let (range, angle) = (desc.view_range, desc.view_angle_deg);
-    let fwd = sense::forward(me.heading, me.pitch);
-    let mut best: Option<Percept> = None;
-    let mut best_d = f32::INFINITY;
-    let blank = |kind, pos: Vec3, distance| Percept {
-        kind,
-        fish: None,
-        food: None,
-        obstacle: None,
-        species: None,
-        pos,
-        distance,
-        bearing: sense::bearing(me.pos, me.heading, pos),
-        elevation: sense::elevation(me.pos, pos),
-        heading: 0.0,
-        speed: 0.0,
-    };
-    if kind == PerceptKind::Predator
-        && !(0..w.num_species()).any(|i| {
-            let s = SpeciesId(i as u16);
-            s != my_species && w.species(s).desc.predator
-        })
-    {
-        return None; // no predator species in the world: nothing to look for
-    }
-    match kind {
-        PerceptKind::Fish | PerceptKind::Predator => {
-            w.neighbors(me.pos, range, ids);
-            let mut winner = None;
-            for &o in ids.iter() {
-                if o == f {
-                    continue;
-                }
-                let (Some(sp), Some(r)) = (w.species_of(o), w.root(o)) else {
-                    continue;
-                };
-                let predator = sp != my_species && w.species(sp).desc.predator;
-                if (kind == PerceptKind::Predator) != predator || species.is_some_and(|s| s != sp) {
-                    continue;
-                }
-                let d = r.pos.distance(me.pos);
-                let better = d < best_d
-                    || (d == best_d && winner.is_some_and(|(b, _, _): (FishId, _, _)| o < b));
-                if better && d <= range && sense::in_view_cone(me.pos, fwd, angle, r.pos) {
-                    best_d = d;
-                    winner = Some((o, sp, *r));
-                }
-            }
-            if let Some((o, sp, r)) = winner {
-                best = Some(Percept {
-                    fish: Some(o),
-                    species: Some(sp),
-                    heading: r.heading,
-                    speed: r.speed,
-                    ..blank(kind, r.pos, best_d)
-                });
-            }
-        }
-        PerceptKind::Food => {
-            let mut winner = None;
-            for (id, food) in w.foods() {
-                if food.eaten {
-                    continue;
-                }
-                let d = food.pos.distance(me.pos);
-                if d < best_d && d <= range && sense::in_view_cone(me.pos, fwd, angle, food.pos) {
-                    best_d = d;
-                    winner = Some((id, food.pos));
-                }
-            }
-            if let Some((id, pos)) = winner {
-                best = Some(Percept {
-                    food: Some(id),
-                    ..blank(kind, pos, best_d)
-                });
-            }
-        }
-        PerceptKind::Obstacle => {}
-    }
-    best
 }
 
 /// A percept as the values `shoal.nearest` returns: kind, species, id, distance, bearing,
@@ -485,7 +388,6 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         perception_ns: 0,
         percepts_of: None,
         percepts: Vec::with_capacity(64),
-        neighbor_ids: Vec::with_capacity(64),
         motion_names: Vec::new(),
         keys,
         species_names: Vec::new(),
@@ -553,18 +455,14 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     },
                     None => None,
                 };
-                let found = if ctx.percepts_of == Some(f) || kind == PerceptKind::Obstacle {
-                    // The full vision list is at hand (or obstacles, which it handles best).
-                    if ctx.percepts_of != Some(f) {
-                        w.vision(f, &mut ctx.percepts);
-                        ctx.percepts_of = Some(f);
-                    }
+                let found = if ctx.percepts_of == Some(f) {
+                    // The full vision list is at hand (shoal.see ran this decision).
                     ctx.percepts
                         .iter()
                         .find(|p| p.kind == kind && (want.is_none() || p.species == want))
                         .copied()
                 } else {
-                    nearest_of(w, f, kind, want, &mut ctx.neighbor_ids)
+                    w.nearest_in_view(f, kind, want)
                 };
                 let r = match found {
                     Some(p) => percept_values(lua, ctx, w, &p)?,
@@ -887,13 +785,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     let rs = finite_arg("crowd", "separation radius", rs)?;
                     let ra = finite_arg("crowd", "alignment radius", ra)?;
                     let rc = finite_arg("crowd", "cohesion radius", rc)?;
-                    let (sep, ali, coh) = timed(ctx, || {
-                        (
-                            w.steer_separation(fish, rs, s),
-                            w.steer_alignment(fish, ra, s),
-                            w.steer_cohesion(fish, rc, s),
-                        )
-                    });
+                    let crowd = timed(ctx, || w.steer_crowd(fish, rs, ra, rc, s));
+                    let (sep, ali, coh) = crowd
+                        .map(|c| (c.separation, c.alignment, c.cohesion))
+                        .unwrap_or_default();
                     let wish = |st: Option<Steer>| {
                         st.map(|st| {
                             (
