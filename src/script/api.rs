@@ -856,12 +856,11 @@ function shoal.body()
   return b
 end
 function shoal.nearest(kind, species)
+  local k, sp, id, dist, bearing, elev, x, y, z, heading, speed = nearest_raw(kind, species)
+  if k == nil then return nil end   -- nothing seen: no table to fill
   local n = near
-  local k
-  k, n.species, n.id, n.distance, n.bearing, n.elevation, n.x, n.y, n.z, n.heading,
-    n.speed = nearest_raw(kind, species)
-  if k == nil then return nil end
-  n.kind = k
+  n.kind, n.species, n.id, n.distance, n.bearing, n.elevation = k, sp, id, dist, bearing, elev
+  n.x, n.y, n.z, n.heading, n.speed = x, y, z, heading, speed
   return n
 end
 function shoal.tank()

@@ -11,7 +11,7 @@
 -- for a moment in memory rather than recomputed every decision: recomputing them as the fish
 -- turns would keep restarting the turn.
 
-local shoal = shoal
+local shoal, math = shoal, math   -- locals: a global is looked up through the module's environment
 local C = {}
 
 -- What every layer of one decision needs, read once at its start by C.begin (decisions run one
