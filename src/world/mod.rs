@@ -1455,7 +1455,6 @@ impl World {
             self.palettes.resize(total, Mat4::IDENTITY);
         }
         let inputs = pose::PoseInputs {
-            species: &self.species,
             plans: &self.pose_plans,
             fish_species: &self.fish.species,
             roots: &self.fish.roots,
