@@ -29,7 +29,7 @@ pub mod record;
 pub mod wave;
 
 pub use body::{MidlinePoseJob, power_after_fig5};
-pub use player::MotionPlayer;
+pub use player::{MotionPlayer, WaveTable};
 pub use presets::Preset;
 pub use record::{Recording, record_preset};
 

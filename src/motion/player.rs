@@ -118,12 +118,7 @@ impl Active {
             }
             MotionRequest::Turn { kind, angle, side } => {
                 let tt = params.tt;
-                // λ'' = 2·Tt is a period; the swim wave's phase speed ω' at cruising speed turns it
-                // into a length along the body, at least TURN_WAVELENGTH_BODY_LENGTHS·l so the
-                // bend stays one smooth C instead of folding.
-                let wavelength = (wave::lambda_2(tt)
-                    * wave::omega_prime(params.s, params.p, params.omega))
-                .max(TURN_WAVELENGTH_BODY_LENGTHS * params.l);
+                let wavelength = turn_wavelength(params);
                 let (v1, strokes, stroke_s, duration) = match kind {
                     TurnKind::Normal => {
                         let v1 = moving(v0);
@@ -240,32 +235,178 @@ impl Active {
     }
 }
 
+/// The body wave's per-body constants, computed once per species instead of every step: for the
+/// head (x = 0) and each entry of `body.joints_x`, the sample's position terms of equations
+/// (3)–(6) and the sine and cosine of the wave arguments that do not depend on time.
+///
+/// With them, each travelling wave sin(2π·x'/λ − φ) of a step is
+/// sin(2π·x'/λ)·cos φ − cos(2π·x'/λ)·sin φ: one `sin_cos(φ)` per step (and one per quick or
+/// serial turn wave) instead of one sine per sample and wave. The equations are the paper's; the
+/// values differ from evaluating each sine directly only by rounding (a few 1e-7 of the
+/// amplitude).
+///
+/// [`MotionPlayer::step_with`] takes a table built for its `params` and `body`;
+/// [`MotionPlayer::step`] keeps one per thread, rebuilt when the body or parameters change.
+#[derive(Debug, Clone, Default)]
+pub struct WaveTable {
+    /// The parameters and midline samples it was built for, bit for bit.
+    params_bits: [u32; 9],
+    joints_x_bits: Vec<u32>,
+    /// Wavelength of the quick/serial turn wave along the body (as `Active::start` plans it).
+    turn_wavelength: f32,
+    /// Head first, then one per `joints_x` entry.
+    samples: Vec<WaveSample>,
+}
+
+/// One midline sample's constants (see [`WaveTable`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct WaveSample {
+    /// x' = x·l − p·l, length units.
+    xp: f32,
+    /// A(x), length units (before the speed gain).
+    amp: f32,
+    /// sin and cos of the swim wave's spatial argument: 2π·x'/λ' in front of the pivot, 2π·x'/λ
+    /// behind it (also F_nt's argument there).
+    swim: (f32, f32),
+    /// sin and cos of F_st's spatial argument 2π·x'/Λ''.
+    turn: (f32, f32),
+}
+
+fn param_bits(p: &MotionParams) -> [u32; 9] {
+    [
+        p.p,
+        p.s,
+        p.l,
+        p.max_amp,
+        p.lambda,
+        p.omega,
+        p.tt,
+        p.f,
+        p.turn_angle,
+    ]
+    .map(f32::to_bits)
+}
+
+/// The quick/serial turn wave's wavelength along the body, length units: λ'' = 2·Tt is a period;
+/// the swim wave's phase speed ω' at cruising speed turns it into a length along the body, at
+/// least [`TURN_WAVELENGTH_BODY_LENGTHS`]·l so the bend stays one smooth C instead of folding.
+fn turn_wavelength(params: &MotionParams) -> f32 {
+    (wave::lambda_2(params.tt) * wave::omega_prime(params.s, params.p, params.omega))
+        .max(TURN_WAVELENGTH_BODY_LENGTHS * params.l)
+}
+
+impl WaveTable {
+    /// The table of `body` under `params`. Allocates; build it once per species.
+    pub fn new(params: &MotionParams, body: &Body) -> Self {
+        let mut table = Self::default();
+        table.rebuild(params, body);
+        table
+    }
+
+    /// Whether the table was built for exactly these parameters and midline samples.
+    pub fn matches(&self, params: &MotionParams, body: &Body) -> bool {
+        self.params_bits == param_bits(params)
+            && self.joints_x_bits.len() == body.joints_x.len()
+            && self
+                .joints_x_bits
+                .iter()
+                .zip(&body.joints_x)
+                .all(|(&b, x)| b == x.to_bits())
+    }
+
+    /// Rebuilds in place for `params` and `body` (allocates only to grow).
+    fn rebuild(&mut self, params: &MotionParams, body: &Body) {
+        self.params_bits = param_bits(params);
+        self.joints_x_bits.clear();
+        self.joints_x_bits
+            .extend(body.joints_x.iter().map(|x| x.to_bits()));
+        self.turn_wavelength = turn_wavelength(params);
+        let (p, l) = (params.p, params.l);
+        let lambda_prime = params.lambda_prime();
+        let wavelength = self.turn_wavelength;
+        self.samples.clear();
+        self.samples.extend(
+            std::iter::once(0.0)
+                .chain(body.joints_x.iter().copied())
+                .map(|x| {
+                    // The same expressions as wave::swim_wave, f_front/f_back, f_nt and f_st.
+                    let xl = x * l;
+                    let xp = wave::x_prime(xl, p, l);
+                    let swim = if xp < 0.0 {
+                        TAU * xp / lambda_prime
+                    } else {
+                        TAU * xp / params.lambda
+                    };
+                    WaveSample {
+                        xp,
+                        amp: wave::amplitude(xl, p, l, params.max_amp),
+                        swim: swim.sin_cos(),
+                        turn: (TAU * xp / wavelength).sin_cos(),
+                    }
+                }),
+        );
+    }
+}
+
+thread_local! {
+    /// [`MotionPlayer::step`]'s table, for the body it saw last on this thread.
+    static STEP_TABLE: std::cell::RefCell<WaveTable> = std::cell::RefCell::new(WaveTable::default());
+}
+
 /// Per-step values every shape evaluation shares.
 struct ShapeContext {
-    p: f32,
-    l: f32,
-    max_amp: f32,
-    lambda: f32,
-    lambda_prime: f32,
-    phase: f32,
     gain: f32,
+    /// sin φ, cos φ of the swim wave's phase.
+    phase: (f32, f32),
     tt: f32,
     f: f32,
 }
 
-/// The paper's F (positive to the fish's right) of motion `a` at body fraction `x`.
-fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
-    let xl = x * c.l;
-    let s = wave::swim_wave(
-        xl,
-        c.p,
-        c.l,
-        c.max_amp,
-        c.lambda,
-        c.lambda_prime,
-        c.phase,
-        c.gain,
-    );
+/// A motion's turn terms for this step (the same at every sample).
+struct TurnStep {
+    /// I_p at the motion's time.
+    ip: f32,
+    /// 2π·ω''·t of F_st, and its sine and cosine.
+    omega_t: f32,
+    sin_cos: (f32, f32),
+    /// The table's turn wavelength is the motion's (else F_st is evaluated directly).
+    tabled: bool,
+}
+
+impl TurnStep {
+    fn new(a: &Active, c: &ShapeContext, table: &WaveTable) -> Self {
+        let ip = a.ip(a.elapsed_s);
+        match a.plan {
+            Plan::Turn {
+                kind: TurnKind::Quick | TurnKind::Serial,
+                wavelength,
+                ..
+            } if ip != 0.0 => {
+                let omega_t = TAU * wave::omega_2(c.tt) * a.elapsed_s;
+                TurnStep {
+                    ip,
+                    omega_t,
+                    sin_cos: omega_t.sin_cos(),
+                    tabled: wavelength.to_bits() == table.turn_wavelength.to_bits(),
+                }
+            }
+            _ => TurnStep {
+                ip,
+                omega_t: 0.0,
+                sin_cos: (0.0, 1.0),
+                tabled: true,
+            },
+        }
+    }
+}
+
+/// The paper's F (positive to the fish's right) of motion `a` at midline sample `s` (see
+/// [`WaveTable`]); `turn` holds the motion's turn terms for this step.
+fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSample) -> f32 {
+    // sin(2π·x'/λ − φ) (λ' in front of the pivot): eq. (3)/(4) without the amplitude.
+    let (sin_phi, cos_phi) = c.phase;
+    let travelling = s.swim.0 * cos_phi - s.swim.1 * sin_phi;
+    let swim = s.amp * c.gain * travelling;
     let Plan::Turn {
         kind,
         d,
@@ -274,22 +415,22 @@ fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
         ..
     } = a.plan
     else {
-        return s;
+        return swim;
     };
-    let ip = a.ip(a.elapsed_s);
-    let xp = wave::x_prime(xl, c.p, c.l);
+    let (ip, xp, amp) = (turn.ip, s.xp, s.amp);
     if ip == 0.0 || xp < 0.0 {
         // The turn functions only change the part behind the pivot (paper 3.5.2).
-        return s;
+        return swim;
     }
-    let amp = wave::amplitude(xl, c.p, c.l, c.max_amp);
     let t = match kind {
-        TurnKind::Normal => wave::f_nt(amp, xp, c.lambda, c.phase, d, c.f),
+        // Eq. (5), F_nt = A(x)·(sin(2π·x'/λ − φ) + d)·f: behind the pivot its sine is the swim
+        // wave's.
+        TurnKind::Normal => amp * (travelling + d) * c.f,
         TurnKind::Quick | TurnKind::Serial => {
             // One |sin| lobe per stroke: the bend enters at the pivot when the stroke starts
             // and runs to the tail; before it arrives (and after the last stroke) a point is
             // not bent, so no lobe of a stroke that never happened shows.
-            let theta = TAU * wave::omega_2(c.tt) * a.elapsed_s - TAU * xp / wavelength;
+            let theta = turn.omega_t - TAU * xp / wavelength;
             if theta < 0.0 || theta > strokes as f32 * PI {
                 0.0
             } else {
@@ -298,11 +439,18 @@ fn shape(a: &Active, c: &ShapeContext, x: f32) -> f32 {
                 } else {
                     SERIAL_TURN_BEND_GAIN
                 };
-                wave::f_st(amp * gain * c.f, xp, wavelength, a.elapsed_s, c.tt, d)
+                let a_st = amp * gain * c.f;
+                if turn.tabled {
+                    // Eq. (6), F_st = A·d·|sin(2π·x'/Λ'' − 2π·ω''·t)|, by angle subtraction.
+                    let (sin_t, cos_t) = turn.sin_cos;
+                    a_st * d * (s.turn.0 * cos_t - s.turn.1 * sin_t).abs()
+                } else {
+                    wave::f_st(a_st, xp, wavelength, a.elapsed_s, c.tt, d)
+                }
             }
         }
     };
-    wave::t_locomotion(s, t, ip)
+    wave::t_locomotion(swim, t, ip)
 }
 
 fn wrap_angle(a: f32) -> f32 {
@@ -451,12 +599,55 @@ impl MotionPlayer {
     /// [`MotionPlayer::head_yaw`] always describe the same body).
     ///
     /// `dt` = 0 (or a NaN / negative `dt`, treated as 0) only recomputes the outputs. `params`
-    /// should have passed [`MotionParams::validate`]. Never allocates.
+    /// should have passed [`MotionParams::validate`]. Never allocates once the thread's
+    /// [`WaveTable`] has grown to the body; a caller stepping many fish of a few species keeps a
+    /// table per species and calls [`MotionPlayer::step_with`] (the same results).
     pub fn step(
         &mut self,
         dt: f32,
         params: &MotionParams,
         body: &Body,
+        root: &mut RootState,
+        lateral: &mut [f32],
+        yaw: &mut [f32],
+    ) {
+        STEP_TABLE.with_borrow_mut(|table| {
+            if !table.matches(params, body) {
+                table.rebuild(params, body);
+            }
+            self.step_tabled(dt, params, body, table, root, lateral, yaw);
+        });
+    }
+
+    /// [`MotionPlayer::step`] with the body's [`WaveTable`] built by the caller (once per
+    /// species) for these `params` and `body`; a table built for others is not used (the step
+    /// goes through [`MotionPlayer::step`]'s own). Never allocates.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_with(
+        &mut self,
+        dt: f32,
+        params: &MotionParams,
+        body: &Body,
+        table: &WaveTable,
+        root: &mut RootState,
+        lateral: &mut [f32],
+        yaw: &mut [f32],
+    ) {
+        if table.matches(params, body) {
+            self.step_tabled(dt, params, body, table, root, lateral, yaw);
+        } else {
+            self.step(dt, params, body, root, lateral, yaw);
+        }
+    }
+
+    /// The step, `table` matching `params` and `body`.
+    #[allow(clippy::too_many_arguments)]
+    fn step_tabled(
+        &mut self,
+        dt: f32,
+        params: &MotionParams,
+        body: &Body,
+        table: &WaveTable,
         root: &mut RootState,
         lateral: &mut [f32],
         yaw: &mut [f32],
@@ -565,31 +756,34 @@ impl MotionPlayer {
             self.previous = None;
         }
         let context = ShapeContext {
-            p: params.p,
-            l: params.l,
-            max_amp: params.max_amp,
-            lambda: params.lambda,
-            lambda_prime: params.lambda_prime(),
-            phase: self.phase,
             gain: smoothstep(v_end / (FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l)),
+            phase: self.phase.sin_cos(),
             tt: params.tt,
             f: params.f,
         };
         let current = &self.current;
-        let previous = self.previous.as_ref();
-        let eval = |x: f32| {
-            let f_new = shape(current, &context, x);
-            let f = match previous {
-                Some(prev) => f_new * w + shape(prev, &context, x) * (1.0 - w),
+        let current_turn = TurnStep::new(current, &context, table);
+        let previous = self
+            .previous
+            .as_ref()
+            .map(|prev| (prev, TurnStep::new(prev, &context, table)));
+        let eval = |sample: &WaveSample| {
+            let f_new = shape(current, &context, &current_turn, sample);
+            let f = match &previous {
+                Some((prev, turn)) => f_new * w + shape(prev, &context, turn, sample) * (1.0 - w),
                 None => f_new,
             };
             // lateral is positive to the left; the paper's F to the right.
             let lat = -f;
             if lat.is_finite() { lat } else { 0.0 }
         };
-        let head = eval(0.0);
-        for (out, &x) in lateral.iter_mut().zip(body.joints_x.iter()) {
-            *out = eval(x);
+        let (head_sample, samples) = table
+            .samples
+            .split_first()
+            .expect("a wave table holds the head sample");
+        let head = eval(head_sample);
+        for (out, sample) in lateral.iter_mut().zip(samples) {
+            *out = eval(sample);
         }
         self.head_lateral = head;
         self.head_yaw = curve_to_yaw(params.l, &body.joints_x, &body.power, head, lateral, yaw);
@@ -790,6 +984,184 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// The shape as it was evaluated before [`WaveTable`]: every sine directly, from the wave
+    /// functions of `wave.rs`.
+    fn shape_direct(a: &Active, params: &MotionParams, phase: f32, gain: f32, x: f32) -> f32 {
+        let (p, l) = (params.p, params.l);
+        let xl = x * l;
+        let s = wave::swim_wave(
+            xl,
+            p,
+            l,
+            params.max_amp,
+            params.lambda,
+            params.lambda_prime(),
+            phase,
+            gain,
+        );
+        let Plan::Turn {
+            kind,
+            d,
+            wavelength,
+            strokes,
+            ..
+        } = a.plan
+        else {
+            return s;
+        };
+        let ip = a.ip(a.elapsed_s);
+        let xp = wave::x_prime(xl, p, l);
+        if ip == 0.0 || xp < 0.0 {
+            return s;
+        }
+        let amp = wave::amplitude(xl, p, l, params.max_amp);
+        let t = match kind {
+            TurnKind::Normal => wave::f_nt(amp, xp, params.lambda, phase, d, params.f),
+            TurnKind::Quick | TurnKind::Serial => {
+                let theta = TAU * wave::omega_2(params.tt) * a.elapsed_s - TAU * xp / wavelength;
+                if theta < 0.0 || theta > strokes as f32 * PI {
+                    0.0
+                } else {
+                    let gain = if kind == TurnKind::Quick {
+                        QUICK_TURN_BEND_GAIN
+                    } else {
+                        SERIAL_TURN_BEND_GAIN
+                    };
+                    wave::f_st(
+                        amp * gain * params.f,
+                        xp,
+                        wavelength,
+                        a.elapsed_s,
+                        params.tt,
+                        d,
+                    )
+                }
+            }
+        };
+        wave::t_locomotion(s, t, ip)
+    }
+
+    /// The tabled shape is the paper's equations evaluated sine by sine, within 2e-7 body
+    /// lengths, through every kind of motion and the cross-fades between them, for two species'
+    /// parameters; and `step_with` (the world's path) gives bitwise what `step` gives.
+    #[test]
+    fn test_tabled_shape_matches_direct_evaluation() {
+        let eel = MotionParams {
+            p: 0.2,
+            s: 30.0,
+            l: 70.0,
+            max_amp: 70.0 / 8.0,
+            lambda: 42.0,
+            omega: 3.0,
+            tt: 2.5,
+            f: 1.0,
+            turn_angle: FRAC_PI_4,
+        };
+        let requests = [
+            MotionRequest::Swim { speed: 50.0 },
+            MotionRequest::Turn {
+                kind: TurnKind::Normal,
+                angle: 1.2,
+                side: Side::Left,
+            },
+            MotionRequest::Turn {
+                kind: TurnKind::Quick,
+                angle: 1.6,
+                side: Side::Right,
+            },
+            MotionRequest::Turn {
+                kind: TurnKind::Serial,
+                angle: 2.5,
+                side: Side::Left,
+            },
+            MotionRequest::Ascend { height: 30.0 },
+            MotionRequest::Accelerate {
+                speed: 90.0,
+                duration: 0.7,
+            },
+            MotionRequest::Stop { duration: 0.5 },
+        ];
+        for (params, body) in [
+            (MotionParams::default(), Body::black_porgy()),
+            (eel, Body::evenly_spaced(9)),
+        ] {
+            let table = WaveTable::new(&params, &body);
+            let other = WaveTable::new(&MotionParams::default(), &Body::evenly_spaced(4));
+            let n = body.joints_x.len();
+            let mut player = MotionPlayer::with_phase(1.0);
+            let mut twin = player.clone();
+            let mut root = RootState {
+                speed: 40.0,
+                ..RootState::default()
+            };
+            let mut twin_root = root;
+            let (mut lateral, mut yaw) = (vec![0.0; n], vec![0.0; n - 1]);
+            let (mut twin_lateral, mut twin_yaw) = (lateral.clone(), yaw.clone());
+            let (mut worst, mut turning) = (0.0f32, 0);
+            for (k, request) in requests.iter().cycle().take(40).enumerate() {
+                if k % 3 == 0 {
+                    player.interrupt(*request).unwrap();
+                    twin.interrupt(*request).unwrap();
+                } else {
+                    player.push(*request).unwrap();
+                    twin.push(*request).unwrap();
+                }
+                for step in 0..50 {
+                    player.step(
+                        1.0 / 60.0,
+                        &params,
+                        &body,
+                        &mut root,
+                        &mut lateral,
+                        &mut yaw,
+                    );
+                    // The world's path, every other step with a table for another body.
+                    let t = if step % 2 == 0 { &table } else { &other };
+                    twin.step_with(
+                        1.0 / 60.0,
+                        &params,
+                        &body,
+                        t,
+                        &mut twin_root,
+                        &mut twin_lateral,
+                        &mut twin_yaw,
+                    );
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&lateral), bits(&twin_lateral));
+                    assert_eq!(bits(&yaw), bits(&twin_yaw));
+                    assert_eq!(root, twin_root);
+                    // Each motion's shape at every sample, tabled and direct.
+                    let context = ShapeContext {
+                        gain: smoothstep(
+                            root.speed / (FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l),
+                        ),
+                        phase: player.phase.sin_cos(),
+                        tt: params.tt,
+                        f: params.f,
+                    };
+                    for a in std::iter::once(&player.current).chain(player.previous.as_ref()) {
+                        turning += usize::from(a.ip(a.elapsed_s) > 0.0);
+                        let turn = TurnStep::new(a, &context, &table);
+                        for (sample, x) in table
+                            .samples
+                            .iter()
+                            .zip(std::iter::once(0.0).chain(body.joints_x.iter().copied()))
+                        {
+                            let tabled = shape(a, &context, &turn, sample);
+                            let direct = shape_direct(a, &params, player.phase, context.gain, x);
+                            worst = worst.max((tabled - direct).abs() / params.l);
+                        }
+                    }
+                }
+            }
+            assert!(turning > 500, "turns were exercised: {turning}");
+            assert!(
+                worst <= 2e-6,
+                "tabled shape differs by {worst} body lengths"
+            );
         }
     }
 

@@ -39,7 +39,7 @@ use glam::{Mat4, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState};
+use crate::motion::{MotionError, MotionPlayer, MotionRequest, RootState, WaveTable};
 use grid::Grid;
 use sense::{ViewCone, bearing, elevation, forward, tank_distances, wrap_angle};
 use steer::{Agent, Steer, SteerMemo, SteerParams};
@@ -457,6 +457,8 @@ pub struct World {
     species: Vec<Species>,
     /// Per species: its skeleton prepared for the pose stage.
     pose_plans: Vec<pose::PosePlan>,
+    /// Per species: its body wave's constants for the motion stage.
+    wave_tables: Vec<WaveTable>,
     fish: FishStore,
     foods: Vec<Food>,
     obstacles: Vec<Obstacle>,
@@ -563,6 +565,7 @@ impl World {
             tick: 0,
             species: Vec::new(),
             pose_plans: Vec::new(),
+            wave_tables: Vec::new(),
             fish: FishStore::default(),
             foods: Vec::new(),
             obstacles: Vec::new(),
@@ -614,6 +617,8 @@ impl World {
             log::error!("species {:?}: {e}", s.desc.name);
         }
         self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
+        self.wave_tables
+            .push(WaveTable::new(&s.desc.motion, &s.rig.body));
         self.species.push(s);
         SpeciesId((self.species.len() - 1) as u16)
     }
@@ -630,6 +635,7 @@ impl World {
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
         let predator_changed = slot.desc.predator != s.desc.predator;
         self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
+        self.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
         *slot = s;
         if predator_changed {
             self.refresh_predators();
@@ -1459,6 +1465,7 @@ impl World {
         }
         let start = Instant::now();
         let species = &self.species;
+        let wave_tables = &self.wave_tables;
         let tank = self.tank;
         let obstacles = &self.obstacles;
         let currents = &self.currents;
@@ -1479,10 +1486,11 @@ impl World {
                 let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
                 let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
                 let before = *root;
-                player.step(
+                player.step_with(
                     dt,
                     &sp.desc.motion,
                     body,
+                    &wave_tables[usize::from(sid.0)],
                     root,
                     &mut lateral[..samples],
                     &mut yaw[..driven],
@@ -1543,7 +1551,6 @@ impl World {
             self.palettes.resize(total, Mat4::IDENTITY);
         }
         let inputs = pose::PoseInputs {
-            species: &self.species,
             plans: &self.pose_plans,
             fish_species: &self.fish.species,
             roots: &self.fish.roots,
