@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use glam::Vec3;
-use shoal::script::Simulation;
+use shoal::script::{Simulation, lane_index};
 use shoal::world::FishId;
 
 /// Everything a run leaves behind that a script could have influenced: every fish's root state
@@ -93,14 +93,31 @@ fn test_two_fish_biting_one_pellet_on_one_tick() {
             "return { tick = function(fish)\n  fish.memory.ate = shoal.eat(0)\nend }\n",
             lanes,
         );
-        // Slots 0 and 6 both decide on tick 0 (10 Hz: every 6th tick, staggered by slot);
-        // with 4 lanes they run in lanes 0 and 2.
+        // Slots 0, 6, 12… all decide on tick 0 (10 Hz: every 6th tick, staggered by slot); the
+        // second biter is the first of them in another lane than slot 0's.
         let first = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), Some("probe"));
-        for i in 1..6 {
-            spawn(&mut sim, Vec3::new(-400.0, 50.0 * i as f32, 0.0), None);
+        let other = (1..)
+            .map(|k| 6 * k)
+            .find(|&i| {
+                lanes == 1
+                    || lane_index(
+                        FishId {
+                            index: i,
+                            generation: 0,
+                        },
+                        lanes,
+                    ) != lane_index(first, lanes)
+            })
+            .unwrap();
+        for i in 1..other {
+            spawn(
+                &mut sim,
+                Vec3::new(-450.0, 10.0 + 3.0 * i as f32, -250.0),
+                None,
+            );
         }
         let second = spawn(&mut sim, Vec3::new(2.0, 200.0, 0.0), Some("probe"));
-        assert_eq!((first.index, second.index), (0, 6));
+        assert_eq!((first.index, second.index), (0, other));
         let food = sim.world_mut().add_food(Vec3::new(1.0, 200.0, 0.0));
         sim.step();
         assert_eq!(sim.memory_json(first)["ate"], true, "{lanes} lanes");
@@ -138,8 +155,58 @@ fn test_module_level_state_is_per_lane() {
     };
     // Slot i first decides on tick (6 - i) % 6: fish 0, then 3, 2, 1.
     assert_eq!(counts(1), [1, 4, 3, 2]);
-    // Two lanes: fish 0 and 2 share lane 0, fish 1 and 3 lane 1.
-    assert_eq!(counts(2), [1, 2, 2, 1]);
+    // In lanes, each lane counts its own fish, in that same order.
+    let lanes = 2;
+    let order = [0u32, 3, 2, 1];
+    let mut expected = [0i64; 4];
+    let mut seen = vec![0i64; lanes];
+    for i in order {
+        let lane = lane_index(
+            FishId {
+                index: i,
+                generation: 0,
+            },
+            lanes,
+        );
+        seen[lane] += 1;
+        expected[i as usize] = seen[lane];
+    }
+    assert!(
+        seen.iter().all(|&n| n > 0),
+        "both lanes hold some of the 4 fish"
+    );
+    assert_eq!(counts(lanes), expected);
+}
+
+/// The fish due on one tick share their slot index modulo the decision period; the lanes must
+/// still split them evenly, or one lane does a tick's work while the other waits.
+#[test]
+fn test_each_ticks_decisions_spread_over_the_lanes() {
+    for period in [1u32, 2, 3, 6, 12] {
+        for lanes in 2..=4usize {
+            for residue in 0..period {
+                let mut per_lane = vec![0usize; lanes];
+                let due: Vec<u32> = (0..12_000).filter(|i| i % period == residue).collect();
+                for &i in &due {
+                    per_lane[lane_index(
+                        FishId {
+                            index: i,
+                            generation: 0,
+                        },
+                        lanes,
+                    )] += 1;
+                }
+                let fair = due.len() / lanes;
+                for (lane, &n) in per_lane.iter().enumerate() {
+                    assert!(
+                        n * 10 >= fair * 9 && n * 10 <= fair * 11,
+                        "period {period}, residue {residue}, {lanes} lanes: lane {lane} gets {n} of {}",
+                        due.len()
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// Motion requests made in a lane reach the fish's own motion player (checked out for the

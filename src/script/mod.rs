@@ -31,4 +31,4 @@ pub use host::ScriptHost;
 pub use log::{LogEntry, LogLevel};
 pub use sandbox::Limits;
 pub use scene::SceneDesc;
-pub use sim::{ReloadEvent, Simulation};
+pub use sim::{ReloadEvent, Simulation, lane_index};

@@ -16,7 +16,8 @@
 //!
 //! Lua runs one thread per state, so the simulation keeps several Lua states — lanes, one per
 //! rayon thread by default ([`Simulation::set_lanes`]) — each with its own copy of the behaviour
-//! modules, and fish `i` always decides in lane `i % lanes` (its table and `memory` live there).
+//! modules, and a fish always decides in the same lane ([`lane_index`], a hash of its slot index;
+//! its table and `memory` live there).
 //! During the stage the world is shared read-only by every lane: each deciding fish's motion
 //! player, steering memo and random generator are checked out of the world for its decision
 //! ([`World::check_out`]) and put back after, and the pellets fish bite (`shoal.eat`) are
@@ -193,6 +194,14 @@ impl Lane {
     }
 }
 
+/// The lane fish `id` decides in, of `lanes`: a hash of its slot index, not the index itself —
+/// the fish due on one tick share their index modulo the decision period (fish `i` decides when
+/// `(tick + i) % period == 0`), so `i % lanes` would put a whole tick's decisions in one lane.
+pub fn lane_index(id: FishId, lanes: usize) -> usize {
+    let h = id.index.wrapping_mul(0x9E37_79B9) >> 16;
+    h as usize % lanes.max(1)
+}
+
 /// Default number of script lanes: one per rayon thread (at most 16).
 pub fn default_lanes() -> usize {
     rayon::current_num_threads().clamp(1, 16)
@@ -313,7 +322,7 @@ impl Simulation {
 
     /// The lane fish `id` decides in.
     fn lane_of(&self, id: FishId) -> &Lane {
-        &self.lanes[id.index as usize % self.lanes.len()]
+        &self.lanes[lane_index(id, self.lanes.len())]
     }
 
     /// Lane 0's script host: it reads data files and logs what concerns no fish.
@@ -552,8 +561,8 @@ impl Simulation {
 
     /// Removes a fish and forgets its script table and memory. False if it was already gone.
     pub fn despawn(&mut self, id: FishId) -> bool {
-        let n = self.lanes.len();
-        self.lanes[id.index as usize % n].host.forget_fish(id);
+        let lane = lane_index(id, self.lanes.len());
+        self.lanes[lane].host.forget_fish(id);
         wm(&mut self.world).despawn(id)
     }
 
@@ -636,7 +645,7 @@ impl Simulation {
             if !(tick + u64::from(id.index)).is_multiple_of(period) {
                 continue;
             }
-            let lane = &mut self.lanes[id.index as usize % num_lanes];
+            let lane = &mut self.lanes[lane_index(id, num_lanes)];
             let Some(module) = lane.module(behavior, time_s) else {
                 continue;
             };
