@@ -83,6 +83,9 @@ pub struct ScriptHost {
     root: ScriptRoot,
     driver: Function,
     fish_tables: Table,
+    /// Handles on the fish tables by slot index, with the generation they belong to: finding a
+    /// fish's table every decision without two registry lookups.
+    table_cache: Vec<Option<(u32, Table)>>,
     modules: Vec<Module>,
     by_name: HashMap<String, ModuleIndex>,
     /// Current load failures: file (as displayed) → message. Cleared when the file loads.
@@ -114,6 +117,7 @@ impl ScriptHost {
             root,
             driver,
             fish_tables,
+            table_cache: Vec::new(),
             modules: Vec::new(),
             by_name: HashMap::new(),
             load_errors: BTreeMap::new(),
@@ -325,13 +329,20 @@ impl ScriptHost {
     /// The fish's table, created (with an empty `memory`) the first time the fish runs or when
     /// its slot now holds a new fish.
     pub fn fish_table(
-        &self,
+        &mut self,
         id: FishId,
         species: &str,
         behavior: &str,
     ) -> Result<Table, ScriptError> {
         let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
+        let slot = id.index as usize;
+        if let Some(Some((generation, t))) = self.table_cache.get(slot)
+            && *generation == id.generation
+        {
+            return Ok(t.clone());
+        }
         if let Some(t) = self.existing_fish_table(id) {
+            self.cache_table(id, &t);
             return Ok(t);
         }
         let t = self.lua.create_table().map_err(err)?;
@@ -342,7 +353,16 @@ impl ScriptHost {
         t.raw_set("memory", self.lua.create_table().map_err(err)?)
             .map_err(err)?;
         self.fish_tables.raw_set(id.index, &t).map_err(err)?;
+        self.cache_table(id, &t);
         Ok(t)
+    }
+
+    fn cache_table(&mut self, id: FishId, t: &Table) {
+        let slot = id.index as usize;
+        if self.table_cache.len() <= slot {
+            self.table_cache.resize(slot + 1, None);
+        }
+        self.table_cache[slot] = Some((id.generation, t.clone()));
     }
 
     /// The fish's table if it has run (or been created) already.
@@ -359,6 +379,9 @@ impl ScriptHost {
     pub fn forget_fish(&mut self, id: FishId) {
         if self.existing_fish_table(id).is_some() {
             let _ = self.fish_tables.raw_set(id.index, Value::Nil);
+        }
+        if let Some(c) = self.table_cache.get_mut(id.index as usize) {
+            *c = None;
         }
         self.fish_errors.remove(&id.index);
     }
