@@ -1582,9 +1582,11 @@ impl World {
             .map(|s| s.desc.view_range)
             .filter(|r| r.is_finite() && *r > 0.0)
             .fold(0.0f32, f32::max);
-        // Cells no smaller than 1/64 of the tank, so a tiny view range cannot explode the count.
+        // Half-range cells: a query visits ~2.5x its sphere's volume (full-range cells visit
+        // ~5x, and ~10x for the 300-unit crowd queries when a predator's 500-unit view sets the
+        // size). No smaller than 1/64 of the tank, so a tiny view range cannot explode the count.
         let cell = if view > 0.0 {
-            view.max(extent / 64.0)
+            (0.5 * view).max(extent / 64.0)
         } else {
             extent / 16.0
         };
@@ -1794,6 +1796,16 @@ pub fn resolve_contact(root: &mut RootState, l: f32, tank: &Tank, obstacles: &[O
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_cells_are_half_the_longest_view_range() {
+        let scene = super::test_world::random_scene(1, 50);
+        let longest = (0..scene.world.num_species())
+            .map(|s| scene.world.species(SpeciesId(s as u16)).desc.view_range)
+            .fold(0.0f32, f32::max);
+        assert_eq!(scene.world.grid.cell_size(), 0.5 * longest);
+        assert_eq!(scene.world.food_grid.cell_size(), 0.5 * longest);
+    }
 
     #[test]
     fn seen_keys_round_trip_and_order_nearest_then_kind_then_id() {
