@@ -39,7 +39,7 @@ pub use camera::{Camera, Ray};
 pub use demo_rig::{DemoRig, PoseScratch};
 pub use gpu::{Gpu, GpuError};
 pub use lod::{LodLevel, MAX_LODS, MeshBounds, MeshLods};
-pub use renderer::{RenderTimings, Renderer};
+pub use renderer::{DEFAULT_LOD_TOLERANCE_PX, RenderTimings, Renderer};
 pub use scene::{
     DemoMesh, DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver, porgy_asset_path,
 };
