@@ -42,9 +42,11 @@ const MIN_LEVEL_SAVING: f32 = 0.25;
 
 /// Factor on a mesh's bind-pose bounding radius covering its bending: a fish is posed by the
 /// motion layer's joint yaws, so its skinned vertices leave the rigid bind-pose sphere carried by
-/// joint 0 (the tail swings, a quick turn curls the body). 1.35 holds every vertex of the demo's
-/// porgies through swimming, normal and quick turns with room to spare (tested in
-/// `tests/render_lod.rs`); a sphere too small would make fish at the screen edges vanish early.
+/// joint 0 (the tail swings, a quick turn curls the body). Through swimming and forced quick and
+/// normal turns of up to 180° the demo's porgy and procedural fish reach 1.01 bind radii
+/// (`tests/render_lod.rs` checks every skinned vertex); 1.35 leaves a third more for bendier
+/// species and motions. A sphere too small would make fish at the screen edges vanish early,
+/// one too large only draws a few fish just off screen.
 pub const BEND_MARGIN: f32 = 1.35;
 
 /// A sphere, world space.
