@@ -142,3 +142,59 @@ fn bad_arguments_are_errors_that_say_why() {
         "{stderr}"
     );
 }
+
+/// `shoal bench render` prints, per fish count, the draw calls, the fish drawn and culled, the
+/// fish per level of detail and the triangles submitted, which add up: every fish of the demo
+/// is in view, each drawn at one level, and the triangles are those of the levels in use plus
+/// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail.
+#[test]
+fn bench_render_reports_triangles_per_frame() {
+    for (tolerance, full_detail) in [("1", false), ("0", true)] {
+        let stdout = ok(&shoal(&[
+            "bench",
+            "render",
+            "--fish",
+            "1,12",
+            "--size",
+            "64x48",
+            "--frames",
+            "1",
+            "--lod-tolerance-px",
+            tolerance,
+        ]));
+        // "mesh: black_porgy (30 joints), triangles per level of detail: 5616 (error 0.000), …"
+        let levels: Vec<u64> = stdout
+            .lines()
+            .find_map(|l| l.split_once("triangles per level of detail: "))
+            .map(|(_, rest)| {
+                rest.split(", ")
+                    .map(|lvl| lvl.split(' ').next().unwrap().parse().unwrap())
+                    .collect()
+            })
+            .unwrap_or_else(|| panic!("no level line in\n{stdout}"));
+        assert_eq!(levels.len(), 3, "{stdout}");
+        assert!(levels[0] > 4 * levels[2], "{stdout}");
+        let rows: Vec<Vec<&str>> = stdout
+            .lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>())
+            .filter(|c| c.len() == 9 && c[0].parse::<u64>().is_ok())
+            .collect();
+        assert_eq!(rows.len(), 2, "{stdout}");
+        for (row, fish) in rows.iter().zip([1u64, 12]) {
+            assert_eq!(row[0].parse::<u64>().unwrap(), fish);
+            let (drawn, culled): (u64, u64) = (row[5].parse().unwrap(), row[6].parse().unwrap());
+            assert_eq!((drawn, culled), (fish, 0), "{stdout}");
+            let per_lod: Vec<u64> = row[7].split('/').map(|n| n.parse().unwrap()).collect();
+            assert_eq!(per_lod.iter().sum::<u64>(), fish, "{stdout}");
+            if full_detail {
+                assert_eq!(per_lod[0], fish, "{stdout}");
+            } else {
+                // 64×48 pixels: every porgy is a few pixels long, so the coarsest level.
+                assert_eq!(per_lod[2], fish, "{stdout}");
+            }
+            let expected: u64 =
+                per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>() + fish * levels[2];
+            assert_eq!(row[8].parse::<u64>().unwrap(), expected, "{stdout}");
+        }
+    }
+}

@@ -9,7 +9,9 @@
 //!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
 //! demo aquarium offscreen per fish count, waits for the GPU every frame, and reports the median
-//! and p99 frame time, the CPU upload time and the draw calls (which do not grow with fish).
+//! and p99 frame time, the CPU upload time (culling and level-of-detail choice included), the
+//! draw calls (which do not grow with fish), the fish drawn and culled, the fish at each level of
+//! detail and the triangles submitted per frame (fish, shadows and props).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -275,6 +277,10 @@ pub struct RenderArgs {
     /// Measured frames per fish count (after one warm-up frame).
     #[arg(long, default_value_t = 30)]
     pub frames: usize,
+    /// Largest projected error of a coarser level of detail, pixels; 0 draws every fish at full
+    /// detail.
+    #[arg(long, default_value_t = crate::render::DEFAULT_LOD_TOLERANCE_PX)]
+    pub lod_tolerance_px: f32,
 }
 
 /// Median and nearest-rank p99 of `samples` (sorted in place). Empty input gives zeros.
@@ -297,15 +303,35 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.frames == 0 {
         anyhow::bail!("--frames must be at least 1");
     }
+    if !(args.lod_tolerance_px.is_finite() && args.lod_tolerance_px >= 0.0) {
+        anyhow::bail!(
+            "--lod-tolerance-px {} must be a number ≥ 0",
+            args.lod_tolerance_px
+        );
+    }
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let target = OffscreenTarget::new(&gpu, args.size.0, args.size.1);
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>8}   ({}x{}, {} frames each, GPU work waited for every frame)",
-        "fish", "median ms", "p99 ms", "upload ms", "draws", args.size.0, args.size.1, args.frames
+        "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
+         last frame; LOD tolerance {} px)",
+        args.size.0, args.size.1, args.frames, args.lod_tolerance_px
+    );
+    println!(
+        "{:>7} {:>12} {:>10} {:>10} {:>6} {:>7} {:>7} {:>20} {:>12}",
+        "fish",
+        "median ms",
+        "p99 ms",
+        "upload ms",
+        "draws",
+        "drawn",
+        "culled",
+        "fish per LOD 0/1/2",
+        "triangles"
     );
     for &n in &args.fish {
         let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
+        renderer.set_lod_tolerance_px(args.lod_tolerance_px);
         // The demo scene draws the generated black porgy (procedural fish if it cannot load).
         let config = DemoSceneConfig {
             fish: n,
@@ -314,15 +340,21 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         config.validate().map_err(anyhow::Error::msg)?;
         let mut scene = DemoScene::new(config);
         for m in scene.meshes() {
+            let id = renderer.upload_mesh(&gpu, &m)?;
             if n == args.fish[0] {
+                let levels: Vec<String> = renderer
+                    .mesh_lods(id)
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|l| format!("{} (error {:.3})", l.num_triangles(), l.error))
+                    .collect();
                 println!(
-                    "mesh: {} ({} triangles, {} joints)",
+                    "mesh: {} ({} joints), triangles per level of detail: {}",
                     m.label,
-                    m.indices.len() / 3,
-                    scene.rig().num_joints()
+                    scene.rig().num_joints(),
+                    levels.join(", ")
                 );
             }
-            renderer.upload_mesh(&gpu, &m)?;
         }
         let camera = scene.default_camera();
         let mut times = Vec::with_capacity(args.frames);
@@ -341,10 +373,16 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             }
         }
         let (median, p99) = median_p99(&mut times);
+        let t = renderer.timings();
+        let [l0, l1, l2] = t.num_fish_per_lod;
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {:>10.3} {:>8}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {:>10.3} {:>6} {:>7} {:>7} {:>20} {:>12}",
             upload / args.frames as f64,
-            renderer.timings().num_draw_calls
+            t.num_draw_calls,
+            t.num_fish_drawn,
+            t.num_fish_culled,
+            format!("{l0}/{l1}/{l2}"),
+            t.num_triangles
         );
     }
     Ok(ExitCode::SUCCESS)

@@ -15,7 +15,8 @@ use winit::window::{Window, WindowId};
 
 use super::shaders::{ShaderSources, ShaderWatcher};
 use super::{
-    Camera, Gpu, GpuError, OverlayLine, OverlayToggles, RenderError, Renderer, SceneDriver,
+    Camera, Gpu, GpuError, OverlayLine, OverlayToggles, RenderError, RenderTimings, Renderer,
+    SceneDriver,
 };
 use crate::motion::{MotionRequest, Side, TurnKind};
 
@@ -119,6 +120,8 @@ struct UiState {
     wave: Vec<[f64; 2]>,
     inspect: Vec<(String, String)>,
     times: VecDeque<FrameTimes>,
+    /// The renderer's counts of the frame being drawn (fish drawn, culled, triangles …).
+    render_counts: RenderTimings,
     cursor: Vec2,
     press: Option<(MouseButton, Vec2)>,
     dragged: bool,
@@ -147,6 +150,7 @@ impl UiState {
             wave: Vec::new(),
             inspect: Vec::new(),
             times: VecDeque::new(),
+            render_counts: RenderTimings::default(),
             cursor: Vec2::ZERO,
             press: None,
             dragged: false,
@@ -458,6 +462,7 @@ impl App {
                 .encode(&ws.gpu, &mut encoder, &view, size, &input)?;
         }
         let rt = ws.renderer.timings();
+        self.ui.render_counts = rt;
 
         // The panel.
         let raw_input = ws.egui_state.take_egui_input(&ws.window);
@@ -805,6 +810,15 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                     ui.end_row();
                 }
             });
+            let c = &st.render_counts;
+            ui.label(format!(
+                "fish drawn {} (per level of detail, full first: {:?}), culled {}; shadows {}",
+                c.num_fish_drawn, c.num_fish_per_lod, c.num_fish_culled, c.num_shadows_drawn
+            ));
+            ui.label(format!(
+                "{} triangles, {} draw calls",
+                c.num_triangles, c.num_draw_calls
+            ));
         });
     egui::CollapsingHeader::new("Console")
         .default_open(true)

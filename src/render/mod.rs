@@ -10,7 +10,11 @@
 //!
 //! On the GPU every palette of the frame lives in one storage buffer uploaded once; the vertex
 //! shader skins each vertex with `Σ w_n · M_n` (eq. 1, `shaders/skinning.wgsl`), and each species
-//! is one instanced draw, so draw calls do not grow with the number of fish. The same skinning
+//! is one instanced draw per level of detail in use, so draw calls do not grow with the number of
+//! fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
+//! too, judged where the shadows lie), and each drawn fish gets the coarsest of its mesh's levels
+//! of detail (index lists over the same vertices, made at upload) whose error stays under a pixel
+//! on screen: see [`lod`]. The same skinning
 //! function runs in a compute pass for [`Renderer::skin_positions`] so tests can compare GPU
 //! skinning against a CPU reference.
 //!
@@ -22,6 +26,7 @@ pub mod app;
 mod camera;
 mod demo_rig;
 mod gpu;
+pub mod lod;
 pub mod props;
 mod renderer;
 mod scene;
@@ -33,7 +38,8 @@ mod world_scene;
 pub use camera::{Camera, Ray};
 pub use demo_rig::{DemoRig, PoseScratch};
 pub use gpu::{Gpu, GpuError};
-pub use renderer::{RenderTimings, Renderer};
+pub use lod::{LodLevel, MAX_LODS, MeshBounds, MeshLods};
+pub use renderer::{DEFAULT_LOD_TOLERANCE_PX, RenderTimings, Renderer};
 pub use scene::{
     DemoMesh, DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver, porgy_asset_path,
 };

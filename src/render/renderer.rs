@@ -1,27 +1,48 @@
-//! The renderer: pipelines, grow-only buffers, one palette upload and one instanced draw per
-//! species each frame.
+//! The renderer: pipelines, grow-only buffers, one palette upload each frame, and one instanced
+//! draw per species and level of detail that has fish in view (plus one per species for the
+//! shadows, at the coarsest level). Fish outside the view are left out of the instance buffer
+//! (see [`super::lod`]).
 
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 
+use super::lod::{
+    Frustum, LodLevel, LodSelector, MAX_LODS, MeshBounds, MeshLods, ShadowProjection,
+};
 use super::shaders::ShaderSources;
 use super::{FrameInput, Gpu, MeshId, MeshUpload, RenderError};
 
 /// Depth buffer format.
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Per-stage CPU timings of the last frame, milliseconds.
+/// The largest projected geometric error, in pixels, that a coarser level of detail may show
+/// before the renderer uses a finer one (see [`Renderer::set_lod_tolerance_px`]).
+pub const DEFAULT_LOD_TOLERANCE_PX: f32 = 1.0;
+
+/// Per-stage CPU timings and counts of the last frame (times in milliseconds).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RenderTimings {
-    /// Sorting instances and writing the palette, instance and line buffers.
+    /// Culling, choosing levels of detail, sorting instances and writing the palette, instance
+    /// and line buffers.
     pub upload_ms: f32,
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
-    /// Number of draw calls in the scene pass (background, floor, one per species and one per
-    /// species' shadows, tank edges, overlays).
+    /// Number of draw calls in the scene pass (background, floor, one per species' shadows and
+    /// one per species and level of detail with fish in view, tank edges, overlays).
     pub num_draw_calls: u32,
+    /// Fish drawn (bounding sphere in or touching the view).
+    pub num_fish_drawn: u32,
+    /// Fish left out because their bounding sphere is wholly outside the view.
+    pub num_fish_culled: u32,
+    /// Fish shadows drawn (0 with [`super::Look::shadows`] off).
+    pub num_shadows_drawn: u32,
+    /// Fish drawn at each level of detail, full detail first.
+    pub num_fish_per_lod: [u32; MAX_LODS],
+    /// Triangles submitted by the fish, shadow and prop draws: instances × their level's
+    /// triangles.
+    pub num_triangles: u64,
 }
 
 #[repr(C)]
@@ -112,11 +133,19 @@ impl GrowBuffer {
 #[derive(Debug)]
 struct GpuMesh {
     vertices: wgpu::Buffer,
+    /// Every level's indices, finest first ([`MeshLods::indices`]).
     indices: wgpu::Buffer,
-    num_indices: u32,
+    /// At least one level; the last is the coarsest (used for shadows).
+    levels: Vec<LodLevel>,
+    bounds: MeshBounds,
+    /// This mesh's first instance bucket: one bucket per level, meshes one after the other.
+    first_bucket: u32,
     num_vertices: u32,
     num_joints: u32,
 }
+
+/// Instance bucket of something not drawn (culled).
+const CULLED: u32 = u32::MAX;
 
 #[derive(Debug)]
 struct Pipelines {
@@ -152,8 +181,13 @@ pub struct Renderer {
     bind_group: wgpu::BindGroup,
     pipelines: Pipelines,
     meshes: Vec<GpuMesh>,
+    /// Instance buckets of every mesh's levels (the shadow buckets, one per mesh, follow).
+    num_lod_buckets: u32,
+    lod_tolerance_px: f32,
     attachments: Option<Attachments>,
     scratch_instances: Vec<InstanceRaw>,
+    /// Per fish, then per prop: its bucket for the fish draws and for the shadow draws.
+    scratch_buckets: Vec<[u32; 2]>,
     scratch_ranges: Vec<(u32, u32)>,
     scratch_props: Vec<Mat4>,
     scratch_lines: Vec<LineVertex>,
@@ -285,8 +319,11 @@ impl Renderer {
             bind_group,
             pipelines,
             meshes: Vec::new(),
+            num_lod_buckets: 0,
+            lod_tolerance_px: DEFAULT_LOD_TOLERANCE_PX,
             attachments: None,
             scratch_instances: Vec::new(),
+            scratch_buckets: Vec::new(),
             scratch_ranges: Vec::new(),
             scratch_props: Vec::new(),
             scratch_lines: Vec::new(),
@@ -304,9 +341,21 @@ impl Renderer {
         self.sample_count
     }
 
-    /// Timings of the last [`Renderer::render`].
+    /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`].
     pub fn timings(&self) -> RenderTimings {
         self.timings
+    }
+
+    /// The largest projected error, pixels, a coarser level of detail may show
+    /// ([`DEFAULT_LOD_TOLERANCE_PX`] unless set).
+    pub fn lod_tolerance_px(&self) -> f32 {
+        self.lod_tolerance_px
+    }
+
+    /// Sets the level-of-detail tolerance in pixels: 0 draws every fish at full detail, larger
+    /// values switch to coarser levels sooner. Negative or NaN counts as 0.
+    pub fn set_lod_tolerance_px(&mut self, tolerance_px: f32) {
+        self.lod_tolerance_px = tolerance_px.max(0.0);
     }
 
     /// The shader sources now in use.
@@ -334,9 +383,11 @@ impl Renderer {
     /// then start from 0 as before).
     pub fn clear_meshes(&mut self) {
         self.meshes.clear();
+        self.num_lod_buckets = 0;
     }
 
     /// Uploads one species' mesh; the returned id is used by [`super::FishInstance::mesh`].
+    /// Builds its levels of detail ([`MeshLods::build`]) and bounding sphere on the way.
     pub fn upload_mesh(&mut self, gpu: &Gpu, mesh: &MeshUpload<'_>) -> Result<MeshId, RenderError> {
         let bad = |why: String| RenderError::InvalidMesh {
             label: mesh.label.to_owned(),
@@ -396,6 +447,7 @@ impl Renderer {
                 weights: mesh.weights[i],
             })
             .collect();
+        let lods = MeshLods::build(mesh);
         use wgpu::util::DeviceExt;
         let vertex_label = format!("{} vertices", mesh.label);
         let index_label = format!("{} indices", mesh.label);
@@ -410,17 +462,33 @@ impl Renderer {
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(&index_label),
-                contents: bytemuck::cast_slice(mesh.indices),
+                contents: bytemuck::cast_slice(&lods.indices),
                 usage: wgpu::BufferUsages::INDEX,
             });
+        let first_bucket = self.num_lod_buckets;
+        self.num_lod_buckets += lods.levels.len() as u32;
         self.meshes.push(GpuMesh {
             vertices,
             indices,
-            num_indices: mesh.indices.len() as u32,
+            levels: lods.levels,
+            bounds: MeshBounds::from_positions(mesh.positions),
+            first_bucket,
             num_vertices: n as u32,
             num_joints,
         });
         Ok(MeshId(self.meshes.len() as u32 - 1))
+    }
+
+    /// A mesh's levels of detail, full detail first (index ranges into its one index buffer).
+    pub fn mesh_lods(&self, mesh: MeshId) -> Option<&[LodLevel]> {
+        self.meshes
+            .get(mesh.0 as usize)
+            .map(|m| m.levels.as_slice())
+    }
+
+    /// A mesh's bind-space bounding sphere, as used for culling.
+    pub fn mesh_bounds(&self, mesh: MeshId) -> Option<MeshBounds> {
+        self.meshes.get(mesh.0 as usize).map(|m| m.bounds)
     }
 
     /// Number of joints a mesh's vertices refer to (its highest joint index + 1).
@@ -566,16 +634,65 @@ impl Renderer {
             );
         }
 
-        // Instances (fish, then props) grouped by mesh: a counting sort into reused scratch.
-        let num_meshes = self.meshes.len();
+        // Culling and levels of detail: each fish (then each prop) gets a bucket for its draw,
+        // one per (mesh, level), and one for its shadow, one per mesh; culled ones get none.
+        let frustum = Frustum::from_view_proj(&view_proj);
+        let selector = LodSelector::new(
+            eye,
+            input.camera.fov_y_rad,
+            size.1.max(1),
+            self.lod_tolerance_px,
+        );
+        let shadow = look
+            .shadows
+            .then(|| ShadowProjection::new(input.tank.min.y, light));
+        let num_buckets = self.num_lod_buckets as usize + self.meshes.len();
         self.scratch_ranges.clear();
-        self.scratch_ranges.resize(num_meshes, (0, 0));
-        for inst in input.instances {
-            self.scratch_ranges[inst.mesh.0 as usize].1 += 1;
+        self.scratch_ranges.resize(num_buckets, (0, 0));
+        self.scratch_buckets.clear();
+        let mut stats = RenderTimings::default();
+        let fish = input.instances.iter().map(|inst| {
+            (
+                inst.mesh,
+                &input.palettes[inst.palette_offset as usize],
+                true,
+            )
+        });
+        let props = input.props.iter().map(|p| (p.mesh, &p.transform, false));
+        for (mesh_id, joint0, is_fish) in fish.chain(props) {
+            let mesh = &self.meshes[mesh_id.0 as usize];
+            let (sphere, scale) = mesh.bounds.world_sphere(joint0);
+            let draw = if frustum.intersects(sphere) {
+                let lod = selector.select(&mesh.levels, sphere, scale);
+                if is_fish {
+                    stats.num_fish_drawn += 1;
+                    stats.num_fish_per_lod[lod] += 1;
+                }
+                mesh.first_bucket + lod as u32
+            } else {
+                if is_fish {
+                    stats.num_fish_culled += 1;
+                }
+                CULLED
+            };
+            let shade = match shadow {
+                Some(projection) if frustum.intersects(projection.project(sphere)) => {
+                    if is_fish {
+                        stats.num_shadows_drawn += 1;
+                    }
+                    self.num_lod_buckets + mesh_id.0
+                }
+                _ => CULLED,
+            };
+            for bucket in [draw, shade] {
+                if bucket != CULLED {
+                    self.scratch_ranges[bucket as usize].1 += 1;
+                }
+            }
+            self.scratch_buckets.push([draw, shade]);
         }
-        for prop in input.props {
-            self.scratch_ranges[prop.mesh.0 as usize].1 += 1;
-        }
+
+        // Instances grouped by bucket: a counting sort into reused scratch.
         let mut start = 0;
         for r in &mut self.scratch_ranges {
             r.0 = start;
@@ -583,37 +700,29 @@ impl Renderer {
             r.1 = r.0; // becomes the fill cursor, then the end
         }
         self.scratch_instances.clear();
-        self.scratch_instances.resize(
-            input.instances.len() + input.props.len(),
-            InstanceRaw::zeroed(),
-        );
-        let fish = input.instances.iter().map(|inst| {
-            (
-                inst.mesh,
-                InstanceRaw {
-                    palette_offset: inst.palette_offset,
-                    flags: u32::from(inst.selected),
-                    _pad: [0; 2],
-                    tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
-                },
-            )
+        self.scratch_instances
+            .resize(start as usize, InstanceRaw::zeroed());
+        let fish = input.instances.iter().map(|inst| InstanceRaw {
+            palette_offset: inst.palette_offset,
+            flags: u32::from(inst.selected),
+            _pad: [0; 2],
+            tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
         });
         let first_prop = input.palettes.len() as u32;
-        let props = input.props.iter().enumerate().map(|(k, p)| {
-            (
-                p.mesh,
-                InstanceRaw {
-                    palette_offset: first_prop + k as u32,
-                    flags: 0,
-                    _pad: [0; 2],
-                    tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
-                },
-            )
+        let props = input.props.iter().enumerate().map(|(k, p)| InstanceRaw {
+            palette_offset: first_prop + k as u32,
+            flags: 0,
+            _pad: [0; 2],
+            tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
         });
-        for (mesh, raw) in fish.chain(props) {
-            let r = &mut self.scratch_ranges[mesh.0 as usize];
-            self.scratch_instances[r.1 as usize] = raw;
-            r.1 += 1;
+        for (raw, buckets) in fish.chain(props).zip(&self.scratch_buckets) {
+            for &bucket in buckets {
+                if bucket != CULLED {
+                    let r = &mut self.scratch_ranges[bucket as usize];
+                    self.scratch_instances[r.1 as usize] = raw;
+                    r.1 += 1;
+                }
+            }
         }
         let instance_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_instances);
         self.instances.ensure(device, instance_bytes.len() as u64);
@@ -690,28 +799,40 @@ impl Renderer {
             draws += 2;
 
             pass.set_vertex_buffer(1, self.instances.buffer.slice(..));
+            let mut triangles = 0u64;
             if input.look.shadows {
+                // Shadows are small and dark: always the coarsest level.
                 pass.set_pipeline(&self.pipelines.shadows);
-                for (mesh, &(begin, end)) in self.meshes.iter().zip(&self.scratch_ranges) {
-                    if end == begin {
+                let shadow_ranges = &self.scratch_ranges[self.num_lod_buckets as usize..];
+                for (mesh, &(begin, end)) in self.meshes.iter().zip(shadow_ranges) {
+                    let Some(level) = mesh.levels.last().filter(|_| end > begin) else {
                         continue;
-                    }
+                    };
                     pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                     pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..mesh.num_indices, 0, begin..end);
+                    pass.draw_indexed(level_range(level), 0, begin..end);
+                    triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
                     draws += 1;
                 }
             }
             pass.set_pipeline(&self.pipelines.fish);
-            for (mesh, &(begin, end)) in self.meshes.iter().zip(&self.scratch_ranges) {
-                if end == begin {
+            for mesh in &self.meshes {
+                let first = mesh.first_bucket as usize;
+                let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
+                if ranges.iter().all(|&(begin, end)| end == begin) {
                     continue;
                 }
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.num_indices, 0, begin..end);
-                draws += 1;
+                for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
+                    if end > begin {
+                        pass.draw_indexed(level_range(level), 0, begin..end);
+                        triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
+                        draws += 1;
+                    }
+                }
             }
+            stats.num_triangles = triangles;
 
             pass.set_vertex_buffer(0, self.lines.buffer.slice(..));
             pass.set_pipeline(&self.pipelines.lines_fogged);
@@ -728,6 +849,7 @@ impl Renderer {
             upload_ms: (t1 - t0).as_secs_f32() * 1e3,
             draw_ms: (t2 - t1).as_secs_f32() * 1e3,
             num_draw_calls: draws,
+            ..stats
         };
         Ok(())
     }
@@ -846,6 +968,11 @@ impl Renderer {
             .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect())
     }
+}
+
+/// The index range of one level of detail.
+fn level_range(level: &LodLevel) -> std::ops::Range<u32> {
+    level.first_index..level.first_index + level.num_indices
 }
 
 /// Maps a `MAP_READ` buffer, waits, and copies its bytes out.
