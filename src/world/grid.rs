@@ -115,15 +115,16 @@ impl Grid {
     /// Cell coordinate of `p` along each axis, clamped into the grid.
     fn coord(&self, p: Vec3) -> [u32; 3] {
         let c = (p - self.origin) * self.inv_cell_size;
-        let clamp = |v: f32, d: u32| {
-            // NaN maps to 0 through the saturating cast; the world never stores NaN anyway.
-            (v.floor().max(0.0) as u32).min(d - 1)
-        };
         [
-            clamp(c.x, self.dims[0]),
-            clamp(c.y, self.dims[1]),
-            clamp(c.z, self.dims[2]),
+            clamp_cell(c.x, self.dims[0]),
+            clamp_cell(c.y, self.dims[1]),
+            clamp_cell(c.z, self.dims[2]),
         ]
+    }
+
+    /// [`Grid::coord`]'s x coordinate alone.
+    fn coord_x(&self, x: f32) -> u32 {
+        clamp_cell((x - self.origin.x) * self.inv_cell_size, self.dims[0])
     }
 
     fn cell_index(&self, c: [u32; 3]) -> usize {
@@ -220,8 +221,8 @@ impl Grid {
                 }
                 // Only the cells of this row the sphere reaches: |dx| ≤ √(r² − dy² − dz²).
                 let half = (r2 - gyz).sqrt();
-                let x0 = self.coord(Vec3::new(center.x - half, center.y, center.z))[0].max(lo[0]);
-                let x1 = self.coord(Vec3::new(center.x + half, center.y, center.z))[0].min(hi[0]);
+                let x0 = self.coord_x(center.x - half).max(lo[0]);
+                let x1 = self.coord_x(center.x + half).min(hi[0]);
                 let row = self.cell_index([0, y, z]);
                 let start = self.cell_start[row + x0 as usize] as usize;
                 let end = self.cell_start[row + x1 as usize + 1] as usize;
@@ -253,6 +254,14 @@ impl Grid {
             true
         });
     }
+}
+
+/// The cell holding grid coordinate `v` (in cells) on an axis of `cells` cells, clamped into it:
+/// ⌊v⌋ for 0 ≤ v < cells. The saturating cast truncates, which is ⌊v⌋ for v ≥ 0, gives 0 for
+/// every v < 0 and for NaN, and saturates above, so no `floor` is needed (without SSE4.1 it is
+/// a libm call, one per axis per item and query).
+fn clamp_cell(v: f32, cells: u32) -> u32 {
+    (v as u32).min(cells - 1)
 }
 
 #[cfg(test)]
@@ -298,5 +307,32 @@ mod tests {
         let g = Grid::new(Vec3::ZERO, Vec3::splat(1e6), 1.0);
         assert!(g.num_cells() <= MAX_CELLS);
         assert!(g.cell_size() > 1.0);
+    }
+
+    #[test]
+    fn clamping_without_floor_is_floor_then_clamp() {
+        let old = |v: f32, d: u32| (v.floor().max(0.0) as u32).min(d - 1);
+        let mut values = vec![
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -0.0,
+            0.0,
+            -1e-30,
+            1e-30,
+            4e9,
+            -4e9,
+            f32::MAX,
+            f32::MIN,
+        ];
+        for k in -4000..4000 {
+            let v = k as f32 * 0.0123;
+            values.extend([v, v.next_up(), v.next_down(), (k / 3) as f32]);
+        }
+        for v in values {
+            for d in [1, 2, 7, 64] {
+                assert_eq!(clamp_cell(v, d), old(v, d), "v = {v}, {d} cells");
+            }
+        }
     }
 }
