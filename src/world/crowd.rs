@@ -182,12 +182,40 @@ impl World {
             // Headings are copied only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and
             // reads the roots meanwhile (the same values).
-            let headings = if self.grid_heading.len() == keys.len() {
-                Some(&self.grid_heading)
-            } else {
-                self.crowd_wanted.store(true, Ordering::Relaxed);
-                None
-            };
+            if self.grid_heading.len() == keys.len() {
+                let headings = &self.grid_heading;
+                self.grid.for_each_run_within(centre, reach, |run| {
+                    let candidates = positions[run.clone()]
+                        .iter()
+                        .zip(&keys[run.clone()])
+                        .zip(&species_of[run.clone()])
+                        .zip(&headings[run]);
+                    for (((&pos, &key), &of), &heading) in candidates {
+                        let d2 = pos.distance_squared(centre);
+                        let other = key as usize != me;
+                        // Few fish are this close: a branch the CPU predicts.
+                        if other && d2 <= r2[0] && d2 > 0.0 {
+                            sums.push += (centre - pos) / d2;
+                        }
+                        // Many candidates are in range and many not, unpredictably: add every
+                        // candidate times 1 or 0. Neither sum is ever −0, so adding ±0 leaves it
+                        // bitwise unchanged, and x·1 = x: the same sums as adding only those
+                        // in range.
+                        let same = other & (of == species);
+                        let aligned = same & (d2 <= r2[1]);
+                        let cohesive = same & (d2 <= r2[2]);
+                        sums.heading += heading * f32::from(u8::from(aligned));
+                        sums.centre += pos * f32::from(u8::from(cohesive));
+                        sums.count += u32::from(cohesive);
+                    }
+                    true
+                });
+                return Some(sums);
+            }
+            // Headings are copied only for worlds whose behaviours make crowd queries: the
+            // first query after a rebuild without them asks the next rebuild for them and
+            // reads the roots meanwhile (the same values).
+            self.crowd_wanted.store(true, Ordering::Relaxed);
             self.grid.for_each_run_within(centre, reach, |run| {
                 for slot in run {
                     let pos = positions[slot];
@@ -201,10 +229,7 @@ impl World {
                         pos,
                         d2,
                         [d2 <= r2[0], same && d2 <= r2[1], same && d2 <= r2[2]],
-                        || match headings {
-                            Some(h) => h[slot],
-                            None => heading_vector(self.fish.roots[keys[slot] as usize].heading),
-                        },
+                        || heading_vector(self.fish.roots[keys[slot] as usize].heading),
                     );
                 }
                 true
