@@ -698,15 +698,13 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
             |lua, (max_turn, max_depth_change, speed): (Option<f32>, Option<f32>, Option<f32>)| {
                 with_controls(lua, "wander", |w, f, c| {
                     let (s, l) = cruise_and_length(w, f);
-                    Ok(triple(w.agent(f).map(|agent| {
-                        crate::world::steer::wander(
-                            c.rng(),
-                            &agent,
-                            max_turn.unwrap_or(0.6),
-                            max_depth_change.unwrap_or(0.5 * l),
-                            speed.unwrap_or(s),
-                        )
-                    })))
+                    Ok(triple(w.steer_wander_with(
+                        f,
+                        c,
+                        max_turn.unwrap_or(0.6),
+                        max_depth_change.unwrap_or(0.5 * l),
+                        speed.unwrap_or(s),
+                    )))
                 })
             },
         )?,

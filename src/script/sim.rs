@@ -97,7 +97,11 @@ struct Lane {
 
 impl Lane {
     fn new(scripts_dir: &Path, limits: Limits) -> Result<Self, ScriptError> {
-        let host = ScriptHost::new(scripts_dir, limits)?;
+        Self::with_host(ScriptHost::new(scripts_dir, limits)?)
+    }
+
+    /// A lane around `host`, with the `shoal` API registered in it.
+    fn with_host(host: ScriptHost) -> Result<Self, ScriptError> {
         api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
         Ok(Self {
             host,
@@ -340,18 +344,9 @@ impl Simulation {
         desc: &SceneDesc,
         seed: u64,
     ) -> Result<Self, ScriptError> {
-        api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
         let scripts_dir = root.join("scripts");
         let limits = host.limits();
-        let mut lanes = vec![Lane {
-            host,
-            module_of: HashMap::new(),
-            due: Vec::new(),
-            num_due: 0,
-            claims: Vec::new(),
-            perception_ns: 0,
-            total_ns: 0,
-        }];
+        let mut lanes = vec![Lane::with_host(host)?];
         for _ in 1..default_lanes() {
             lanes.push(Lane::new(&scripts_dir, limits)?);
         }

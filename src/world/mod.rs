@@ -1418,11 +1418,25 @@ impl World {
         max_depth_change: f32,
         speed: f32,
     ) -> Option<Steer> {
-        let agent = self.agent(id)?;
-        let d = self.fish.dense(id)?;
+        self.with_controls(id, |w, c| {
+            Ok(w.steer_wander_with(id, c, max_turn, max_depth_change, speed))
+        })
+        .ok()
+        .flatten()
+    }
+
+    /// [`World::steer_wander`] for a fish whose controls are checked out into `controls`.
+    pub fn steer_wander_with(
+        &self,
+        id: FishId,
+        controls: &mut FishControls,
+        max_turn: f32,
+        max_depth_change: f32,
+        speed: f32,
+    ) -> Option<Steer> {
         Some(steer::wander(
-            &mut self.fish.rngs[d],
-            &agent,
+            &mut controls.rng,
+            &self.agent(id)?,
             max_turn,
             max_depth_change,
             speed,
