@@ -2,6 +2,7 @@
 //! instruction budget and memory limit stopping a script without stopping the host.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use shoal::script::host::{ModuleIndex, ScriptHost};
 use shoal::script::{Limits, LogLevel};
@@ -29,6 +30,18 @@ fn fish(i: u32) -> FishId {
 
 fn host(root: &Path) -> ScriptHost {
     ScriptHost::new(root, Limits::default()).unwrap()
+}
+
+/// The budget's message under the default limits (calls metered once they have run 1 ms).
+const DEFAULT_BUDGET: &str =
+    "instruction budget exceeded (200000 instructions per call, counted once a call has run 1 ms)";
+
+/// Limits that meter every call from its first instruction: the budget is exact.
+fn metered_from_start() -> Limits {
+    Limits {
+        metered_after: Duration::ZERO,
+        ..Limits::default()
+    }
 }
 
 /// Runs behaviour `name` once for fish 0 and returns its error.
@@ -234,13 +247,86 @@ fn test_infinite_loop_is_stopped_and_other_fish_run() {
     let spin = h.module("spin", 0.0).unwrap();
     let fine = h.module("fine", 0.0).unwrap();
     for _ in 0..3 {
+        // Unmetered for its first millisecond, then the watchdog turns the hook on.
         assert_eq!(
             run(&mut h, spin, 0),
-            Err("scripts/behaviors/spin.lua:3: instruction budget exceeded (200000 instructions per call)".into())
+            Err(format!("scripts/behaviors/spin.lua:3: {DEFAULT_BUDGET}"))
         );
         run(&mut h, fine, 1).unwrap();
     }
     assert_eq!(h.memory_json(fish(1)), serde_json::json!({"ticks": 3}));
+
+    let mut h = ScriptHost::new(&root, metered_from_start()).unwrap();
+    let spin = h.module("spin", 0.0).unwrap();
+    assert_eq!(
+        run(&mut h, spin, 0),
+        Err("scripts/behaviors/spin.lua:3: instruction budget exceeded (200000 instructions per call)".into())
+    );
+}
+
+#[test]
+fn test_loops_in_coroutines_are_stopped() {
+    // Coroutines created while the call is still unmetered carry the budget hook themselves.
+    let (_d, root) = scripts(&[
+        (
+            "behaviors/co.lua",
+            "return { tick = function(fish)\n  local co = coroutine.create(function()\n    while true do end\n  end)\n  coroutine.resume(co)\nend }\n",
+        ),
+        (
+            "behaviors/wrapped.lua",
+            "return { tick = function(fish)\n  local f = coroutine.wrap(function(a)\n    local b = coroutine.yield(a + 1)\n    while b do end\n  end)\n  fish.memory.first = f(1)\n  f(true)\nend }\n",
+        ),
+    ]);
+    let mut h = host(&root);
+    assert_eq!(
+        run_err(&mut h, "co"),
+        format!("scripts/behaviors/co.lua:3: {DEFAULT_BUDGET}")
+    );
+    assert_eq!(
+        run_err(&mut h, "wrapped"),
+        format!("scripts/behaviors/wrapped.lua:4: {DEFAULT_BUDGET}")
+    );
+    // The wrapped coroutine passed values in and out before it was stopped.
+    assert_eq!(h.memory_json(fish(0)), serde_json::json!({"first": 2}));
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn test_short_calls_run_without_the_hook() {
+    // A budget of 10 instructions stops the call at once when it is metered from the start, but
+    // not when metering begins only after a second: short calls run without the hook.
+    let (_d, root) = scripts(&[(
+        "behaviors/short.lua",
+        "return { tick = function(fish)\n  local s = 0\n  for i = 1, 2000 do s = s + i end\n  fish.memory.s = s\nend }\n",
+    )]);
+    let tiny = Limits {
+        instructions_per_call: 10,
+        metered_after: Duration::from_secs(1),
+        ..Limits::default()
+    };
+    let mut h = ScriptHost::new(&root, tiny).unwrap();
+    let m = h.module("short", 0.0).unwrap();
+    for _ in 0..100 {
+        run(&mut h, m, 0).unwrap();
+    }
+    assert_eq!(h.memory_json(fish(0)), serde_json::json!({"s": 2001000}));
+
+    let mut h = ScriptHost::new(
+        &root,
+        Limits {
+            metered_after: Duration::ZERO,
+            ..tiny
+        },
+    )
+    .unwrap();
+    let m = h.module("short", 0.0).unwrap();
+    assert_eq!(
+        run(&mut h, m, 0),
+        Err(
+            "scripts/behaviors/short.lua:3: instruction budget exceeded (10 instructions per call)"
+                .into()
+        )
+    );
 }
 
 #[test]
@@ -252,8 +338,7 @@ fn test_pcall_cannot_swallow_the_budget() {
     let mut h = host(&root);
     let err = run_err(&mut h, "sneaky");
     assert!(
-        err.starts_with("scripts/behaviors/sneaky.lua:")
-            && err.ends_with("instruction budget exceeded (200000 instructions per call)"),
+        err.starts_with("scripts/behaviors/sneaky.lua:") && err.ends_with(DEFAULT_BUDGET),
         "{err}"
     );
 }
@@ -265,14 +350,14 @@ fn test_budget_is_per_call() {
         "behaviors/busy.lua",
         "return { tick = function(fish)\n  local s = 0\n  for i = 1, 30000 do s = s + i end\n  fish.memory.s = s\nend }\n",
     )]);
-    let mut h = host(&root);
+    let mut h = ScriptHost::new(&root, metered_from_start()).unwrap();
     let m = h.module("busy", 0.0).unwrap();
     for _ in 0..10 {
         run(&mut h, m, 0).unwrap();
     }
     let tight = Limits {
         instructions_per_call: 50_000,
-        ..Limits::default()
+        ..metered_from_start()
     };
     let mut h = ScriptHost::new(&root, tight).unwrap();
     let m = h.module("busy", 0.0).unwrap();
@@ -294,10 +379,12 @@ fn test_memory_bomb_is_an_error_not_a_crash() {
             "return { tick = function(fish) fish.memory.ok = true end }\n",
         ),
     ]);
+    // Metered from the start: the soft limit is checked by the hook, and an unmetered call
+    // could reach the hard limit (which names no line) before the watchdog turned it on.
     let limits = Limits {
         memory_bytes: 32 << 20,
         instructions_per_call: u64::MAX / 2,
-        ..Limits::default()
+        ..metered_from_start()
     };
     let mut h = ScriptHost::new(&root, limits).unwrap();
     let bomb = h.module("bomb", 0.0).unwrap();

@@ -20,12 +20,14 @@
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
 
 use mlua::{Function, Lua, LuaSerdeExt, Table, Value};
 
 use super::error::{ScriptError, describe};
 use super::log::{LogLevel, ScriptLog};
 use super::sandbox::{self, Abort, Budget, LOADED_KEY, Limits, ScriptRoot};
+use super::watchdog::Meter;
 use crate::world::FishId;
 
 /// Registry key of the table of per-fish tables (fish index → fish table).
@@ -79,6 +81,8 @@ pub enum Reloaded {
 pub struct ScriptHost {
     lua: Lua,
     budget: Arc<Budget>,
+    /// Turns the budget hook on and off around calls.
+    meter: Meter,
     limits: Limits,
     root: ScriptRoot,
     driver: Function,
@@ -99,7 +103,7 @@ pub struct ScriptHost {
 impl ScriptHost {
     /// A host for the scripts under `scripts_dir` (the `scripts/` directory).
     pub fn new(scripts_dir: &Path, limits: Limits) -> Result<Self, ScriptError> {
-        let (lua, budget) = sandbox::new_state(scripts_dir, limits)?;
+        let (lua, budget, meter) = sandbox::new_state(scripts_dir, limits)?;
         let root = ScriptRoot::new(scripts_dir)?;
         let lua_err = |e: mlua::Error| ScriptError::Lua(describe(&e));
         let driver: Function = lua
@@ -113,6 +117,7 @@ impl ScriptHost {
         Ok(Self {
             lua,
             budget,
+            meter,
             limits,
             root,
             driver,
@@ -242,7 +247,10 @@ impl ScriptHost {
     fn compile_module(&self, path: &Path, display: &str) -> Result<Table, String> {
         let f = sandbox::load_file(&self.lua, path).map_err(|e| e.to_string())?;
         self.budget.arm(self.limits.instructions_per_load);
-        let v: Value = f.call(()).map_err(|e| self.after_error(&e))?;
+        let v: Value = {
+            let _metered = self.meter.call(Duration::ZERO);
+            f.call(()).map_err(|e| self.after_error(&e))?
+        };
         let Value::Table(t) = v else {
             return Err(format!(
                 "{display}: a behaviour must return a table with tick(fish) or perceive/intend/behave functions (got {})",
@@ -399,8 +407,14 @@ impl ScriptHost {
         let Some(table) = self.modules.get(module).and_then(|m| m.table.as_ref()) else {
             return Ok(());
         };
-        self.budget.arm(self.limits.instructions_per_call);
-        match self.driver.call::<()>((table, fish)) {
+        let unmetered = self.limits.metered_after;
+        self.budget
+            .arm_after(self.limits.instructions_per_call, unmetered);
+        let result = {
+            let _metered = self.meter.call(unmetered);
+            self.driver.call::<()>((table, fish))
+        };
+        match result {
             Ok(()) => Ok(()),
             Err(e) => {
                 let mut msg = self.after_error(&e);
@@ -421,7 +435,10 @@ impl ScriptHost {
     /// Opens (`Some`) or closes (`None`) a behaviour stage on the Lua side of the API (see
     /// [`super::api::set_stage`]), under a fresh call budget.
     pub fn set_stage(&self, stage: Option<(f64, &crate::world::World)>) -> mlua::Result<()> {
-        self.budget.arm(self.limits.instructions_per_call);
+        let unmetered = self.limits.metered_after;
+        self.budget
+            .arm_after(self.limits.instructions_per_call, unmetered);
+        let _metered = self.meter.call(unmetered);
         super::api::set_stage(&self.lua, stage)
     }
 
@@ -454,7 +471,10 @@ impl ScriptHost {
             .into_function()
             .map_err(|e| describe(&e))?;
         self.budget.arm(self.limits.instructions_per_load);
-        let v: Value = f.call(()).map_err(|e| self.after_error(&e))?;
+        let v: Value = {
+            let _metered = self.meter.call(Duration::ZERO);
+            f.call(()).map_err(|e| self.after_error(&e))?
+        };
         Ok(value_to_json(&v, 0))
     }
 
@@ -463,6 +483,7 @@ impl ScriptHost {
     pub fn load_data_file(&self, path: &Path) -> Result<Value, ScriptError> {
         let f = sandbox::load_file(&self.lua, path)?;
         self.budget.arm(self.limits.instructions_per_load);
+        let _metered = self.meter.call(Duration::ZERO);
         f.call::<Value>(())
             .map_err(|e| ScriptError::Lua(self.after_error(&e)))
     }

@@ -25,6 +25,7 @@ pub mod reload;
 pub mod sandbox;
 pub mod scene;
 pub mod sim;
+pub mod watchdog;
 
 pub use error::ScriptError;
 pub use host::ScriptHost;

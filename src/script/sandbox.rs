@@ -8,27 +8,39 @@
 //! `collectgarbage("count")`, `load` of text chunks and `require` of modules under `scripts/`.
 //! Everything else — `io`, the rest of `os`, `debug`, `package`, `dofile`, `loadfile`, binary
 //! chunks — is absent.
+//!
+//! The budget and the soft memory limit are checked by a count hook. Behaviour calls run without
+//! it until they have run [`Limits::metered_after`] (see [`super::watchdog`]): the hook is what
+//! makes the interpreter slow, and only a runaway call needs it.
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, AtomicU8, AtomicU64, Ordering};
+use std::time::Duration;
 
 use mlua::chunk::ChunkMode;
 use mlua::{Function, HookTriggers, Lua, LuaOptions, StdLib, Table, Value, VmState};
 
 use super::error::{ScriptError, describe};
 use super::log::{LogLevel, ScriptLog};
+use super::watchdog::Meter;
 
-/// Instructions between two runs of the budget hook. Small enough that a runaway loop is caught
-/// within a few microseconds, large enough that the hook costs nothing measurable.
+/// Instructions between two runs of the budget hook (once a call is metered). Small enough that
+/// a runaway loop is caught within a few microseconds.
 pub const HOOK_INTERVAL: u32 = 1000;
 
 /// Resource limits of the Lua state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Limits {
-    /// VM instructions one behaviour call may run before it is stopped (default 200,000: the
-    /// shipped behaviours use a few hundred).
+    /// VM instructions one behaviour call may run, once metered, before it is stopped (default
+    /// 200,000: the shipped behaviours use a few hundred).
     pub instructions_per_call: u64,
+    /// How long a behaviour call runs unmetered (default 1 ms, some hundred times what a shipped
+    /// behaviour takes). After that the watchdog turns the budget hook on and the call may run
+    /// `instructions_per_call` more instructions. Zero meters every call from its first
+    /// instruction, so the budget is exact and deterministic (slower: Lua checks the hook before
+    /// every instruction). Systems other than Linux always meter from the start.
+    pub metered_after: Duration,
     /// VM instructions loading one file (running its top level) may take (default 5,000,000).
     pub instructions_per_load: u64,
     /// Bytes the whole Lua state may allocate (default 256 MiB). A call that grows the state past
@@ -41,6 +53,7 @@ impl Default for Limits {
     fn default() -> Self {
         Self {
             instructions_per_call: 200_000,
+            metered_after: Duration::from_millis(1),
             instructions_per_load: 5_000_000,
             memory_bytes: 256 << 20,
         }
@@ -63,6 +76,9 @@ pub struct Budget {
     remaining: AtomicI64,
     /// The budget the current call started with (for the message).
     granted: AtomicU64,
+    /// Microseconds the current call ran before it was metered (0: from the start; for the
+    /// message).
+    unmetered_us: AtomicU64,
     /// Set when the hook stopped the call; `pcall` rethrows while it is set
     /// (0: running, 1: [`Abort::Budget`], 2: [`Abort::Memory`]).
     abort: AtomicU8,
@@ -71,13 +87,24 @@ pub struct Budget {
 }
 
 impl Budget {
-    /// Arms the budget for a call of at most `instructions` instructions.
+    /// Arms the budget for a call of at most `instructions` instructions, counted from its first
+    /// instruction.
     pub fn arm(&self, instructions: u64) {
+        self.arm_after(instructions, Duration::ZERO);
+    }
+
+    /// Arms the budget for a call of at most `instructions` instructions counted once it has run
+    /// `unmetered` (see [`Limits::metered_after`]).
+    pub fn arm_after(&self, instructions: u64, unmetered: Duration) {
         self.remaining.store(
             i64::try_from(instructions).unwrap_or(i64::MAX),
             Ordering::Relaxed,
         );
         self.granted.store(instructions, Ordering::Relaxed);
+        self.unmetered_us.store(
+            u64::try_from(unmetered.as_micros()).unwrap_or(u64::MAX),
+            Ordering::Relaxed,
+        );
         self.abort.store(0, Ordering::Relaxed);
     }
 
@@ -186,8 +213,8 @@ impl ScriptRoot {
 pub const LOADED_KEY: &str = "shoal.loaded";
 
 /// Creates the sandboxed state. The returned [`Budget`] must be armed before every call into
-/// Lua ([`Budget::arm`]).
-pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>), ScriptError> {
+/// Lua ([`Budget::arm`]) and the call made while a [`Meter::call`] guard lives.
+pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter), ScriptError> {
     let root = ScriptRoot::new(root)?;
     let libs = StdLib::TABLE
         | StdLib::STRING
@@ -200,6 +227,7 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>), Scri
     let budget = Arc::new(Budget {
         remaining: AtomicI64::new(0),
         granted: AtomicU64::new(0),
+        unmetered_us: AtomicU64::new(0),
         abort: AtomicU8::new(0),
         soft_memory: if limits.memory_bytes == 0 {
             usize::MAX
@@ -208,11 +236,13 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>), Scri
         },
     });
     install(&lua, &root, &budget).map_err(|e| ScriptError::Lua(describe(&e)))?;
+    let meter =
+        Meter::take_over(&lua, HOOK_INTERVAL).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_memory_limit(limits.memory_bytes)
         .map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_app_data(root);
     lua.set_app_data(ScriptLog::default());
-    Ok((lua, budget))
+    Ok((lua, budget, meter))
 }
 
 fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<()> {
@@ -310,19 +340,38 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
     )?;
 
     // pcall / xpcall / coroutine.resume must not swallow the host's stop: rethrow while set.
+    // Coroutines are created by mlua, which gives each the budget hook for good (the watchdog
+    // turns the hook on for the main thread only).
     let b = budget.clone();
     let aborted = lua.create_function(move |_, ()| Ok(b.aborted().is_some()))?;
+    let create = lua.create_function(|lua, f: Value| match f {
+        Value::Function(f) => lua.create_thread(f),
+        other => Err(mlua::Error::runtime(format!(
+            "bad argument #1 to 'create' (function expected, got {})",
+            other.type_name()
+        ))),
+    })?;
     let wrap: Function = lua
         .load(
             r#"
-            local aborted, raw_pcall, raw_xpcall, raw_resume, error = ...
+            local aborted, raw_pcall, raw_xpcall, raw_resume, error, create = ...
             local function pass(ok, ...)
               if not ok and aborted() then error((...), 0) end
               return ok, ...
             end
+            local function unwrap(ok, ...)
+              if ok then return ... end
+              error((...), 0)
+            end
+            local resume = function(co, ...) return pass(raw_resume(co, ...)) end
             pcall = function(f, ...) return pass(raw_pcall(f, ...)) end
             xpcall = function(f, h, ...) return pass(raw_xpcall(f, h, ...)) end
-            coroutine.resume = function(co, ...) return pass(raw_resume(co, ...)) end
+            coroutine.resume = resume
+            coroutine.create = create
+            coroutine.wrap = function(f)
+              local co = create(f)
+              return function(...) return unwrap(resume(co, ...)) end
+            end
             "#,
         )
         .set_name("=shoal host")
@@ -334,6 +383,7 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
         g.get::<Function>("xpcall")?,
         co.get::<Function>("resume")?,
         g.get::<Function>("error")?,
+        create,
     ))?;
 
     // The budget hook.
@@ -360,13 +410,17 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
                     ),
                 )
             } else {
-                (
-                    Abort::Budget,
+                let granted = b.granted.load(Ordering::Relaxed);
+                let unmetered_us = b.unmetered_us.load(Ordering::Relaxed);
+                let what = if unmetered_us == 0 {
+                    format!("instruction budget exceeded ({granted} instructions per call)")
+                } else {
                     format!(
-                        "instruction budget exceeded ({} instructions per call)",
-                        b.granted.load(Ordering::Relaxed)
-                    ),
-                )
+                        "instruction budget exceeded ({granted} instructions per call, counted once a call has run {} ms)",
+                        unmetered_us as f64 / 1000.0
+                    )
+                };
+                (Abort::Budget, what)
             };
             b.set_aborted(kind);
             Err(mlua::Error::RuntimeError(format!("{file}:{line}: {what}")))
