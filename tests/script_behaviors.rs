@@ -48,11 +48,7 @@ fn test_hungry_forager_eats_food_and_hunger_falls() {
         (hunger - (0.5 + 0.01 * 20.0 - 0.4)).abs() < 0.02,
         "{hunger}"
     );
-    assert!(
-        sim.error_messages().is_empty(),
-        "{:?}",
-        sim.error_messages()
-    );
+    common::assert_no_script_errors(&sim);
 }
 
 #[test]
@@ -111,11 +107,7 @@ fn test_school_polarization_rises() {
     let p1 = polarization(&sim, &ids);
     assert!(p0 < 0.3, "start {p0}");
     assert!(p1 > 0.8, "polarization {p0} → {p1}");
-    assert!(
-        sim.error_messages().is_empty(),
-        "{:?}",
-        sim.error_messages()
-    );
+    common::assert_no_script_errors(&sim);
 }
 
 #[test]
@@ -245,11 +237,7 @@ fn test_predator_closes_in_on_porgies() {
         m["catches"].as_i64().unwrap_or(0) >= 1 || closest < 40.0,
         "closest {closest}, memory {m}"
     );
-    assert!(
-        sim.error_messages().is_empty(),
-        "{:?}",
-        sim.error_messages()
-    );
+    common::assert_no_script_errors(&sim);
 }
 
 #[test]

@@ -52,11 +52,7 @@ fn test_the_default_scene_is_the_same_in_one_two_or_three_lanes() {
             sim.world_mut().add_food(pos);
         }
         sim.run(20.0);
-        assert!(
-            sim.error_messages().is_empty(),
-            "{:?}",
-            sim.error_messages()
-        );
+        common::assert_no_script_errors(&sim);
         runs.push((lanes, fingerprint(&sim)));
     }
     // The scene drops food every 5 s and hungry porgies eat it: bites are part of what must match.

@@ -15,11 +15,7 @@ fn test_default_scene_runs_without_script_errors() {
     assert_eq!(sim.world().num_fish(), 37);
     let foods_at_start = sim.world().foods().count();
     sim.run(20.0);
-    assert!(
-        sim.error_messages().is_empty(),
-        "{:?}",
-        sim.error_messages()
-    );
+    common::assert_no_script_errors(&sim);
     assert!(sim.load_errors().is_empty(), "{:?}", sim.load_errors());
     // Food drops every 5 s from t = 3: at 3, 8, 13, 18 → 4 drops of 3 pellets.
     assert_eq!(sim.world().foods().count(), foods_at_start + 12);
@@ -85,11 +81,7 @@ fn test_species_reload_applies_to_live_fish() {
     assert_ne!(before, 77.0);
     assert_eq!(sim.world().species(sid).desc.max_speed, 77.0);
     sim.run(0.5);
-    assert!(
-        sim.error_messages().is_empty(),
-        "{:?}",
-        sim.error_messages()
-    );
+    common::assert_no_script_errors(&sim);
     // A broken species file keeps the old data and says why.
     std::fs::write(&file, "return { base = 'black_porgy', decision_hz = 0 }\n").unwrap();
     let events = sim.reload_changed(std::slice::from_ref(&file));

@@ -123,3 +123,10 @@ pub fn skin(model: &FishModel, locals: &[JointTransform]) -> Vec<Vec3> {
     .unwrap();
     out
 }
+
+/// Fails the test with every script error the simulation logged, if it logged any.
+#[track_caller]
+pub fn assert_no_script_errors(sim: &Simulation) {
+    let errors = sim.error_messages();
+    assert!(errors.is_empty(), "script errors: {errors:?}");
+}
