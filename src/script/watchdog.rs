@@ -194,9 +194,7 @@ mod watch {
         busy: AtomicU64,
         /// Calls begun so far (numbers the calls).
         calls: AtomicU64,
-        /// When the call in flight began, nanoseconds since [`epoch`].
-        since_ns: AtomicU64,
-        /// How long it may run before it is metered, nanoseconds.
+        /// How long the call in flight may run before it is metered, nanoseconds.
         after_ns: AtomicU64,
         /// The call the watchdog asked to meter.
         meter_gen: AtomicU64,
@@ -213,7 +211,6 @@ mod watch {
                 tid: AtomicI32::new(0),
                 busy: AtomicU64::new(0),
                 calls: AtomicU64::new(0),
-                since_ns: AtomicU64::new(0),
                 after_ns: AtomicU64::new(0),
                 meter_gen: AtomicU64::new(0),
                 hooked: AtomicBool::new(false),
@@ -234,15 +231,6 @@ mod watch {
 
     /// The signal handler is installed.
     static HANDLER: OnceLock<bool> = OnceLock::new();
-
-    fn epoch() -> Instant {
-        static EPOCH: OnceLock<Instant> = OnceLock::new();
-        *EPOCH.get_or_init(Instant::now)
-    }
-
-    fn now_ns() -> u64 {
-        u64::try_from(epoch().elapsed().as_nanos()).unwrap_or(u64::MAX)
-    }
 
     /// A slot for the state, or `None` (then its calls are metered from the start).
     pub(super) fn claim(
@@ -284,7 +272,6 @@ mod watch {
             u64::try_from(after.as_nanos()).unwrap_or(u64::MAX),
             Ordering::SeqCst,
         );
-        s.since_ns.store(now_ns(), Ordering::SeqCst);
         s.busy.store(call, Ordering::SeqCst);
         if ASLEEP.load(Ordering::SeqCst) || WATCHDOG.get().is_none() {
             wake_watchdog();
@@ -312,25 +299,33 @@ mod watch {
         }
     }
 
+    /// Looks at the calls in flight every [`PERIOD`]. A call's start is taken to be when the
+    /// watchdog first saw it (so calls read no clock): a call is metered once it has been seen
+    /// running for its delay, which is between that delay and one period more after it began.
     fn watchdog() {
+        let start = Instant::now();
+        // Per slot: the call last seen in flight and when it was first seen (ns since `start`).
+        let mut seen = [(0u64, 0u64); SLOTS];
         let mut idle = 0u32;
         loop {
-            let now = now_ns();
+            let now = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
             let mut any = false;
-            for s in &TABLE {
+            for (s, seen) in TABLE.iter().zip(seen.iter_mut()) {
                 let call = s.busy.load(Ordering::SeqCst);
                 if call == 0 {
                     continue;
                 }
                 any = true;
+                if seen.0 != call {
+                    *seen = (call, now);
+                }
                 if s.meter_gen.load(Ordering::SeqCst) == call {
                     continue;
                 }
-                // `since`/`after`/`tid` may already belong to a newer call of the slot: then that
-                // call is metered a little early, which only costs it speed.
-                let since = s.since_ns.load(Ordering::SeqCst);
+                // `after`/`tid` may already belong to a newer call of the slot: then that call
+                // is metered a little early, which only costs it speed.
                 let after = s.after_ns.load(Ordering::SeqCst);
-                if now.saturating_sub(since) < after {
+                if now.saturating_sub(seen.1) < after {
                     continue;
                 }
                 s.meter_gen.store(call, Ordering::SeqCst);
