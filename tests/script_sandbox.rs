@@ -344,6 +344,56 @@ fn test_pcall_cannot_swallow_the_budget() {
 }
 
 #[test]
+#[cfg(target_os = "linux")]
+fn test_a_metered_call_leaves_the_next_one_unmetered() {
+    // `slow` spends some 300 ms inside string.rep (few VM instructions), long enough for the
+    // watchdog to turn the hook on; `loop` runs ~200,000 instructions in well under the delay.
+    let (_d, root) = scripts(&[
+        (
+            "behaviors/slow.lua",
+            "return { tick = function(fish)\n  for i = 1, 8 do local s = string.rep('x', 1 << 24) end\n  if fish.memory.then_loop then\n    local n = 0\n    for i = 1, 100000 do n = n + i end\n  end\nend }\n",
+        ),
+        (
+            "behaviors/loop.lua",
+            "return { tick = function(fish)\n  local n = 0\n  for i = 1, 100000 do n = n + i end\n  fish.memory.n = n\nend }\n",
+        ),
+    ]);
+    let limits = Limits {
+        instructions_per_call: 100_000,
+        metered_after: Duration::from_millis(20),
+        ..Limits::default()
+    };
+    let mut h = ScriptHost::new(&root, limits).unwrap();
+    let slow = h.module("slow", 0.0).unwrap();
+    let fast = h.module("loop", 0.0).unwrap();
+    // Unmetered, the loop fits however tight the budget.
+    run(&mut h, fast, 1).unwrap();
+    // Metered part-way through, the slow call then fails on the same loop...
+    let t = h.fish_table(fish(0), "porgy", "test").unwrap();
+    t.get::<mlua::Table>("memory")
+        .unwrap()
+        .set("then_loop", true)
+        .unwrap();
+    let err = run(&mut h, slow, 0).unwrap_err();
+    assert!(
+        err.starts_with("scripts/behaviors/slow.lua:5: instruction budget exceeded (100000"),
+        "{err}"
+    );
+    // ... and the next calls run unmetered again, after an error and after a success.
+    run(&mut h, fast, 1).unwrap();
+    t.get::<mlua::Table>("memory")
+        .unwrap()
+        .set("then_loop", false)
+        .unwrap();
+    run(&mut h, slow, 0).unwrap();
+    run(&mut h, fast, 1).unwrap();
+    assert_eq!(
+        h.memory_json(fish(1)),
+        serde_json::json!({"n": 5000050000_i64})
+    );
+}
+
+#[test]
 fn test_budget_is_per_call() {
     // 150,000 instructions fit once, not twice: the budget is re-armed for every call.
     let (_d, root) = scripts(&[(
