@@ -54,6 +54,10 @@ fn rust_driver_reports_each_count_and_draws_the_plot() {
     ]);
     check(&report, &[20, 40]);
     assert!(report["driver"].as_str().unwrap().starts_with("rust"));
+    for r in report["results"].as_array().unwrap() {
+        assert!(r["decide_us_per_decision"].as_f64().unwrap() > 0.0);
+        assert!(r["sense_us_per_decision"].is_null(), "sensed in one batch");
+    }
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
 }
@@ -64,6 +68,11 @@ fn lua_driver_runs_the_shipped_behaviours() {
     check(&report, &[30]);
     let r = &report["results"][0];
     assert!(r["stages"]["behavior"].as_f64().unwrap() > 0.0, "Lua ran");
+    // Porgies and the barracuda decide at 10 Hz: each of the 30 fish once every 6 ticks.
+    assert_eq!(r["decisions_per_tick"].as_f64(), Some(5.0));
+    let decide = r["decide_us_per_decision"].as_f64().unwrap();
+    let sense = r["sense_us_per_decision"].as_f64().unwrap();
+    assert!(decide > 0.0 && sense > 0.0, "{decide} {sense}");
 }
 
 #[test]

@@ -220,17 +220,18 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
+    let us = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.2}"));
     if header {
         let driver = match driver {
             Driver::Lua => "Lua, shipped behaviours",
             Driver::Rust => "built-in Rust wander/school (no Lua)",
         };
         println!(
-            "driver: {driver}, {} threads; stage columns are medians, ms",
+            "driver: {driver}, {} threads; stage columns are medians, ms; decide/sense: CPU µs per decision (mean)",
             r.threads
         );
         println!(
-            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>7} {:>9}",
+            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>9} {:>9} | {:>7} {:>9}",
             "fish",
             "median ms",
             "p99 ms",
@@ -242,13 +243,15 @@ fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
             "skel",
             "palette",
             "grid",
+            "decide µs",
+            "sense µs",
             "in view",
             "nearest L"
         );
     }
     let s = &r.stages;
     println!(
-        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>7.1} {:>9.2}",
+        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>9} {:>9} | {:>7.1} {:>9.2}",
         r.fish,
         r.median_ms,
         r.p99_ms,
@@ -260,6 +263,8 @@ fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
         s.skeleton,
         s.palette,
         s.grid,
+        us(r.decide_us_per_decision),
+        us(r.sense_us_per_decision),
         r.mean_in_view,
         r.mean_nearest_lengths
     );

@@ -673,7 +673,7 @@ impl Simulation {
             }
         }
         let mut claims = Vec::new();
-        let (mut perception, mut lanes_total) = (0u64, 0u64);
+        let (mut perception, mut lanes_total, mut decisions) = (0u64, 0u64, 0u64);
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
                 wm(&mut self.world).check_in(d.id, &mut d.controls);
@@ -681,6 +681,7 @@ impl Simulation {
             claims.append(&mut lane.claims);
             perception += lane.perception_ns;
             lanes_total += lane.total_ns;
+            decisions += lane.num_due as u64;
         }
         // Bites in decision order: the first fish to bite a pellet this tick eats it.
         claims.sort_by_key(|c| c.0);
@@ -689,14 +690,18 @@ impl Simulation {
         }
         // The stage's wall time, split between sensing and Lua as the lanes' CPU time was.
         let total = start.elapsed().as_nanos() as u64;
-        let perception = if lanes_total > 0 {
+        let perception_wall = if lanes_total > 0 {
             (u128::from(total) * u128::from(perception) / u128::from(lanes_total)) as u64
         } else {
             0
         };
         let c = wm(&mut self.world).counters_mut();
-        c.perception_ns = perception.min(total);
+        c.perception_ns = perception_wall.min(total);
         c.lua_ns = total.saturating_sub(c.perception_ns);
+        // Each lane runs on one thread, so its time is (all but preemption) CPU time.
+        c.decisions = decisions;
+        c.sense_cpu_ns = perception;
+        c.decide_cpu_ns = lanes_total.saturating_sub(perception);
     }
 
     /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,

@@ -142,6 +142,14 @@ pub struct SimBenchResult {
     pub mean_in_view: f64,
     /// Mean distance from a fish to its nearest neighbour at the end, body lengths.
     pub mean_nearest_lengths: f64,
+    /// Behaviour decisions per tick (mean).
+    pub decisions_per_tick: f64,
+    /// CPU microseconds of behaviour code per decision, sensor queries not included (all
+    /// measured decisions' time over their number); `None` if nothing decided.
+    pub decide_us_per_decision: Option<f64>,
+    /// CPU microseconds of sensor queries per decision; `None` where not timed per decision
+    /// (the Rust driver senses in one parallel batch).
+    pub sense_us_per_decision: Option<f64>,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -189,6 +197,10 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
     let mut sorted = wall.clone();
     sorted.sort_by(f64::total_cmp);
     let median_ms = percentile(&sorted, 0.5);
+    let decisions: u64 = stages.iter().map(|s| s.decisions).sum();
+    let decide_ns: u64 = stages.iter().map(|s| s.decide_cpu_ns).sum();
+    let sense_ns: u64 = stages.iter().map(|s| s.sense_cpu_ns).sum();
+    let per_decision = |ns: u64| (decisions > 0).then(|| ns as f64 / 1e3 / decisions as f64);
     let stage = |f: fn(&StageCounters) -> u64| {
         median_of(stages.iter().map(|s| f(s) as f64 / 1e6).collect())
     };
@@ -219,5 +231,12 @@ pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchRe
         threads: rayon::current_num_threads(),
         mean_in_view: in_view as f64 / sampled.max(1) as f64,
         mean_nearest_lengths: nearest / sampled.max(1) as f64,
+        decisions_per_tick: decisions as f64 / stages.len().max(1) as f64,
+        decide_us_per_decision: per_decision(decide_ns),
+        sense_us_per_decision: if sense_ns > 0 {
+            per_decision(sense_ns)
+        } else {
+            None
+        },
     }
 }

@@ -108,6 +108,10 @@ impl WanderDriver {
         let counters = world.counters_mut();
         counters.perception_ns = (t1 - t0).as_nanos() as u64;
         counters.lua_ns = (t2 - t1).as_nanos() as u64;
+        // The decisions run one after another on this thread; the sensing ran in parallel.
+        counters.decisions = self.decisions_last_tick as u64;
+        counters.decide_cpu_ns = counters.lua_ns;
+        counters.sense_cpu_ns = 0;
     }
 
     fn decide(&self, world: &mut World, id: FishId, k: usize) -> Option<Steer> {

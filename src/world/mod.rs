@@ -419,7 +419,7 @@ pub struct BodySense {
 
 /// Wall time of each stage of the last tick, nanoseconds (the tuning panel and `shoal bench`
 /// show these). The world fills `motion_ns`, `skeleton_ns`, `palette_ns` and `grid_ns`; the Lua
-/// host fills `perception_ns` and `lua_ns`.
+/// host (or a Rust driver) fills `perception_ns`, `lua_ns` and the per-decision figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StageCounters {
     /// Sensor queries (vision, body sense, neighbour queries).
@@ -434,6 +434,14 @@ pub struct StageCounters {
     pub palette_ns: u64,
     /// Spatial grid rebuild.
     pub grid_ns: u64,
+    /// Behaviour decisions made in the tick.
+    pub decisions: u64,
+    /// CPU time of those decisions' behaviour code, summed over threads, sensor queries not
+    /// included (the cost per decision is this over `decisions`).
+    pub decide_cpu_ns: u64,
+    /// CPU time of the sensor queries those decisions made, summed over threads (0 where the
+    /// sensing is not timed per decision).
+    pub sense_cpu_ns: u64,
 }
 
 impl StageCounters {
