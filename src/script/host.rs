@@ -404,16 +404,55 @@ impl ScriptHost {
         fish: &Table,
         time_s: f64,
     ) -> Result<(), String> {
-        let Some(table) = self.modules.get(module).and_then(|m| m.table.as_ref()) else {
+        let Some(result) = self.call_driver(module, fish) else {
             return Ok(());
         };
+        self.after_run(result, module, id, time_s)
+    }
+
+    /// [`ScriptHost::run`] for the fish's own table, created (from its species and behaviour
+    /// names) if it has none yet. An error making the table is logged and returned too.
+    pub fn run_fish(
+        &mut self,
+        module: ModuleIndex,
+        id: FishId,
+        species: &str,
+        behavior: &str,
+        time_s: f64,
+    ) -> Result<(), String> {
+        if let Err(e) = self.fish_table(id, species, behavior) {
+            let msg = e.to_string();
+            self.log(LogLevel::Error, &msg, Some(id), time_s);
+            return Err(msg);
+        }
+        let cached = self.table_cache.get(id.index as usize);
+        let Some(Some((_, fish))) = cached else {
+            return Ok(());
+        };
+        let Some(result) = self.call_driver(module, fish) else {
+            return Ok(());
+        };
+        self.after_run(result, module, id, time_s)
+    }
+
+    /// Runs a decision under the per-call budget; `None` if the module never loaded.
+    fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
+        let table = self.modules.get(module).and_then(|m| m.table.as_ref())?;
         let unmetered = self.limits.metered_after;
         self.budget
             .arm_after(self.limits.instructions_per_call, unmetered);
-        let result = {
-            let _metered = self.meter.call(unmetered);
-            self.driver.call::<()>((table, fish))
-        };
+        let _metered = self.meter.call(unmetered);
+        Some(self.driver.call::<()>((table, fish)))
+    }
+
+    /// Logs and remembers the error of a decision, if it failed.
+    fn after_run(
+        &mut self,
+        result: mlua::Result<()>,
+        module: ModuleIndex,
+        id: FishId,
+        time_s: f64,
+    ) -> Result<(), String> {
         match result {
             Ok(()) => Ok(()),
             Err(e) => {

@@ -26,7 +26,6 @@
 //! it or when, so results are the same whatever the number of lanes or threads — as long as
 //! scripts keep per-fish state in `fish.memory`: a module-level variable is per lane.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -72,19 +71,34 @@ pub enum ReloadEvent {
 /// A decision due this tick, in the lane of its fish.
 struct Due {
     id: FishId,
-    module: ModuleIndex,
-    table: Table,
     /// Position in this tick's decision order (all lanes).
     order: u32,
     /// The fish's controls while it decides (checked out of the world).
     controls: FishControls,
 }
 
+/// The lane's module for `behavior`, loading it on first use.
+fn module_for(
+    module_of: &mut Vec<(String, Option<ModuleIndex>)>,
+    host: &mut ScriptHost,
+    behavior: &str,
+    time_s: f64,
+) -> Option<ModuleIndex> {
+    if let Some((_, m)) = module_of.iter().find(|(name, _)| name == behavior) {
+        return *m;
+    }
+    let m = host.module(behavior, time_s);
+    module_of.push((behavior.to_owned(), m));
+    m
+}
+
 /// One script lane: a Lua state with its own copy of the behaviour modules, running the decisions
 /// of the fish whose slot index ≡ the lane's number (mod the number of lanes).
 struct Lane {
     host: ScriptHost,
-    module_of: HashMap<String, Option<ModuleIndex>>,
+    /// Behaviour name → the lane's module (`None`: it failed to load). A handful of entries,
+    /// searched linearly.
+    module_of: Vec<(String, Option<ModuleIndex>)>,
     due: Vec<Due>,
     /// `due.len()` entries are live; the rest keep their buffers for later ticks.
     num_due: usize,
@@ -93,6 +107,8 @@ struct Lane {
     /// Sensor nanoseconds and total nanoseconds of the lane's last stage.
     perception_ns: u64,
     total_ns: u64,
+    /// Decisions the lane's last stage ran.
+    decided: u64,
 }
 
 impl Lane {
@@ -105,37 +121,24 @@ impl Lane {
         api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
         Ok(Self {
             host,
-            module_of: HashMap::new(),
+            module_of: Vec::new(),
             due: Vec::new(),
             num_due: 0,
             claims: Vec::new(),
             perception_ns: 0,
             total_ns: 0,
+            decided: 0,
         })
     }
 
-    /// The lane's module for `behavior`, loading it on first use.
-    fn module(&mut self, behavior: &str, time_s: f64) -> Option<ModuleIndex> {
-        if let Some(m) = self.module_of.get(behavior) {
-            return *m;
-        }
-        let m = self.host.module(behavior, time_s);
-        self.module_of.insert(behavior.to_owned(), m);
-        m
-    }
-
     /// Queues a decision (reusing a buffer of an earlier tick).
-    fn push(&mut self, id: FishId, module: ModuleIndex, table: Table, order: u32) {
+    fn push(&mut self, id: FishId, order: u32) {
         if let Some(d) = self.due.get_mut(self.num_due) {
             d.id = id;
-            d.module = module;
-            d.table = table;
             d.order = order;
         } else {
             self.due.push(Due {
                 id,
-                module,
-                table,
                 order,
                 controls: FishControls::default(),
             });
@@ -153,6 +156,9 @@ impl Lane {
         }
         self.claims.clear();
         let host = &mut self.host;
+        let module_of = &mut self.module_of;
+        let decided = &mut self.decided;
+        *decided = 0;
         let due = &mut self.due[..self.num_due];
         let claims = &mut self.claims;
         let result = (|| {
@@ -161,12 +167,22 @@ impl Lane {
                 c.world = Some(Arc::clone(world));
             }
             for d in due.iter_mut() {
+                // The fish's module and table are found here, in the lane's thread.
+                let (Some(behavior), Some(sid)) = (world.behavior_of(d.id), world.species_of(d.id))
+                else {
+                    continue;
+                };
+                let Some(module) = module_for(module_of, host, behavior, time_s) else {
+                    continue;
+                };
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     c.fish = Some(d.id);
                     c.percepts_of = None;
                     std::mem::swap(&mut c.controls, &mut d.controls);
                 }
-                let _ = host.run(d.module, d.id, &d.table, time_s);
+                let species = &world.species(sid).desc.name;
+                let _ = host.run_fish(module, d.id, species, behavior, time_s);
+                *decided += 1;
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     std::mem::swap(&mut c.controls, &mut d.controls);
                     let order = d.order;
@@ -625,11 +641,9 @@ impl Simulation {
         for lane in &mut self.lanes {
             lane.num_due = 0;
         }
+        // Only picking the fish is sequential; each lane finds their modules and tables.
         let mut order = 0u32;
         for id in self.world.fish_ids() {
-            let Some(behavior) = self.world.behavior_of(id) else {
-                continue;
-            };
             let Some(sid) = self.world.species_of(id) else {
                 continue;
             };
@@ -637,23 +651,13 @@ impl Simulation {
                 .species
                 .get(usize::from(sid.0))
                 .map_or(6, |s| s.period_ticks);
-            if !(tick + u64::from(id.index)).is_multiple_of(period) {
+            if !(tick + u64::from(id.index)).is_multiple_of(period)
+                || self.world.behavior_of(id).is_none()
+            {
                 continue;
             }
-            let lane = &mut self.lanes[lane_index(id, num_lanes)];
-            let Some(module) = lane.module(behavior, time_s) else {
-                continue;
-            };
-            let species = &self.world.species(sid).desc.name;
-            match lane.host.fish_table(id, species, behavior) {
-                Ok(t) => {
-                    lane.push(id, module, t, order);
-                    order += 1;
-                }
-                Err(e) => lane
-                    .host
-                    .log(LogLevel::Error, &e.to_string(), Some(id), time_s),
-            }
+            self.lanes[lane_index(id, num_lanes)].push(id, order);
+            order += 1;
         }
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
@@ -681,7 +685,7 @@ impl Simulation {
             claims.append(&mut lane.claims);
             perception += lane.perception_ns;
             lanes_total += lane.total_ns;
-            decisions += lane.num_due as u64;
+            decisions += lane.decided;
         }
         // Bites in decision order: the first fish to bite a pellet this tick eats it.
         claims.sort_by_key(|c| c.0);
@@ -862,15 +866,20 @@ impl Simulation {
                 let r = lane.host.reload_path(&real, time_s);
                 match &r {
                     // Modules that failed their first load may load now.
-                    Reloaded::Modules(_) => lane.module_of.retain(|_, m| m.is_some()),
+                    Reloaded::Modules(_) => lane.module_of.retain(|(_, m)| m.is_some()),
                     Reloaded::NotAModule => {
                         let stem = real.file_stem().map(|s| s.to_string_lossy().into_owned());
                         let in_behaviors = real.parent().is_some_and(|d| d.ends_with("behaviors"));
+                        let never_loaded = |stem: &str| {
+                            lane.module_of
+                                .iter()
+                                .position(|(n, m)| n == stem && m.is_none())
+                        };
                         if let (Some(stem), true) = (stem, in_behaviors)
-                            && lane.module_of.get(&stem) == Some(&None)
+                            && let Some(i) = never_loaded(&stem)
                         {
                             // A behaviour that never loaded: try again on next use.
-                            lane.module_of.remove(&stem);
+                            lane.module_of.swap_remove(i);
                             outcome.get_or_insert(ReloadEvent::Behaviors(vec![stem]));
                         }
                     }
