@@ -183,6 +183,12 @@ impl World {
             // first query after a rebuild without them asks the next rebuild for them and
             // reads the roots meanwhile (the same values).
             if self.grid_heading.len() == keys.len() {
+                // Ask the next rebuild for them again (a plain load first: a store per query
+                // would bounce the flag's cache line between the lanes). Without this, every
+                // other tick's queries took the fallback below.
+                if !self.crowd_wanted.load(Ordering::Relaxed) {
+                    self.crowd_wanted.store(true, Ordering::Relaxed);
+                }
                 let headings = &self.grid_heading;
                 self.grid.for_each_run_within(centre, reach, |run| {
                     let candidates = positions[run.clone()]
