@@ -230,9 +230,10 @@ fn same_matrix(a: &Mat4, b: &Mat4) -> bool {
 /// - when every matrix it multiplies is exactly affine, it multiplies [`Affine3A`]s (the same
 ///   products as [`Mat4`]s, fewer operations).
 ///
-/// Per fish it then walks only the joints that work: a [`Schedule`] lists the model matrices
-/// to make, the palette products and the palette copies, so joints that need nothing cost
-/// nothing, and a driven joint's local transform comes from its [`Bend`].
+/// Per fish it then walks only what works: a schedule lists the model matrices to make and,
+/// joint by joint, whether each palette entry is a product or a copy (and of what), so joints
+/// without a model matrix cost nothing there; a driven joint's local transform comes from its
+/// `Bend` (Rodrigues' formula, one `sin_cos`).
 #[derive(Debug, Clone, Default)]
 pub struct PosePlan {
     parents: Vec<u16>,
