@@ -127,14 +127,34 @@ pub(crate) fn curve_to_yaw(
         "yaw: one entry per driven joint"
     );
     assert_eq!(power.len(), yaw.len(), "power: one entry per driven joint");
-    let theta_head = (lateral[0] - lateral_head).atan2(joints_x[0] * l);
+    let theta_head = segment_angle(lateral[0] - lateral_head, joints_x[0] * l);
     let mut theta_prev = theta_head;
     for k in 0..yaw.len() {
-        let theta = (lateral[k + 1] - lateral[k]).atan2((joints_x[k + 1] - joints_x[k]) * l);
+        let theta = segment_angle(
+            lateral[k + 1] - lateral[k],
+            (joints_x[k + 1] - joints_x[k]) * l,
+        );
         yaw[k] = power[k] * (theta - theta_prev);
         theta_prev = theta;
     }
     -theta_head
+}
+
+/// A segment's angle to the body axis, radians: atan2(`rise`, `run`), with `rise` its sideways
+/// and `run` its lengthwise extent (length units).
+///
+/// A valid body's segments all run tail-wards (`run` > 0), where atan2(rise, run) is
+/// atan(rise/run): the same angle, and the single-argument function costs less than half as much
+/// (glibc's `atan2f` is a wrapper, special-case checks and then `atanf` of the same quotient, so
+/// the values are identical there; elsewhere they differ at most by the quotient's rounding).
+/// Any other `run` (an invalid body) takes `atan2`.
+#[inline]
+fn segment_angle(rise: f32, run: f32) -> f32 {
+    if run > 0.0 {
+        (rise / run).atan()
+    } else {
+        rise.atan2(run)
+    }
 }
 
 /// Places the posed vertebral chain in the world: the head, each driven joint and the tail tip.

@@ -70,6 +70,9 @@ struct Active {
     /// Speed when the motion started and the speed it settles at, length units per second.
     v0: f32,
     v1: f32,
+    /// The last step's end time and [`Active::progress`] there, which the next step starts
+    /// from.
+    last_progress: Option<(f32, f32)>,
 }
 
 impl Active {
@@ -80,6 +83,7 @@ impl Active {
         duration_s: f32::INFINITY,
         v0: 0.0,
         v1: 0.0,
+        last_progress: None,
     };
 
     /// Plans `request` starting at speed `v0`.
@@ -95,6 +99,7 @@ impl Active {
             duration_s: f32::INFINITY,
             v0,
             v1: 0.0,
+            last_progress: None,
         };
         let Some(request) = request else {
             return a;
@@ -453,7 +458,12 @@ fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSample) -> f32 {
     wave::t_locomotion(swim, t, ip)
 }
 
+/// `a` wrapped into (−π, π]. An angle already there is returned as it is: the formula's
+/// (a + π) − π would only add rounding (and an `fmodf` call) to most fish's heading every step.
 fn wrap_angle(a: f32) -> f32 {
+    if a > -PI && a <= PI {
+        return a;
+    }
     let w = (a + PI).rem_euclid(TAU) - PI;
     if w <= -PI { w + TAU } else { w }
 }
@@ -640,9 +650,11 @@ impl MotionPlayer {
         }
     }
 
-    /// The step, `table` matching `params` and `body`.
+    /// The step, `table` matching `params` and `body` (the world's tables are built with its
+    /// species and replaced with them, so it steps through here without comparing them per
+    /// fish).
     #[allow(clippy::too_many_arguments)]
-    fn step_tabled(
+    pub(crate) fn step_tabled(
         &mut self,
         dt: f32,
         params: &MotionParams,
@@ -693,7 +705,14 @@ impl MotionPlayer {
         let v_start = root.speed;
         let v_end = a.speed_at(t1).max(0.0);
         let v = 0.5 * (v_start + v_end);
-        let dprog = a.progress(t1) - a.progress(t0);
+        // progress(t0) is the last step's progress(t1) unless the motion changed since.
+        let progress_t0 = match a.last_progress {
+            Some((t, p)) if t.to_bits() == t0.to_bits() => p,
+            _ => a.progress(t0),
+        };
+        let progress_t1 = a.progress(t1);
+        a.last_progress = Some((t1, progress_t1));
+        let dprog = progress_t1 - progress_t0;
         let mut heading = root.heading;
         let mut dy = 0.0;
         match a.plan {
@@ -713,9 +732,12 @@ impl MotionPlayer {
             } else {
                 0.0
             }
-        } else {
+        } else if root.pitch != 0.0 {
             root.pitch *= (-dt / PITCH_RELAX_S).exp();
             v * root.pitch.cos() * dt
+        } else {
+            // Level (most fish): the relaxation keeps 0 and cos 0 = 1, without `expf`/`cosf`.
+            v * dt
         };
         let (sh, ch) = heading_mid.sin_cos();
         root.pos.x += ch * horizontal;
@@ -740,7 +762,13 @@ impl MotionPlayer {
         let omega_prime = wave::omega_prime(v, params.p, params.omega).max(0.0);
         let dphase = TAU * omega_prime / params.lambda * dt;
         if dphase.is_finite() {
-            self.phase = (self.phase + dphase).rem_euclid(TAU);
+            let phase = self.phase + dphase;
+            // rem_euclid leaves [0, 2π) as it is (bit for bit); skip its `fmodf` there.
+            self.phase = if (0.0..TAU).contains(&phase) {
+                phase
+            } else {
+                phase.rem_euclid(TAU)
+            };
         }
 
         // Body shape: the current motion, cross-faded from the previous one.

@@ -183,8 +183,20 @@ impl World {
             // first query after a rebuild without them asks the next rebuild for them and
             // reads the roots meanwhile (the same values).
             if self.grid_heading.len() == keys.len() {
+                // Ask the next rebuild for them again (a plain load first: a store per query
+                // would bounce the flag's cache line between the lanes). Without this, every
+                // other tick's queries took the fallback below.
+                if !self.crowd_wanted.load(Ordering::Relaxed) {
+                    self.crowd_wanted.store(true, Ordering::Relaxed);
+                }
                 let headings = &self.grid_heading;
+                let mut all_sums = sums;
                 self.grid.for_each_run_within(centre, reach, |run| {
+                    // The run adds into a local copy (the same additions in the same order), which
+                    // the compiler keeps in registers; adding into the captured sums stored every
+                    // sum to memory for every candidate.
+                    let mut run_sums = all_sums;
+                    let sums = &mut run_sums;
                     let candidates = positions[run.clone()]
                         .iter()
                         .zip(&keys[run.clone()])
@@ -208,9 +220,10 @@ impl World {
                         sums.centre += pos * f32::from(u8::from(cohesive));
                         sums.count += u32::from(cohesive);
                     }
+                    all_sums = run_sums;
                     true
                 });
-                return Some(sums);
+                return Some(all_sums);
             }
             // Headings are copied only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use std::ops::Mul;
 
-use glam::{Affine3A, Mat4, Quat, Vec3};
+use glam::{Affine3A, DMat3, DVec3, Mat3A, Mat4, Quat, Vec3, Vec3A};
 
 use super::{FishModel, MAX_DRIVEN_JOINTS, Species, SpeciesId, SpeciesRig};
 use crate::motion::RootState;
@@ -38,18 +38,30 @@ pub fn root_matrix(root: &RootState, model_to_body: &Mat4) -> Mat4 {
 /// operations. [`Mat4`] otherwise.
 trait Transform: Copy + Mul<Output = Self> {
     const IDENTITY: Self;
-    fn from_srt(scale: Vec3, rotation: Quat, translation: Vec3) -> Self;
+    /// The transform `x ↦ linear · x + translation`.
+    fn from_linear_translation(linear: Mat3A, translation: Vec3A) -> Self;
     /// `m`, which the plan has checked to be representable.
     fn from_mat4(m: Mat4) -> Self;
     fn to_mat4(self) -> Mat4;
-    /// [`root_matrix`] in this type.
-    fn placement(root: &RootState, model_to_body: Self) -> Self;
+    /// [`root_matrix`] in this type: the same quaternions and the same products, so the same
+    /// numbers. (Writing Ry(h)·Rz(p) out from full-angle `sin_cos` is cheaper but rounds
+    /// differently, by 2 ulp of an 800-unit position at times: more than the world's tests
+    /// allow against the reference.)
+    fn placement(root: &RootState, model_to_body: Self) -> Self {
+        let rotation = Quat::from_rotation_y(root.heading) * Quat::from_rotation_z(root.pitch);
+        Self::from_linear_translation(Mat3A::from_quat(rotation), root.pos.into()) * model_to_body
+    }
 }
 
 impl Transform for Mat4 {
     const IDENTITY: Self = Mat4::IDENTITY;
-    fn from_srt(scale: Vec3, rotation: Quat, translation: Vec3) -> Self {
-        Mat4::from_scale_rotation_translation(scale, rotation, translation)
+    fn from_linear_translation(linear: Mat3A, translation: Vec3A) -> Self {
+        Mat4::from_cols(
+            linear.x_axis.extend(0.0),
+            linear.y_axis.extend(0.0),
+            linear.z_axis.extend(0.0),
+            translation.extend(1.0),
+        )
     }
     fn from_mat4(m: Mat4) -> Self {
         m
@@ -57,15 +69,15 @@ impl Transform for Mat4 {
     fn to_mat4(self) -> Mat4 {
         self
     }
-    fn placement(root: &RootState, model_to_body: Self) -> Self {
-        root_matrix(root, &model_to_body)
-    }
 }
 
 impl Transform for Affine3A {
     const IDENTITY: Self = Affine3A::IDENTITY;
-    fn from_srt(scale: Vec3, rotation: Quat, translation: Vec3) -> Self {
-        Affine3A::from_scale_rotation_translation(scale, rotation, translation)
+    fn from_linear_translation(linear: Mat3A, translation: Vec3A) -> Self {
+        Affine3A {
+            matrix3: linear,
+            translation,
+        }
     }
     fn from_mat4(m: Mat4) -> Self {
         Affine3A::from_mat4(m)
@@ -73,11 +85,64 @@ impl Transform for Affine3A {
     fn to_mat4(self) -> Mat4 {
         Mat4::from(self)
     }
-    fn placement(root: &RootState, model_to_body: Self) -> Self {
-        Affine3A::from_rotation_translation(
-            Quat::from_rotation_y(root.heading) * Quat::from_rotation_z(root.pitch),
-            root.pos,
-        ) * model_to_body
+}
+
+/// A driven joint's local transform as a function of its yaw θ, prepared once per species.
+///
+/// The rig poses the joint as T · R₀ · R(a, θ) · S (rest translation, rest rotation, the bend
+/// about the unit axis a, rest scale). By Rodrigues' formula R(a, θ) = cos θ·I + sin θ·[a]ₓ +
+/// (1 − cos θ)·a·aᵀ, so its linear part is exactly `outer + cos θ·(rest − outer) + sin θ·cross`
+/// with the three constant matrices below (computed in f64 and rounded once): one `sin_cos`
+/// and three multiply-adds per column per fish, where the quaternion form needs a half-angle
+/// `sin_cos`, a quaternion product, a normalisation (square root and division) and the
+/// conversion to a matrix. The rest rotation is normalised here, once, which is what
+/// normalising the product did (`normalize(r·q) = normalize(r)·q` for a unit `q`).
+#[derive(Debug, Clone, Copy)]
+struct Bend {
+    /// R₀·a·aᵀ·S.
+    outer: Mat3A,
+    /// R₀·S − R₀·a·aᵀ·S.
+    rest_minus_outer: Mat3A,
+    /// R₀·[a]ₓ·S.
+    cross: Mat3A,
+    /// The rest translation T.
+    translation: Vec3A,
+}
+
+impl Bend {
+    fn new(rest: &JointTransform, axis: Vec3) -> Self {
+        let r0 = DMat3::from_quat(rest.rotation.as_dquat().normalize());
+        let s = DMat3::from_diagonal(rest.scale.as_dvec3());
+        let a = axis.as_dvec3().try_normalize().unwrap_or(DVec3::Y);
+        let cross = DMat3::from_cols(
+            DVec3::new(0.0, a.z, -a.y),
+            DVec3::new(-a.z, 0.0, a.x),
+            DVec3::new(a.y, -a.x, 0.0),
+        );
+        let outer = DMat3::from_cols(a * a.x, a * a.y, a * a.z);
+        let f32s = |m: DMat3| Mat3A::from(m.as_mat3());
+        Self {
+            outer: f32s(r0 * outer * s),
+            rest_minus_outer: f32s(r0 * s - r0 * outer * s),
+            cross: f32s(r0 * cross * s),
+            translation: rest.translation.into(),
+        }
+    }
+
+    /// The joint's local transform at yaw `angle` (radians, finite).
+    #[inline]
+    fn local<T: Transform>(&self, angle: f32) -> T {
+        let (sin, cos) = angle.sin_cos();
+        let column = |outer: Vec3A, rest: Vec3A, cross: Vec3A| outer + rest * cos + cross * sin;
+        let (o, r, c) = (&self.outer, &self.rest_minus_outer, &self.cross);
+        T::from_linear_translation(
+            Mat3A::from_cols(
+                column(o.x_axis, r.x_axis, c.x_axis),
+                column(o.y_axis, r.y_axis, c.y_axis),
+                column(o.z_axis, r.z_axis, c.z_axis),
+            ),
+            self.translation,
+        )
     }
 }
 
@@ -164,22 +229,90 @@ fn same_matrix(a: &Mat4, b: &Mat4) -> bool {
 ///   parent's model matrix, `parent · (rest_local · inverse_bind)`, one product;
 /// - when every matrix it multiplies is exactly affine, it multiplies [`Affine3A`]s (the same
 ///   products as [`Mat4`]s, fewer operations).
+///
+/// Per fish it then walks only what works: a schedule lists the model matrices to make and,
+/// joint by joint, whether each palette entry is a product or a copy (and of what), so joints
+/// without a model matrix cost nothing there; a driven joint's local transform comes from its
+/// `Bend` (Rodrigues' formula, one `sin_cos`).
 #[derive(Debug, Clone, Default)]
 pub struct PosePlan {
     parents: Vec<u16>,
-    /// Rest local transform of each joint, as given.
-    rest: Vec<JointTransform>,
     /// Index into the fish's yaw array for driven joints, [`NOT_DRIVEN`] otherwise.
     yaw_slot: Vec<u8>,
-    /// Bend axis of driven joints (joint-local).
-    axis: Vec<Vec3>,
+    /// The bend of each joint (used for driven joints only).
+    bends: Vec<Bend>,
     /// Whether the joint's model matrix is needed (for its palette entry or a descendant's).
     needs_model: Vec<bool>,
     palette_op: Vec<PaletteOp>,
+    /// `needs_model` and `palette_op` as lists of steps (see [`Schedule`]).
+    schedule: Schedule,
     matrices: PlanMatrices,
 }
 
 const NOT_DRIVEN: u8 = u8::MAX;
+
+/// What a plan does per fish, in order, built from its `needs_model` and `palette_op`.
+#[derive(Debug, Clone, Default)]
+struct Schedule {
+    /// The joints whose model matrix is made (parents before children).
+    models: Vec<ModelStep>,
+    /// Every palette entry, in joint order (so the palette is written front to back, which
+    /// measured faster than writing the products first and the copies after).
+    palette: Vec<PaletteStep>,
+}
+
+/// One model matrix: `model[joint] = model[parent] · local` ([`NO_PARENT`]: the placement).
+#[derive(Debug, Clone, Copy)]
+struct ModelStep {
+    joint: u16,
+    parent: u16,
+    /// Index into the fish's yaw array, or [`NOT_DRIVEN`] (the rest matrix).
+    yaw_slot: u8,
+}
+
+/// The palette entry of `joint`, made from `left` (a joint, or [`NO_PARENT`] for the
+/// placement): the product `model[left] · palette_rhs[joint]` or, if not `product`, a copy of
+/// `left`'s palette entry (which is not itself a copy) or of the placement.
+#[derive(Debug, Clone, Copy)]
+struct PaletteStep {
+    joint: u16,
+    left: u16,
+    product: bool,
+}
+
+impl Schedule {
+    fn new(parents: &[u16], yaw_slot: &[u8], needs_model: &[bool], ops: &[PaletteOp]) -> Self {
+        let mut schedule = Self::default();
+        for (j, &parent) in parents.iter().enumerate() {
+            if needs_model[j] {
+                schedule.models.push(ModelStep {
+                    joint: j as u16,
+                    parent,
+                    yaw_slot: yaw_slot[j],
+                });
+            }
+        }
+        // Where each joint's palette entry comes from, copies resolved to what they copy.
+        let mut source = vec![NO_PARENT; parents.len()];
+        for (j, op) in ops.iter().enumerate() {
+            let joint = j as u16;
+            let (left, product) = match op {
+                PaletteOp::OwnModel => (joint, true),
+                PaletteOp::ParentModel => (parents[j], true),
+                // Parents come first, so the parent's source is known.
+                PaletteOp::CopyParent => (source[usize::from(parents[j])], false),
+                PaletteOp::CopyRoot => (NO_PARENT, false),
+            };
+            source[j] = if product { joint } else { left };
+            schedule.palette.push(PaletteStep {
+                joint,
+                left,
+                product,
+            });
+        }
+        schedule
+    }
+}
 
 impl PosePlan {
     /// Prepares `rig` on `model`. Joints are taken from the model's skeleton; the rig's driven
@@ -209,13 +342,18 @@ impl PosePlan {
             })
             .collect();
         let mut yaw_slot = vec![NOT_DRIVEN; n];
-        let mut axis = vec![Vec3::ZERO; n];
+        let mut axis = vec![Vec3::Y; n];
         for (k, (&j, &a)) in rig.driven_joints.iter().zip(&rig.bend_axes).enumerate() {
             if j < n && k < MAX_DRIVEN_JOINTS && yaw_slot[j] == NOT_DRIVEN {
                 yaw_slot[j] = k as u8;
                 axis[j] = a;
             }
         }
+        let bends = rest
+            .iter()
+            .zip(&axis)
+            .map(|(r, &a)| Bend::new(r, a))
+            .collect();
         let parent = |j: usize| (parents[j] != NO_PARENT).then(|| usize::from(parents[j]));
         // Palette entries equal to the parent's (or the placement's).
         let mut palette_op: Vec<PaletteOp> = (0..n)
@@ -263,13 +401,14 @@ impl PosePlan {
         } else {
             PlanMatrices::General(Matrices::new(&rest_matrix, &palette_rhs, rig.model_to_body))
         };
+        let schedule = Schedule::new(&parents, &yaw_slot, &needs_model, &palette_op);
         Self {
             parents,
-            rest,
             yaw_slot,
-            axis,
+            bends,
             needs_model,
             palette_op,
+            schedule,
             matrices,
         }
     }
@@ -295,27 +434,27 @@ impl PosePlan {
         models + palettes
     }
 
-    /// The model matrices of the joints that need one, from the fish's placement `root` and
-    /// its driven joints' `yaw` (radians; a non-finite yaw counts as rest, as in
+    /// The model matrices of the joints `schedule` makes, from the fish's placement `root` and
+    /// its driven joints' `yaw` (radians; a missing or non-finite yaw counts as rest, as in
     /// `SpeciesRig::pose`). Entries of other joints are left alone.
-    fn models<T: Transform>(&self, m: &Matrices<T>, root: T, yaw: &[f32], models: &mut [T]) {
-        for j in 0..self.parents.len() {
-            if !self.needs_model[j] {
-                continue;
-            }
-            let local = match self.yaw_slot[j] {
+    fn models<T: Transform>(
+        &self,
+        schedule: &Schedule,
+        m: &Matrices<T>,
+        root: T,
+        yaw: &[f32],
+        models: &mut [T],
+    ) {
+        for step in &schedule.models {
+            let j = usize::from(step.joint);
+            let local = match step.yaw_slot {
                 NOT_DRIVEN => m.rest[j],
                 slot => match yaw.get(usize::from(slot)) {
-                    Some(&angle) if angle.is_finite() => {
-                        let r = &self.rest[j];
-                        let rotation =
-                            (r.rotation * Quat::from_axis_angle(self.axis[j], angle)).normalize();
-                        T::from_srt(r.scale, rotation, r.translation)
-                    }
+                    Some(&angle) if angle.is_finite() => self.bends[j].local(angle),
                     _ => m.rest[j],
                 },
             };
-            let parent = match self.parents[j] {
+            let parent = match step.parent {
                 NO_PARENT => root,
                 p => models[usize::from(p)],
             };
@@ -323,22 +462,28 @@ impl PosePlan {
         }
     }
 
-    /// The skinning palette from [`PosePlan::models`]' output.
-    fn palette<T: Transform>(&self, m: &Matrices<T>, root: T, models: &[T], out: &mut [Mat4]) {
-        let n = self.parents.len().min(out.len());
-        for j in 0..n {
-            let parent = self.parents[j];
-            out[j] = match self.palette_op[j] {
-                PaletteOp::OwnModel => (models[j] * m.palette_rhs[j]).to_mat4(),
-                PaletteOp::ParentModel => {
-                    let left = match parent {
-                        NO_PARENT => root,
-                        p => models[usize::from(p)],
-                    };
-                    (left * m.palette_rhs[j]).to_mat4()
-                }
-                PaletteOp::CopyParent => out[usize::from(parent)],
-                PaletteOp::CopyRoot => root.to_mat4(),
+    /// The skinning palette from [`PosePlan::models`]' output: every entry of `out` that has a
+    /// joint (entries past `out`'s end are not made).
+    fn palette<T: Transform>(
+        &self,
+        schedule: &Schedule,
+        m: &Matrices<T>,
+        root: T,
+        models: &[T],
+        out: &mut [Mat4],
+    ) {
+        let n = out.len();
+        let placement = root.to_mat4();
+        for step in &schedule.palette {
+            let j = usize::from(step.joint);
+            if j >= n {
+                continue;
+            }
+            out[j] = match (step.product, step.left) {
+                (true, NO_PARENT) => (root * m.palette_rhs[j]).to_mat4(),
+                (true, p) => (models[usize::from(p)] * m.palette_rhs[j]).to_mat4(),
+                (false, NO_PARENT) => placement,
+                (false, p) => out[usize::from(p)],
             };
         }
     }
@@ -354,10 +499,17 @@ impl PosePlan {
             yaw: &[f32],
             out: &mut [Mat4],
         ) {
+            // The schedule from the plan's ops, as `PosePlan::new` builds it for the tick.
+            let schedule = Schedule::new(
+                &plan.parents,
+                &plan.yaw_slot,
+                &plan.needs_model,
+                &plan.palette_op,
+            );
             let mut models = vec![T::IDENTITY; plan.num_joints()];
             let root = T::placement(root, m.model_to_body);
-            plan.models(m, root, yaw, &mut models);
-            plan.palette(m, root, &models, out);
+            plan.models(&schedule, m, root, yaw, &mut models);
+            plan.palette(&schedule, m, root, &models, out);
         }
         match &self.matrices {
             PlanMatrices::Affine(m) => run(self, m, root, yaw, out),
@@ -479,13 +631,13 @@ fn leaf(
                     let s = &mut scratch.affine;
                     s.prepare(total, count);
                     s.roots[k] = Affine3A::placement(root, m.model_to_body);
-                    plan.models(m, s.roots[k], yaw, &mut s.models[range(i)]);
+                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[range(i)]);
                 }
                 PlanMatrices::General(m) => {
                     let s = &mut scratch.general;
                     s.prepare(total, count);
                     s.roots[k] = Mat4::placement(root, m.model_to_body);
-                    plan.models(m, s.roots[k], yaw, &mut s.models[range(i)]);
+                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[range(i)]);
                 }
             }
         }
@@ -496,11 +648,11 @@ fn leaf(
             match &plan.matrices {
                 PlanMatrices::Affine(m) => {
                     let s = &scratch.affine;
-                    plan.palette(m, s.roots[k], &s.models[range(i)], out);
+                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[range(i)], out);
                 }
                 PlanMatrices::General(m) => {
                     let s = &scratch.general;
-                    plan.palette(m, s.roots[k], &s.models[range(i)], out);
+                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[range(i)], out);
                 }
             }
         }
@@ -643,6 +795,41 @@ mod tests {
         assert!(!plan.is_affine());
         let worst = check_against_reference(&species, &plan);
         assert!(worst <= 1e-5, "relative error {worst}");
+    }
+
+    #[test]
+    fn a_bend_is_the_rigs_quaternion_rotation() {
+        // Rodrigues' form against T·normalize(R₀·q(a, θ))·S, for rest rotations that are not
+        // quite unit (as files store them) and any axis, scale and angle.
+        let mut rng = Pcg32::seed_from_u64(11);
+        let mut v = |lo: f32, hi: f32| {
+            Vec3::new(
+                rng.random_range(lo..hi),
+                rng.random_range(lo..hi),
+                rng.random_range(lo..hi),
+            )
+        };
+        for _ in 0..500 {
+            let (axis, r, scale, translation) = (
+                v(-1.0, 1.0).normalize(),
+                v(-1.0, 1.0),
+                v(0.5, 2.0),
+                v(-9.0, 9.0),
+            );
+            let rest = JointTransform {
+                translation,
+                rotation: Quat::from_scaled_axis(r) * 1.0001,
+                scale,
+            };
+            let bend = Bend::new(&rest, axis);
+            for angle in [-2.5f32, -0.6, -1e-4, 0.0, 3e-3, 0.4, 1.2, 3.1] {
+                let rotation = (rest.rotation * Quat::from_axis_angle(axis, angle)).normalize();
+                let want = Mat4::from_scale_rotation_translation(scale, rotation, translation);
+                let got: Mat4 = bend.local(angle);
+                // Entries up to 2 (the scale): a few of their ulps. The translation is copied.
+                assert!(got.abs_diff_eq(want, 2e-6), "{angle}: {got} vs {want}");
+            }
+        }
     }
 
     #[test]

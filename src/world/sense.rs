@@ -24,6 +24,11 @@ pub fn wrap_angle(a: f32) -> f32 {
     if !a.is_finite() {
         return 0.0;
     }
+    if a > -PI && a <= PI {
+        // Already there: itself, not (a + 2π) − 2π, which would round a negative angle (and
+        // call `fmodf`) every time.
+        return a;
+    }
     let mut w = a.rem_euclid(TAU); // [0, 2π)
     if w > PI {
         w -= TAU;
