@@ -435,10 +435,20 @@ impl ScriptHost {
         self.after_run(result, module, id, time_s)
     }
 
+    /// How long a behaviour call runs before it is metered: [`Limits::metered_after`] where the
+    /// watchdog can watch this state, else zero.
+    fn unmetered(&self) -> Duration {
+        if self.meter.watched() {
+            self.limits.metered_after
+        } else {
+            Duration::ZERO
+        }
+    }
+
     /// Runs a decision under the per-call budget; `None` if the module never loaded.
     fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
         let table = self.modules.get(module).and_then(|m| m.table.as_ref())?;
-        let unmetered = self.limits.metered_after;
+        let unmetered = self.unmetered();
         self.budget
             .arm_after(self.limits.instructions_per_call, unmetered);
         let _metered = self.meter.call(unmetered);
@@ -474,7 +484,7 @@ impl ScriptHost {
     /// Opens (`Some`) or closes (`None`) a behaviour stage on the Lua side of the API (see
     /// [`super::api::set_stage`]), under a fresh call budget.
     pub fn set_stage(&self, stage: Option<(f64, &crate::world::World)>) -> mlua::Result<()> {
-        let unmetered = self.limits.metered_after;
+        let unmetered = self.unmetered();
         self.budget
             .arm_after(self.limits.instructions_per_call, unmetered);
         let _metered = self.meter.call(unmetered);
