@@ -330,32 +330,6 @@ fn test_short_calls_run_without_the_hook() {
 }
 
 #[test]
-fn test_states_beyond_the_watch_slots_are_metered_from_the_start() {
-    // Only SLOTS states can be watched at once; the others meter every call from its first
-    // instruction (and say so). Either way a runaway stops.
-    let (_d, root) = scripts(&[(
-        "behaviors/spin.lua",
-        "return { tick = function(fish)\n  while true do end\nend }\n",
-    )]);
-    let mut hosts: Vec<ScriptHost> = (0..=shoal::script::watchdog::SLOTS)
-        .map(|_| host(&root))
-        .collect();
-    let exact =
-        "scripts/behaviors/spin.lua:2: instruction budget exceeded (200000 instructions per call)";
-    let watched = format!("scripts/behaviors/spin.lua:2: {DEFAULT_BUDGET}");
-    let mut metered_from_start = 0;
-    for h in &mut hosts {
-        let err = run_err(h, "spin");
-        if err == exact {
-            metered_from_start += 1;
-        } else {
-            assert_eq!(err, watched);
-        }
-    }
-    assert!(metered_from_start >= 1, "more states than slots");
-}
-
-#[test]
 fn test_pcall_cannot_swallow_the_budget() {
     let (_d, root) = scripts(&[(
         "behaviors/sneaky.lua",
