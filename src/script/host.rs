@@ -27,7 +27,7 @@ use mlua::{Function, Lua, LuaSerdeExt, Table, Value};
 use super::error::{ScriptError, describe};
 use super::log::{LogLevel, ScriptLog};
 use super::sandbox::{self, Abort, Budget, LOADED_KEY, Limits, ScriptRoot};
-use super::watchdog::Meter;
+use super::watchdog::{Meter, Metered};
 use crate::world::FishId;
 
 /// Registry key of the table of per-fish tables (fish index → fish table).
@@ -246,9 +246,8 @@ impl ScriptHost {
 
     fn compile_module(&self, path: &Path, display: &str) -> Result<Table, String> {
         let f = sandbox::load_file(&self.lua, path).map_err(|e| e.to_string())?;
-        self.budget.arm(self.limits.instructions_per_load);
         let v: Value = {
-            let _metered = self.meter.call(Duration::ZERO);
+            let _metered = self.begin_load();
             f.call(()).map_err(|e| self.after_error(&e))?
         };
         let Value::Table(t) = v else {
@@ -342,17 +341,27 @@ impl ScriptHost {
         species: &str,
         behavior: &str,
     ) -> Result<Table, ScriptError> {
-        let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
-        let slot = id.index as usize;
-        if let Some(Some((generation, t))) = self.table_cache.get(slot)
-            && *generation == id.generation
-        {
-            return Ok(t.clone());
+        self.ensure_fish_table(id, species, behavior)?;
+        self.cached_table(id)
+            .cloned()
+            .ok_or_else(|| ScriptError::Lua(format!("no table for fish {}", id.index)))
+    }
+
+    /// Makes sure the fish's table is in the cache (see [`ScriptHost::fish_table`]).
+    fn ensure_fish_table(
+        &mut self,
+        id: FishId,
+        species: &str,
+        behavior: &str,
+    ) -> Result<(), ScriptError> {
+        if self.cached_table(id).is_some() {
+            return Ok(());
         }
         if let Some(t) = self.existing_fish_table(id) {
-            self.cache_table(id, &t);
-            return Ok(t);
+            self.cache_table(id, t);
+            return Ok(());
         }
+        let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
         let t = self.lua.create_table().map_err(err)?;
         t.raw_set("id", id.index).map_err(err)?;
         t.raw_set("generation", id.generation).map_err(err)?;
@@ -361,16 +370,24 @@ impl ScriptHost {
         t.raw_set("memory", self.lua.create_table().map_err(err)?)
             .map_err(err)?;
         self.fish_tables.raw_set(id.index, &t).map_err(err)?;
-        self.cache_table(id, &t);
-        Ok(t)
+        self.cache_table(id, t);
+        Ok(())
     }
 
-    fn cache_table(&mut self, id: FishId, t: &Table) {
+    /// The cached handle on the fish's table, if it belongs to this generation of the slot.
+    fn cached_table(&self, id: FishId) -> Option<&Table> {
+        match self.table_cache.get(id.index as usize) {
+            Some(Some((generation, t))) if *generation == id.generation => Some(t),
+            _ => None,
+        }
+    }
+
+    fn cache_table(&mut self, id: FishId, t: Table) {
         let slot = id.index as usize;
         if self.table_cache.len() <= slot {
             self.table_cache.resize(slot + 1, None);
         }
-        self.table_cache[slot] = Some((id.generation, t.clone()));
+        self.table_cache[slot] = Some((id.generation, t));
     }
 
     /// The fish's table if it has run (or been created) already.
@@ -411,7 +428,8 @@ impl ScriptHost {
     }
 
     /// [`ScriptHost::run`] for the fish's own table, created (from its species and behaviour
-    /// names) if it has none yet. An error making the table is logged and returned too.
+    /// names) if it has none yet, and passed by reference (no handle cloned per decision). An
+    /// error making the table is logged and returned too.
     pub fn run_fish(
         &mut self,
         module: ModuleIndex,
@@ -420,13 +438,12 @@ impl ScriptHost {
         behavior: &str,
         time_s: f64,
     ) -> Result<(), String> {
-        if let Err(e) = self.fish_table(id, species, behavior) {
+        if let Err(e) = self.ensure_fish_table(id, species, behavior) {
             let msg = e.to_string();
             self.log(LogLevel::Error, &msg, Some(id), time_s);
             return Err(msg);
         }
-        let cached = self.table_cache.get(id.index as usize);
-        let Some(Some((_, fish))) = cached else {
+        let Some(fish) = self.cached_table(id) else {
             return Ok(());
         };
         let Some(result) = self.call_driver(module, fish) else {
@@ -435,23 +452,29 @@ impl ScriptHost {
         self.after_run(result, module, id, time_s)
     }
 
-    /// How long a behaviour call runs before it is metered: [`Limits::metered_after`] where the
-    /// watchdog can watch this state, else zero.
-    fn unmetered(&self) -> Duration {
-        if self.meter.watched() {
+    /// Arms the per-call budget for a behaviour call, unmetered for [`Limits::metered_after`]
+    /// where the watchdog can watch this state; the call is metered while the guard lives.
+    fn begin_call(&self) -> Metered<'_> {
+        let unmetered = if self.meter.watched() {
             self.limits.metered_after
         } else {
             Duration::ZERO
-        }
+        };
+        self.budget
+            .arm_after(self.limits.instructions_per_call, unmetered);
+        self.meter.call(unmetered)
+    }
+
+    /// Arms the per-load budget, counted from the first instruction, while the guard lives.
+    fn begin_load(&self) -> Metered<'_> {
+        self.budget.arm(self.limits.instructions_per_load);
+        self.meter.call(Duration::ZERO)
     }
 
     /// Runs a decision under the per-call budget; `None` if the module never loaded.
     fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
         let table = self.modules.get(module).and_then(|m| m.table.as_ref())?;
-        let unmetered = self.unmetered();
-        self.budget
-            .arm_after(self.limits.instructions_per_call, unmetered);
-        let _metered = self.meter.call(unmetered);
+        let _metered = self.begin_call();
         Some(self.driver.call::<()>((table, fish)))
     }
 
@@ -484,10 +507,7 @@ impl ScriptHost {
     /// Opens (`Some`) or closes (`None`) a behaviour stage on the Lua side of the API (see
     /// [`super::api::set_stage`]), under a fresh call budget.
     pub fn set_stage(&self, stage: Option<(f64, &crate::world::World)>) -> mlua::Result<()> {
-        let unmetered = self.unmetered();
-        self.budget
-            .arm_after(self.limits.instructions_per_call, unmetered);
-        let _metered = self.meter.call(unmetered);
+        let _metered = self.begin_call();
         super::api::set_stage(&self.lua, stage)
     }
 
@@ -519,9 +539,8 @@ impl ScriptHost {
             .set_environment(env)
             .into_function()
             .map_err(|e| describe(&e))?;
-        self.budget.arm(self.limits.instructions_per_load);
         let v: Value = {
-            let _metered = self.meter.call(Duration::ZERO);
+            let _metered = self.begin_load();
             f.call(()).map_err(|e| self.after_error(&e))?
         };
         Ok(value_to_json(&v, 0))
@@ -531,8 +550,7 @@ impl ScriptHost {
     /// budget and returns its value.
     pub fn load_data_file(&self, path: &Path) -> Result<Value, ScriptError> {
         let f = sandbox::load_file(&self.lua, path)?;
-        self.budget.arm(self.limits.instructions_per_load);
-        let _metered = self.meter.call(Duration::ZERO);
+        let _metered = self.begin_load();
         f.call::<Value>(())
             .map_err(|e| ScriptError::Lua(self.after_error(&e)))
     }
