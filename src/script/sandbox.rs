@@ -76,8 +76,8 @@ pub struct Budget {
     remaining: AtomicI64,
     /// The budget the current call started with (for the message).
     granted: AtomicU64,
-    /// Microseconds the current call ran before it was metered (0: from the start; for the
-    /// message).
+    /// How long the current call runs before it is metered, microseconds (0: counted from its
+    /// first instruction; for the message).
     unmetered_us: AtomicU64,
     /// Set when the hook stopped the call; `pcall` rethrows while it is set
     /// (0: running, 1: [`Abort::Budget`], 2: [`Abort::Memory`]).
