@@ -10,7 +10,7 @@ fn main() -> std::process::ExitCode {
     match shoal::cli::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", shoal::cli::error_chain(&err));
             std::process::ExitCode::FAILURE
         }
     }

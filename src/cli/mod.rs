@@ -42,6 +42,93 @@ pub enum Command {
     Bench(bench::Args),
 }
 
+/// `--scripts DIR` (or `SHOAL_SCRIPTS`): where behaviours, species and scenes come from.
+#[derive(Debug, Default, Clone, clap::Args)]
+pub struct ScriptsArg {
+    /// Scripts directory (behaviors/, species/, scenes/). Default: ./scripts when the working
+    /// directory has one, else the scripts of the source tree shoal was built from.
+    #[arg(long, value_name = "DIR", env = "SHOAL_SCRIPTS")]
+    pub scripts: Option<std::path::PathBuf>,
+}
+
+/// Where the scripts come from, and the root the assets are found under.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScriptSource {
+    /// The repository root (`assets/` lives here).
+    pub root: std::path::PathBuf,
+    /// The scripts directory.
+    pub scripts: std::path::PathBuf,
+    /// Why this directory: "--scripts", "./scripts", "the source tree".
+    pub why: &'static str,
+}
+
+impl std::fmt::Display for ScriptSource {
+    /// `scripts: /path/to/scripts (from --scripts or SHOAL_SCRIPTS)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "scripts: {} ({})", self.scripts.display(), self.why)
+    }
+}
+
+impl ScriptsArg {
+    /// Resolves the scripts directory: `--scripts`/`SHOAL_SCRIPTS`, else `./scripts`, else the
+    /// source tree's. An explicit directory that does not exist is an error.
+    pub fn resolve(&self) -> anyhow::Result<ScriptSource> {
+        let built = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        let cwd = std::env::current_dir().unwrap_or_else(|_| ".".into());
+        if let Some(dir) = &self.scripts {
+            if !dir.is_dir() {
+                anyhow::bail!(
+                    "--scripts {}: no such directory (it should hold behaviors/, species/ and \
+                     scenes/)",
+                    dir.display()
+                );
+            }
+            let dir = dir.canonicalize().unwrap_or_else(|_| dir.clone());
+            // Assets beside the scripts when there are some, else the working directory's, else
+            // the source tree's.
+            let root = [
+                dir.parent().map(std::path::Path::to_path_buf),
+                Some(cwd.clone()),
+            ]
+            .into_iter()
+            .flatten()
+            .find(|r| r.join("assets").is_dir())
+            .unwrap_or(built);
+            return Ok(ScriptSource {
+                root,
+                scripts: dir,
+                why: "from --scripts or SHOAL_SCRIPTS",
+            });
+        }
+        if cwd.join("scripts").is_dir() {
+            return Ok(ScriptSource {
+                scripts: cwd.join("scripts"),
+                root: cwd,
+                why: "the working directory's scripts/",
+            });
+        }
+        Ok(ScriptSource {
+            scripts: built.join("scripts"),
+            root: built,
+            why: "the source tree shoal was built from; choose with --scripts DIR or SHOAL_SCRIPTS",
+        })
+    }
+}
+
+/// An error and its causes on one line, `context: cause: cause`, leaving out a cause whose text
+/// the line already holds (errors that print their source in their own message).
+pub fn error_chain(err: &anyhow::Error) -> String {
+    let mut line = err.to_string();
+    for cause in err.chain().skip(1) {
+        let text = cause.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
 /// Runs the parsed command line and returns the process exit code.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
@@ -54,5 +141,24 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Asset(args)) => asset::run(args),
         Some(Command::Test(args)) => test::run(args),
         Some(Command::Bench(args)) => bench::run(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_chain_names_each_cause_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "scene file not found");
+        let err = anyhow::Error::new(crate::script::ScriptError::Io {
+            path: "x.lua".into(),
+            source: io,
+        })
+        .context("loading scene `x.lua`");
+        assert_eq!(
+            error_chain(&err),
+            "loading scene `x.lua`: cannot read x.lua: scene file not found"
+        );
     }
 }

@@ -64,6 +64,32 @@ struct Module {
     path: PathBuf,
     /// The module table of the last good load; `None` if it never loaded.
     table: Option<Table>,
+    /// Failed calls since the last call that succeeded.
+    failures_in_a_row: u32,
+    /// Calls stopped by the instruction budget or the memory limit since the module loaded.
+    limit_hits: u32,
+    /// Why the module is switched off, once it is; cleared when its file loads again.
+    quarantined: Option<String>,
+}
+
+/// Failed calls in a row (no call of the module succeeding in between) after which a behaviour
+/// is switched off until its file is saved.
+pub const QUARANTINE_AFTER_FAILURES: u32 = 5;
+/// Calls stopped by the instruction budget or the memory limit after which a behaviour is
+/// switched off until its file is saved: each such call costs the tick a whole budget.
+pub const QUARANTINE_AFTER_LIMIT_HITS: u32 = 3;
+
+impl Module {
+    fn new(name: &str, path: PathBuf) -> Self {
+        Self {
+            name: name.to_owned(),
+            path,
+            table: None,
+            failures_in_a_row: 0,
+            limit_hits: 0,
+            quarantined: None,
+        }
+    }
 }
 
 /// What a reload did.
@@ -98,6 +124,9 @@ pub struct ScriptHost {
     fish_errors: HashMap<u32, String>,
     /// Every distinct error message, in order, for tests and `shoal test`.
     error_history: Vec<String>,
+    /// The scene's `params` of each fish that has some, by slot index with the generation they
+    /// belong to; copied into the fish's table as `fish.params` when the table is made.
+    fish_params: HashMap<u32, (u32, Arc<serde_json::Value>)>,
 }
 
 impl ScriptHost {
@@ -128,6 +157,7 @@ impl ScriptHost {
             load_errors: BTreeMap::new(),
             fish_errors: HashMap::new(),
             error_history: Vec::new(),
+            fish_params: HashMap::new(),
         })
     }
 
@@ -198,20 +228,15 @@ impl ScriptHost {
                 self.log(LogLevel::Error, &msg, None, time_s);
                 self.load_errors.insert(format!("behaviors/{name}"), msg);
                 self.by_name.insert(name.to_owned(), i);
-                self.modules.push(Module {
-                    name: name.to_owned(),
-                    path: self.root.dir.join("behaviors").join(format!("{name}.lua")),
-                    table: None,
-                });
+                self.modules.push(Module::new(
+                    name,
+                    self.root.dir.join("behaviors").join(format!("{name}.lua")),
+                ));
                 return None;
             }
         };
         self.by_name.insert(name.to_owned(), i);
-        self.modules.push(Module {
-            name: name.to_owned(),
-            path,
-            table: None,
-        });
+        self.modules.push(Module::new(name, path));
         self.load_module(i, time_s);
         self.modules[i].table.is_some().then_some(i)
     }
@@ -222,7 +247,18 @@ impl ScriptHost {
         let display = self.root.display_of(&path);
         match self.compile_module(&path, &display) {
             Ok(t) => {
-                self.modules[i].table = Some(t);
+                let m = &mut self.modules[i];
+                m.table = Some(t);
+                m.failures_in_a_row = 0;
+                m.limit_hits = 0;
+                if m.quarantined.take().is_some() {
+                    self.log(
+                        LogLevel::Info,
+                        &format!("{display}: saved — the behaviour runs again"),
+                        None,
+                        time_s,
+                    );
+                }
                 if self.load_errors.remove(&display).is_some() {
                     self.log(
                         LogLevel::Info,
@@ -369,9 +405,22 @@ impl ScriptHost {
         t.raw_set("behavior", behavior).map_err(err)?;
         t.raw_set("memory", self.lua.create_table().map_err(err)?)
             .map_err(err)?;
+        let params = match self.fish_params.get(&id.index) {
+            Some((generation, v)) if *generation == id.generation => {
+                self.lua.to_value(&**v).map_err(err)?
+            }
+            _ => Value::Table(self.lua.create_table().map_err(err)?),
+        };
+        t.raw_set("params", params).map_err(err)?;
         self.fish_tables.raw_set(id.index, &t).map_err(err)?;
         self.cache_table(id, t);
         Ok(())
+    }
+
+    /// Sets the data a fish finds in `fish.params` (from its scene group); it applies when the
+    /// fish's table is made, so call it before the fish first decides.
+    pub fn set_params(&mut self, id: FishId, params: Arc<serde_json::Value>) {
+        self.fish_params.insert(id.index, (id.generation, params));
     }
 
     /// The cached handle on the fish's table, if it belongs to this generation of the slot.
@@ -409,6 +458,7 @@ impl ScriptHost {
             *c = None;
         }
         self.fish_errors.remove(&id.index);
+        self.fish_params.remove(&id.index);
     }
 
     /// Runs one decision of module `module` for the fish whose table is `fish`, within the
@@ -473,7 +523,11 @@ impl ScriptHost {
 
     /// Runs a decision under the per-call budget; `None` if the module never loaded.
     fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
-        let table = self.modules.get(module).and_then(|m| m.table.as_ref())?;
+        let m = self.modules.get(module)?;
+        if m.quarantined.is_some() {
+            return None;
+        }
+        let table = m.table.as_ref()?;
         let _metered = self.begin_call();
         Some(self.driver.call::<()>((table, fish)))
     }
@@ -487,8 +541,15 @@ impl ScriptHost {
         time_s: f64,
     ) -> Result<(), String> {
         match result {
-            Ok(()) => Ok(()),
+            Ok(()) => {
+                if let Some(m) = self.modules.get_mut(module) {
+                    m.failures_in_a_row = 0;
+                }
+                Ok(())
+            }
             Err(e) => {
+                let limit_hit =
+                    matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted().is_some();
                 let mut msg = self.after_error(&e);
                 if !super::error::has_location(&msg) && !msg.starts_with(&self.root.display) {
                     // Errors without a position (out of memory) at least name the file.
@@ -499,9 +560,52 @@ impl ScriptHost {
                 if self.fish_errors.get(&id.index) != Some(&msg) {
                     self.fish_errors.insert(id.index, msg.clone());
                 }
+                self.strike(module, limit_hit, time_s);
                 Err(msg)
             }
         }
+    }
+
+    /// Counts a failed call of `module`; past [`QUARANTINE_AFTER_FAILURES`] failures in a row or
+    /// [`QUARANTINE_AFTER_LIMIT_HITS`] budget or memory stops, switches the module off (its fish
+    /// keep their last motion) until its file is saved, and says so in the console.
+    fn strike(&mut self, module: ModuleIndex, limit_hit: bool, time_s: f64) {
+        let Some(m) = self.modules.get_mut(module) else {
+            return;
+        };
+        m.failures_in_a_row += 1;
+        m.limit_hits += u32::from(limit_hit);
+        let why = if m.limit_hits >= QUARANTINE_AFTER_LIMIT_HITS {
+            format!(
+                "{} calls stopped by its instruction budget or memory limit",
+                m.limit_hits
+            )
+        } else if m.failures_in_a_row >= QUARANTINE_AFTER_FAILURES {
+            format!("{} failed calls in a row", m.failures_in_a_row)
+        } else {
+            return;
+        };
+        let display = self.root.display_of(&m.path);
+        let msg = format!(
+            "{display}: behaviour '{}' switched off after {why}; its fish keep their last motion \
+             until the file is saved",
+            m.name
+        );
+        m.quarantined = Some(why);
+        self.log(LogLevel::Error, &msg, None, time_s);
+    }
+
+    /// True when module `module` is switched off (see [`ScriptHost::quarantine_of`]).
+    pub fn is_switched_off(&self, module: ModuleIndex) -> bool {
+        self.modules
+            .get(module)
+            .is_some_and(|m| m.quarantined.is_some())
+    }
+
+    /// Why behaviour module `name` is switched off (see [`ScriptHost::run`]), if it is.
+    pub fn quarantine_of(&self, name: &str) -> Option<&str> {
+        let &i = self.by_name.get(name)?;
+        self.modules[i].quarantined.as_deref()
     }
 
     /// Opens (`Some`) or closes (`None`) a behaviour stage on the Lua side of the API (see

@@ -151,7 +151,10 @@ impl ScriptRoot {
 
     /// The name a file under the root is shown by: `scripts/behaviors/forage.lua`.
     pub fn display_of(&self, path: &Path) -> String {
-        let rel = path.strip_prefix(&self.dir).unwrap_or(path);
+        // A file outside the root (a scene given by absolute path) is shown as it was given.
+        let Ok(rel) = path.strip_prefix(&self.dir) else {
+            return path.display().to_string();
+        };
         let mut s = self.display.clone();
         for c in rel.components() {
             s.push('/');
@@ -306,8 +309,14 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
                 }
                 text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
             }
+            // The deciding fish and the world's time, when a behaviour stage is running.
+            let (fish, time_s) = lua
+                .app_data_ref::<super::api::Ctx>()
+                .map_or((None, 0.0), |c| {
+                    (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
+                });
             if let Some(mut log) = lua.app_data_mut::<ScriptLog>() {
-                log.push(LogLevel::Info, &text, None, 0.0);
+                log.push(LogLevel::Info, &text, fish, time_s);
             }
             Ok(())
         })?,

@@ -68,6 +68,27 @@ pub enum ReloadEvent {
     Failed(String),
 }
 
+impl std::fmt::Display for ReloadEvent {
+    /// One console line: what was reloaded, or the load error (`file:line: message`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Behaviors(names) => write!(f, "reloaded behaviour {}", names.join(", ")),
+            Self::Species(name) => write!(f, "reloaded species {name}: its fish use it now"),
+            Self::SceneChanged => {
+                write!(f, "the scene file changed: restart the scene to apply it")
+            }
+            Self::Failed(msg) => {
+                // The error itself is logged on its own line; name the file here.
+                let file = msg.split(':').next().unwrap_or(msg);
+                write!(
+                    f,
+                    "{file}: reload failed, the last good version keeps running"
+                )
+            }
+        }
+    }
+}
+
 /// A decision due this tick, in the lane of its fish.
 struct Due {
     id: FishId,
@@ -175,6 +196,10 @@ impl Lane {
                 let Some(module) = module_for(module_of, host, behavior, time_s) else {
                     continue;
                 };
+                if host.is_switched_off(module) {
+                    // Quarantined: the fish keeps its last motion, at no cost.
+                    continue;
+                }
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     c.fish = Some(d.id);
                     c.percepts_of = None;
@@ -234,6 +259,8 @@ pub struct Simulation {
     /// Script lanes; lane 0 also reads data files and reports load errors.
     lanes: Vec<Lane>,
     scripts_dir: PathBuf,
+    /// The repository root the assets are found under.
+    root: PathBuf,
     assets_dir: PathBuf,
     scene_path: Option<PathBuf>,
     scene: Option<SceneDesc>,
@@ -244,6 +271,8 @@ pub struct Simulation {
     watcher: Option<ScriptWatcher>,
     scene_changed: bool,
     reload_events: Vec<ReloadEvent>,
+    /// Each fish's `fish.params` from its scene group (only fish that have some).
+    fish_params: std::collections::HashMap<FishId, Arc<serde_json::Value>>,
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
@@ -255,7 +284,19 @@ impl Simulation {
     /// `root/scripts/`, or absolute), seeded with `seed`. Scripts come from `root/scripts/`,
     /// species assets from `root/assets/` (or the scene's `assets`).
     pub fn from_scene(root: &Path, scene: &Path, seed: u64) -> Result<Self, ScriptError> {
-        let scripts_dir = root.join("scripts");
+        Self::from_scene_with_scripts(root, &root.join("scripts"), scene, seed)
+    }
+
+    /// Like [`Simulation::from_scene`], with the scripts (behaviours, species, scenes) from
+    /// `scripts_dir` instead of `root/scripts/` (`--scripts DIR`); assets still come from `root`.
+    /// `scene` may also be relative to `scripts_dir` or to `scripts_dir/scenes/`.
+    pub fn from_scene_with_scripts(
+        root: &Path,
+        scripts_dir: &Path,
+        scene: &Path,
+        seed: u64,
+    ) -> Result<Self, ScriptError> {
+        let scripts_dir = scripts_dir.to_path_buf();
         let path = [
             scene.to_path_buf(),
             root.join(scene),
@@ -337,7 +378,20 @@ impl Simulation {
             .map(|_| Lane::new(&self.scripts_dir, limits))
             .collect::<Result<Vec<_>, _>>()?;
         self.lanes = lanes;
+        for (&id, params) in &self.fish_params {
+            let lane = lane_index(id, n);
+            self.lanes[lane].host.set_params(id, Arc::clone(params));
+        }
         Ok(())
+    }
+
+    /// Gives fish `id` the table `params` as `fish.params` (a scene group's `params`); it
+    /// applies when the fish first decides.
+    pub fn set_params(&mut self, id: FishId, params: serde_json::Value) {
+        let params = Arc::new(params);
+        let lane = lane_index(id, self.lanes.len());
+        self.lanes[lane].host.set_params(id, Arc::clone(&params));
+        self.fish_params.insert(id, params);
     }
 
     /// The lane fish `id` decides in.
@@ -360,7 +414,7 @@ impl Simulation {
         desc: &SceneDesc,
         seed: u64,
     ) -> Result<Self, ScriptError> {
-        let scripts_dir = root.join("scripts");
+        let scripts_dir = host.root().dir.clone();
         let limits = host.limits();
         let mut lanes = vec![Lane::with_host(host)?];
         for _ in 1..default_lanes() {
@@ -375,6 +429,7 @@ impl Simulation {
         Ok(Self {
             world: Arc::new(World::new(tank, seed)),
             scripts_dir,
+            root: root.to_path_buf(),
             lanes,
             assets_dir,
             scene_path: None,
@@ -386,6 +441,7 @@ impl Simulation {
             watcher: None,
             scene_changed: false,
             reload_events: Vec::new(),
+            fish_params: std::collections::HashMap::new(),
         })
     }
 
@@ -438,7 +494,7 @@ impl Simulation {
                         .random_range(-std::f32::consts::PI..std::f32::consts::PI),
                 };
                 let seed = self.rng.random::<u64>();
-                wm(&mut self.world)
+                let id = wm(&mut self.world)
                     .spawn(SpawnParams {
                         species: sid,
                         pos,
@@ -449,9 +505,16 @@ impl Simulation {
                         seed,
                     })
                     .map_err(|source| ScriptError::World {
-                        context: format!("{display}: fish group {} (#{k})", g + 1),
+                        context: format!(
+                            "{display}: fish[{}] (fish {} of the group)",
+                            g + 1,
+                            k + 1
+                        ),
                         source,
                     })?;
+                if let Some(params) = &group.params {
+                    self.set_params(id, params.clone());
+                }
             }
         }
         for f in &desc.food {
@@ -574,6 +637,7 @@ impl Simulation {
     pub fn despawn(&mut self, id: FishId) -> bool {
         let lane = lane_index(id, self.lanes.len());
         self.lanes[lane].host.forget_fish(id);
+        self.fish_params.remove(&id);
         wm(&mut self.world).despawn(id)
     }
 
@@ -726,10 +790,15 @@ impl Simulation {
         if let Some(s) = sid {
             out.push(("species".into(), w.species(s).desc.name.clone()));
         }
-        out.push((
-            "behavior".into(),
-            w.behavior_of(id).unwrap_or("(none)").to_owned(),
-        ));
+        let host = &self.lane_of(id).host;
+        let behavior = match w.behavior_of(id) {
+            Some(name) => match host.quarantine_of(name) {
+                Some(why) => format!("{name} — switched off after {why}; save the file to retry"),
+                None => name.to_owned(),
+            },
+            None => "(none)".to_owned(),
+        };
+        out.push(("behavior".into(), behavior));
         out.push((
             "motion".into(),
             format!(
@@ -751,7 +820,6 @@ impl Simulation {
             "depth".into(),
             format!("{:.1}", w.tank().depth_of(root.pos.y)),
         ));
-        let host = &self.lane_of(id).host;
         if let Some(t) = host.existing_fish_table(id) {
             let intention: Value = t.raw_get("intention").unwrap_or(Value::Nil);
             out.push(("intention".into(), short(&intention)));
@@ -772,25 +840,44 @@ impl Simulation {
         out
     }
 
+    /// Behaviours switched off after repeated failures (see [`ScriptHost::quarantine_of`]), with
+    /// why, in any lane.
+    pub fn switched_off(&self) -> Vec<(String, String)> {
+        let mut out: Vec<(String, String)> = Vec::new();
+        for lane in &self.lanes {
+            for (name, _) in &lane.module_of {
+                if let Some(why) = lane.host.quarantine_of(name)
+                    && !out.iter().any(|(n, _)| n == name)
+                {
+                    out.push((name.clone(), why.to_owned()));
+                }
+            }
+        }
+        out
+    }
+
     /// A fish's memory table as JSON.
     pub fn memory_json(&self, id: FishId) -> serde_json::Value {
         self.lane_of(id).host.memory_json(id)
     }
 
-    /// Console entries logged since the last call (each distinct message once), from every
-    /// lane, oldest first. A message every lane logged (a file failing to load) appears once.
+    /// Console entries logged since the last call, from every lane, oldest first: each distinct
+    /// error once (an error every lane logged — a file failing to load, a runaway behaviour that
+    /// fish of two lanes run — appears once, with the first fish), and every print.
     pub fn drain_log(&mut self) -> Vec<LogEntry> {
         let mut all: Vec<LogEntry> = Vec::new();
         for lane in &mut self.lanes {
             for e in lane.host.drain_log() {
-                let seen = all
-                    .iter()
-                    .any(|a| a.fish.is_none() && e.fish.is_none() && a.message == e.message);
+                let seen = e.level == LogLevel::Error
+                    && all
+                        .iter()
+                        .any(|a| a.level == LogLevel::Error && a.message == e.message);
                 if !seen {
                     all.push(e);
                 }
             }
         }
+        // Stable: a lane's entries of one tick keep their order.
         all.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
         all
     }
@@ -948,12 +1035,8 @@ impl Simulation {
         let Some(scene) = self.scene_path.clone() else {
             return Ok(());
         };
-        let root = self
-            .scripts_dir
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        let mut fresh = Self::from_scene(&root, &scene, self.seed)?;
+        let mut fresh =
+            Self::from_scene_with_scripts(&self.root, &self.scripts_dir, &scene, self.seed)?;
         if fresh.lanes.len() != self.lanes.len() {
             fresh.set_lanes(self.lanes.len())?;
         }
@@ -986,9 +1069,77 @@ fn read_lua_file(host: &ScriptHost, path: &Path) -> Result<Value, ScriptError> {
 
 fn read_scene(host: &ScriptHost, path: &Path, display: &str) -> Result<SceneDesc, ScriptError> {
     let v = read_lua_file(host, path)?;
-    host.from_lua(v).map_err(|e| ScriptError::Data {
+    let desc: SceneDesc = super::scene::from_lua_value(v, display).map_err(ScriptError::Invalid)?;
+    super::scene::validate_scene(&desc).map_err(|why| ScriptError::Data {
         file: display.to_owned(),
-        why: describe(&e),
+        why,
+    })?;
+    // Names that must exist: each group's species and behaviour.
+    for (g, group) in desc.fish.iter().enumerate() {
+        check_name(
+            host,
+            "species",
+            &group.species,
+            display,
+            &format!("fish[{}].species", g + 1),
+        )?;
+        if let Some(b) = &group.behavior {
+            check_name(
+                host,
+                "behaviors",
+                b,
+                display,
+                &format!("fish[{}].behavior", g + 1),
+            )?;
+        }
+    }
+    for (i, s) in desc.species.iter().enumerate() {
+        check_name(host, "species", s, display, &format!("species[{}]", i + 1))?;
+    }
+    Ok(desc)
+}
+
+/// The `.lua` files of `scripts/<dir>/`, by name without the extension, sorted.
+pub(crate) fn script_names(host: &ScriptHost, dir: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(host.root().dir.join(dir))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let p = e.path();
+            (p.extension().is_some_and(|x| x == "lua") && p.is_file())
+                .then(|| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+                .flatten()
+        })
+        .collect();
+    names.sort();
+    names
+}
+
+/// An error naming `field` of the scene `display` when `scripts/<dir>/<name>.lua` does not exist,
+/// with the closest existing name.
+fn check_name(
+    host: &ScriptHost,
+    dir: &str,
+    name: &str,
+    display: &str,
+    field: &str,
+) -> Result<(), ScriptError> {
+    if host.root().resolve_module(&format!("{dir}/{name}")).is_ok() {
+        return Ok(());
+    }
+    let what = if dir == "behaviors" {
+        "behaviour"
+    } else {
+        "species"
+    };
+    let known = script_names(host, dir);
+    Err(ScriptError::Data {
+        file: display.to_owned(),
+        why: format!(
+            "{field}: {} — there is no scripts/{dir}/{name}.lua",
+            super::scene::unknown_name(what, name, &known)
+        ),
     })
 }
 
