@@ -61,15 +61,7 @@ pub fn run_window(scene: Box<dyn SceneDriver>, options: AppOptions) -> Result<u6
     }
     let event_loop = EventLoop::new().map_err(|e| AppError::NoDisplay(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let camera = scene.default_camera();
-    let mut scene = scene;
-    let mut ui = UiState::new(camera);
-    ui.toggles = options.overlays;
-    if let Some(fish) = options.select.filter(|&f| f < scene.num_fish()) {
-        ui.selected = Some(fish);
-        ui.follow = true;
-        scene.set_selected(Some(fish));
-    }
+    let Aquarium { scene, ui } = Aquarium::new(scene, options);
     let mut app = App {
         scene,
         options,
@@ -85,6 +77,99 @@ pub fn run_window(scene: Box<dyn SceneDriver>, options: AppOptions) -> Result<u6
         return Err(err);
     }
     Ok(app.presented)
+}
+
+/// The aquarium's panel and view logic without a window: the same panel, pointer routing, fish
+/// picking and simulation advance that `shoal run` uses every frame, driven by UI tests
+/// (`egui_kittest`) or any other host.
+pub struct Aquarium {
+    /// The simulation being shown.
+    pub scene: Box<dyn SceneDriver>,
+    ui: UiState,
+}
+
+impl Aquarium {
+    /// Wraps `scene`, with `options.select` selected (and followed) and `options.overlays` on.
+    pub fn new(mut scene: Box<dyn SceneDriver>, options: AppOptions) -> Self {
+        let mut ui = UiState::new(scene.default_camera());
+        ui.toggles = options.overlays;
+        if let Some(fish) = options.select.filter(|&f| f < scene.num_fish()) {
+            ui.selected = Some(fish);
+            ui.follow = true;
+            ui.species = scene.species_of(fish).unwrap_or(0);
+            scene.set_selected(Some(fish));
+        }
+        Self { scene, ui }
+    }
+
+    /// Draws the tuning panel into `ui` (inspector and plot as of the last [`Aquarium::advance`]).
+    pub fn panel(&mut self, ui: &mut egui::Ui) {
+        panel(ui, &mut *self.scene, &mut self.ui);
+    }
+
+    /// One frame's simulation: `frame_dt_s` of real time at the panel's speed (or one tick
+    /// after "step", or nothing while paused), then the console, inspector, plot and overlays.
+    pub fn advance(&mut self, frame_dt_s: f32) {
+        advance(&mut *self.scene, &mut self.ui, frame_dt_s);
+        refresh_views(&*self.scene, &mut self.ui);
+    }
+
+    /// A left click at `at` (physical pixels in a `size` view); `over_ui` when the panel is
+    /// under the pointer, as the window decides it. Picks a fish only in the view.
+    pub fn click(&mut self, at: Vec2, size: Vec2, over_ui: bool) {
+        self.ui.pointer.moved(at);
+        self.ui.pointer.pressed(MouseButton::Left, over_ui);
+        if let Some(at) = self.ui.pointer.released(MouseButton::Left) {
+            select_at(&mut *self.scene, &mut self.ui, at, size);
+        }
+    }
+
+    /// The selected fish.
+    pub fn selected(&self) -> Option<usize> {
+        self.ui.selected
+    }
+    /// Whether the camera follows the selected fish.
+    pub fn following(&self) -> bool {
+        self.ui.follow
+    }
+    /// Whether time is paused.
+    pub fn paused(&self) -> bool {
+        self.ui.paused
+    }
+    /// The overlays shown.
+    pub fn overlays(&self) -> OverlayToggles {
+        self.ui.toggles
+    }
+    /// The overlay segments of the last [`Aquarium::advance`].
+    pub fn overlay_lines(&self) -> &[OverlayLine] {
+        &self.ui.overlay
+    }
+    /// The camera.
+    pub fn camera(&self) -> Camera {
+        self.ui.camera
+    }
+    /// The console's lines, oldest first.
+    pub fn console(&self) -> impl Iterator<Item = &str> {
+        self.ui.log.iter().map(String::as_str)
+    }
+}
+
+/// The per-frame views of the simulation: camera follow, overlay segments, and the selected
+/// fish's body wave and inspector.
+fn refresh_views(scene: &dyn SceneDriver, ui: &mut UiState) {
+    if ui.follow
+        && let Some(info) = ui.selected.and_then(|i| scene.fish_info(i))
+    {
+        ui.camera.target = ui.camera.target.lerp(info.center, 0.15);
+    }
+    ui.overlay.clear();
+    if ui.toggles.any() {
+        scene.overlay_lines(ui.toggles, &mut ui.overlay);
+    }
+    if let Some(i) = ui.selected {
+        scene.body_wave(i, &mut ui.wave);
+        scene.inspect(i, &mut ui.inspect);
+    }
 }
 
 struct WindowState {
@@ -122,15 +207,22 @@ struct UiState {
     times: VecDeque<FrameTimes>,
     /// The renderer's counts of the frame being drawn (fish drawn, culled, triangles …).
     render_counts: RenderTimings,
-    cursor: Vec2,
-    press: Option<(MouseButton, Vec2)>,
-    dragged: bool,
+    pointer: Pointer,
     last_frame: Instant,
+    /// Simulated and real seconds of the last frames, for the "behind real time" warning.
+    pace: VecDeque<(f32, f32)>,
     watcher: Option<ShaderWatcher>,
     shader_error: Option<String>,
     scratch_log: Vec<String>,
     /// Set by the panel's "restart scene" button; handled at the start of the next frame.
     restart_requested: bool,
+    /// `SHOAL_UI_TRACE` is set: console lines, selection changes and the panel's button
+    /// rectangles are also printed on stdout, so an end-to-end test can click by label.
+    trace: bool,
+    /// The last line printed for each traced button.
+    traced: Vec<(String, String)>,
+    /// The panel's rectangle in the last frame, physical pixels.
+    panel_rect_px: Option<egui::Rect>,
 }
 
 impl UiState {
@@ -151,18 +243,46 @@ impl UiState {
             inspect: Vec::new(),
             times: VecDeque::new(),
             render_counts: RenderTimings::default(),
-            cursor: Vec2::ZERO,
-            press: None,
-            dragged: false,
+            pointer: Pointer::default(),
             last_frame: Instant::now(),
+            pace: VecDeque::new(),
             watcher: None,
             shader_error: None,
             scratch_log: Vec::new(),
+            trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
+            traced: Vec::new(),
+            panel_rect_px: None,
         }
+    }
+
+    /// With [`UiState::trace`], prints a widget's centre and size in physical pixels whenever it
+    /// is drawn somewhere new: `ui: button "quick turn left" at X,Y size WxH`.
+    fn trace_widget(&mut self, ui: &egui::Ui, label: &str, response: &egui::Response) {
+        if !self.trace {
+            return;
+        }
+        let ppp = ui.ctx().pixels_per_point();
+        let r = response.rect * ppp;
+        let line = format!(
+            "ui: button {label:?} at {:.0},{:.0} size {:.0}x{:.0}",
+            r.center().x,
+            r.center().y,
+            r.width(),
+            r.height()
+        );
+        match self.traced.iter_mut().find(|(l, _)| l == label) {
+            Some((_, last)) if *last == line => return,
+            Some((_, last)) => *last = line.clone(),
+            None => self.traced.push((label.to_owned(), line.clone())),
+        }
+        println!("{line}");
     }
 
     fn log(&mut self, line: impl Into<String>) {
         let line = line.into();
+        if self.trace {
+            println!("console: {line}");
+        }
         log::info!("{line}");
         self.log.push_back(line);
         while self.log.len() > 300 {
@@ -285,55 +405,44 @@ impl App {
         Ok(())
     }
 
-    fn pick(&mut self) {
+    fn pick(&mut self, at: Vec2) {
         let Some(ws) = &self.window else { return };
         let size = Vec2::new(ws.config.width as f32, ws.config.height as f32);
-        self.ui.selected = pick_fish(&self.ui.camera, self.ui.cursor, size, &*self.scene);
-        self.scene.set_selected(self.ui.selected);
-        if let Some(i) = self.ui.selected {
-            self.ui.species = self.scene.species_of(i).unwrap_or(0);
-        }
+        select_at(&mut *self.scene, &mut self.ui, at, size);
     }
 
-    fn handle_input(&mut self, event: &WindowEvent) {
+    /// Mouse input for the 3D view. `over_ui`: egui has the pointer (over the panel, or a panel
+    /// widget is being dragged), so a press there starts nothing in the view and its release
+    /// picks no fish.
+    fn handle_input(&mut self, event: &WindowEvent, over_ui: bool) {
         match event {
             WindowEvent::CursorMoved { position, .. } => {
                 let p = Vec2::new(position.x as f32, position.y as f32);
-                let delta = p - self.ui.cursor;
-                self.ui.cursor = p;
                 let height = self
                     .window
                     .as_ref()
                     .map_or(1.0, |w| w.config.height.max(1) as f32);
-                if let Some((button, start)) = self.ui.press {
-                    if (p - start).length() > 4.0 {
-                        self.ui.dragged = true;
+                match self.ui.pointer.moved(p) {
+                    Some((MouseButton::Left, delta)) => self.ui.camera.orbit(
+                        delta.x / height * std::f32::consts::PI,
+                        delta.y / height * std::f32::consts::PI,
+                    ),
+                    Some((MouseButton::Right | MouseButton::Middle, delta)) => {
+                        self.ui.follow = false;
+                        self.ui.camera.pan(delta.x / height, delta.y / height);
                     }
-                    match button {
-                        MouseButton::Left => self.ui.camera.orbit(
-                            delta.x / height * std::f32::consts::PI,
-                            delta.y / height * std::f32::consts::PI,
-                        ),
-                        MouseButton::Right | MouseButton::Middle => {
-                            self.ui.follow = false;
-                            self.ui.camera.pan(delta.x / height, delta.y / height);
-                        }
-                        _ => {}
-                    }
+                    _ => {}
                 }
             }
             WindowEvent::MouseInput { state, button, .. } => match state {
-                ElementState::Pressed => {
-                    self.ui.press = Some((*button, self.ui.cursor));
-                    self.ui.dragged = false;
-                }
+                ElementState::Pressed => self.ui.pointer.pressed(*button, over_ui),
                 ElementState::Released => {
-                    if *button == MouseButton::Left && !self.ui.dragged {
-                        self.pick();
+                    if let Some(at) = self.ui.pointer.released(*button) {
+                        self.pick(at);
                     }
-                    self.ui.press = None;
                 }
             },
+            WindowEvent::MouseWheel { .. } if over_ui => {}
             WindowEvent::MouseWheel { delta, .. } => {
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => *y,
@@ -350,22 +459,9 @@ impl App {
         let frame_dt = (now - self.ui.last_frame).as_secs_f32();
         self.ui.last_frame = now;
 
-        // Simulation.
         let sim_start = Instant::now();
-        if !self.ui.paused || self.ui.step_once {
-            let dt = if self.ui.paused {
-                1.0 / 60.0
-            } else {
-                frame_dt.min(0.1)
-            };
-            self.scene.step(dt * self.ui.speed);
-            self.ui.step_once = false;
-        }
+        advance(&mut *self.scene, &mut self.ui, frame_dt);
         let sim_ms = sim_start.elapsed().as_secs_f32() * 1e3;
-        self.scene.drain_log(&mut self.ui.scratch_log);
-        for line in std::mem::take(&mut self.ui.scratch_log) {
-            self.ui.log(line);
-        }
 
         let Some(ws) = self.window.as_mut() else {
             return Ok(());
@@ -414,21 +510,7 @@ impl App {
             self.ui.log(msg);
         }
 
-        // Camera follow and overlays.
-        if self.ui.follow
-            && let Some(info) = self.ui.selected.and_then(|i| self.scene.fish_info(i))
-        {
-            self.ui.camera.target = self.ui.camera.target.lerp(info.center, 0.15);
-        }
-        self.ui.overlay.clear();
-        if self.ui.toggles.any() {
-            self.scene
-                .overlay_lines(self.ui.toggles, &mut self.ui.overlay);
-        }
-        if let Some(i) = self.ui.selected {
-            self.scene.body_wave(i, &mut self.ui.wave);
-            self.scene.inspect(i, &mut self.ui.inspect);
-        }
+        refresh_views(&*self.scene, &mut self.ui);
 
         let surface_texture = match ws.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t)
@@ -469,9 +551,12 @@ impl App {
         let scene = &mut *self.scene;
         let ui_state = &mut self.ui;
         let full = ws.egui_ctx.run_ui(raw_input, |ui| {
-            egui::Panel::right("tuning").resizable(true).show(ui, |ui| {
+            let shown = egui::Panel::right("tuning").resizable(true).show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| panel(ui, scene, ui_state));
             });
+            // Where the panel is, in physical pixels: a press there is the panel's even when
+            // it comes before egui has seen the pointer arrive (a fast click).
+            ui_state.panel_rect_px = Some(shown.response.rect * ui.ctx().pixels_per_point());
         });
         ws.egui_state
             .handle_platform_output(&ws.window, full.platform_output);
@@ -571,18 +656,18 @@ impl ApplicationHandler for App {
                 }
             }
             _ => {
-                let over_ui = ws.egui_ctx.is_pointer_over_egui();
-                let releasing = matches!(
-                    event,
-                    WindowEvent::MouseInput {
-                        state: ElementState::Released,
-                        ..
-                    }
-                );
-                let cursor = matches!(event, WindowEvent::CursorMoved { .. });
-                if cursor || releasing || (!response.consumed && !over_ui) {
-                    self.handle_input(&event);
-                }
+                // egui sees every event first; the view only gets the pointer where egui does
+                // not want it (a click on a panel button must not also pick a fish).
+                let cursor = self.ui.pointer.cursor;
+                let over_panel = self
+                    .ui
+                    .panel_rect_px
+                    .is_some_and(|r| r.contains(egui::pos2(cursor.x, cursor.y)));
+                let over_ui = response.consumed
+                    || over_panel
+                    || ws.egui_ctx.is_pointer_over_egui()
+                    || ws.egui_ctx.egui_wants_pointer_input();
+                self.handle_input(&event, over_ui);
             }
         }
     }
@@ -614,6 +699,107 @@ pub fn pick_fish(
         }
     }
     best.map(|(i, _)| i)
+}
+
+/// Longest real time one frame may simulate, seconds: after a stall (a window drag, a debugger)
+/// the aquarium goes on instead of racing to catch up.
+const MAX_FRAME_DT_S: f32 = 0.1;
+
+/// The simulation part of a frame: advances the scene by the frame's real time × the speed
+/// slider (all of it: no tick is dropped), by exactly one tick after "step", or not at all while
+/// paused; then moves the scene's new log lines into the console.
+fn advance(scene: &mut dyn SceneDriver, ui: &mut UiState, frame_dt_s: f32) {
+    let frame_dt_s = if frame_dt_s.is_finite() {
+        frame_dt_s.max(0.0)
+    } else {
+        0.0
+    };
+    let before = scene.time_s();
+    if ui.step_once {
+        scene.step(1.0 / crate::world::TICK_HZ as f32);
+        ui.step_once = false;
+    } else if !ui.paused {
+        let wanted = frame_dt_s.min(MAX_FRAME_DT_S) * ui.speed;
+        scene.step(wanted);
+        ui.pace
+            .push_back((scene.time_s() - before, frame_dt_s * ui.speed));
+        while ui.pace.len() > 120 {
+            ui.pace.pop_front();
+        }
+    }
+    scene.drain_log(&mut ui.scratch_log);
+    for line in std::mem::take(&mut ui.scratch_log) {
+        ui.log(line);
+    }
+}
+
+/// Simulated seconds per requested simulated second over the last frames (1 when keeping up).
+fn pace_ratio(pace: &VecDeque<(f32, f32)>) -> f32 {
+    let (done, wanted) = pace
+        .iter()
+        .fold((0.0, 0.0), |(d, w), (a, b)| (d + a, w + b));
+    if wanted > 0.0 {
+        (done / wanted).min(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Selects the fish under `at` (see [`pick_fish`]), or none on open water, and shows its species'
+/// parameters in the panel.
+fn select_at(scene: &mut dyn SceneDriver, ui: &mut UiState, at: Vec2, size: Vec2) {
+    ui.selected = pick_fish(&ui.camera, at, size, scene);
+    if ui.trace {
+        println!("selected: {:?}", ui.selected);
+    }
+    scene.set_selected(ui.selected);
+    if let Some(i) = ui.selected {
+        ui.species = scene.species_of(i).unwrap_or(0);
+    } else {
+        ui.follow = false;
+    }
+}
+
+/// Distance in physical pixels a press may move and still count as a click.
+const CLICK_SLOP_PX: f32 = 4.0;
+
+/// The mouse as the 3D view sees it: where it is and which button went down in the view.
+///
+/// A press that egui took (over the panel) is not the view's: its drag does not orbit and its
+/// release picks no fish. A release picks only when its press was the view's, with the left
+/// button, and the pointer did not move further than [`CLICK_SLOP_PX`] in between.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Pointer {
+    /// Last cursor position, physical pixels from the top-left.
+    pub cursor: Vec2,
+    /// The button pressed in the view and where.
+    press: Option<(MouseButton, Vec2)>,
+    dragged: bool,
+}
+
+impl Pointer {
+    /// The cursor moved to `p`; returns the button held in the view and the move, if dragging.
+    pub fn moved(&mut self, p: Vec2) -> Option<(MouseButton, Vec2)> {
+        let delta = p - self.cursor;
+        self.cursor = p;
+        let (button, start) = self.press?;
+        if (p - start).length() > CLICK_SLOP_PX {
+            self.dragged = true;
+        }
+        Some((button, delta))
+    }
+
+    /// A button went down at the cursor; `over_ui` when egui has the pointer there.
+    pub fn pressed(&mut self, button: MouseButton, over_ui: bool) {
+        self.press = (!over_ui).then_some((button, self.cursor));
+        self.dragged = false;
+    }
+
+    /// A button came up; returns where to pick a fish when this ends a click in the view.
+    pub fn released(&mut self, button: MouseButton) -> Option<Vec2> {
+        let press = self.press.take()?;
+        (press.0 == button && button == MouseButton::Left && !self.dragged).then_some(self.cursor)
+    }
 }
 
 /// Picks one stage's time out of a frame's timings.
@@ -653,10 +839,14 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
         .show(ui, |ui| {
             ui.horizontal(|ui| {
                 let label = if st.paused { "play" } else { "pause" };
-                if ui.button(label).clicked() {
+                let toggle = ui.button(label);
+                st.trace_widget(ui, label, &toggle);
+                if toggle.clicked() {
                     st.paused = !st.paused;
                 }
-                if ui.button("step").clicked() {
+                let step = ui.button("step");
+                st.trace_widget(ui, "step", &step);
+                if step.clicked() {
                     st.paused = true;
                     st.step_once = true;
                 }
@@ -666,6 +856,18 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
                     .logarithmic(true)
                     .text("speed ×"),
             );
+            let pace = pace_ratio(&st.pace);
+            if !st.paused && pace < 0.95 {
+                ui.colored_label(
+                    egui::Color32::from_rgb(255, 210, 90),
+                    format!(
+                        "behind real time: simulating {:.0} % of the requested speed \
+                         (frames are slower than {:.0} ms)",
+                        pace * 100.0,
+                        MAX_FRAME_DT_S * 1e3
+                    ),
+                );
+            }
         });
     egui::CollapsingHeader::new("Selected fish")
         .default_open(true)
@@ -676,8 +878,11 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
             };
             ui.horizontal(|ui| {
                 ui.label(format!("fish #{fish}"));
-                ui.checkbox(&mut st.follow, "follow");
-                if ui.button("deselect").clicked() {
+                let follow = ui.checkbox(&mut st.follow, "follow");
+                st.trace_widget(ui, "follow", &follow);
+                let deselect = ui.button("deselect");
+                st.trace_widget(ui, "deselect", &deselect);
+                if deselect.clicked() {
                     st.selected = None;
                     st.follow = false;
                     scene.set_selected(None);
@@ -709,10 +914,13 @@ fn panel(ui: &mut egui::Ui, scene: &mut dyn SceneDriver, st: &mut UiState) {
             ];
             ui.horizontal_wrapped(|ui| {
                 for (label, request) in buttons {
-                    if ui.button(label).clicked()
-                        && let Err(e) = scene.request_motion(fish, request)
-                    {
-                        st.log(format!("fish #{fish}: {e}"));
+                    let button = ui.button(label);
+                    st.trace_widget(ui, label, &button);
+                    if button.clicked() {
+                        match scene.request_motion(fish, request) {
+                            Ok(()) => st.log(format!("fish #{fish}: {label} requested")),
+                            Err(e) => st.log(format!("fish #{fish}: {label}: {e}")),
+                        }
                     }
                 }
             });
@@ -872,5 +1080,49 @@ mod tests {
         assert!(picked_any);
         // Straight up from the top-left corner: open water.
         assert_eq!(pick_fish(&camera, Vec2::new(1.0, 1.0), size, &scene), None);
+    }
+
+    #[test]
+    fn a_click_in_the_view_picks_and_a_click_egui_took_does_not() {
+        let mut p = Pointer::default();
+        p.moved(Vec2::new(100.0, 100.0));
+        p.pressed(MouseButton::Left, false);
+        assert_eq!(p.released(MouseButton::Left), Some(Vec2::new(100.0, 100.0)));
+        // Over the panel: the press is egui's, so its release picks nothing.
+        p.pressed(MouseButton::Left, true);
+        assert_eq!(p.released(MouseButton::Left), None);
+        // A press on the panel dragged into the view neither orbits nor picks.
+        p.pressed(MouseButton::Left, true);
+        assert_eq!(p.moved(Vec2::new(300.0, 100.0)), None);
+        assert_eq!(p.released(MouseButton::Left), None);
+    }
+
+    #[test]
+    fn a_drag_in_the_view_orbits_and_does_not_pick() {
+        let mut p = Pointer::default();
+        p.moved(Vec2::new(10.0, 10.0));
+        p.pressed(MouseButton::Left, false);
+        assert_eq!(
+            p.moved(Vec2::new(40.0, 10.0)),
+            Some((MouseButton::Left, Vec2::new(30.0, 0.0)))
+        );
+        assert_eq!(p.released(MouseButton::Left), None, "a drag is not a click");
+        // A right click never picks.
+        p.pressed(MouseButton::Right, false);
+        assert_eq!(p.released(MouseButton::Right), None);
+        // Moving less than the slop still clicks.
+        p.pressed(MouseButton::Left, false);
+        p.moved(Vec2::new(42.0, 11.0));
+        assert_eq!(p.released(MouseButton::Left), Some(Vec2::new(42.0, 11.0)));
+    }
+
+    #[test]
+    fn pace_is_one_when_keeping_up_and_the_share_done_when_behind() {
+        let mut pace = VecDeque::new();
+        assert_eq!(pace_ratio(&pace), 1.0);
+        pace.push_back((0.1, 0.1));
+        assert_eq!(pace_ratio(&pace), 1.0);
+        pace.push_back((0.1, 0.3));
+        assert!((pace_ratio(&pace) - 0.5).abs() < 1e-6);
     }
 }

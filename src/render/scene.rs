@@ -72,6 +72,10 @@ pub trait SceneDriver {
     }
     /// Number of fish.
     fn num_fish(&self) -> usize;
+    /// Simulated time, seconds.
+    fn time_s(&self) -> f32 {
+        self.frame_input().time_s
+    }
     /// Bounding sphere of fish `fish`.
     fn fish_info(&self, fish: usize) -> Option<FishInfo>;
     /// Highlights `fish` (or none) in the instances it returns.

@@ -80,7 +80,7 @@ impl WorldSim for Simulation {
     fn drain_log(&mut self) -> Vec<String> {
         Simulation::drain_log(self)
             .into_iter()
-            .map(|e| format!("[{:.2} s] {:?}: {}", e.time_s, e.level, e.message))
+            .map(|e| e.to_string())
             .collect()
     }
     fn watch(&mut self) -> Result<(), String> {
@@ -89,7 +89,7 @@ impl WorldSim for Simulation {
     fn poll_reload(&mut self) -> Vec<String> {
         Simulation::poll_reload(self)
             .into_iter()
-            .map(|e| format!("scripts: {e:?}"))
+            .map(|e| e.to_string())
             .collect()
     }
     fn scene_changed(&self) -> bool {
@@ -147,10 +147,6 @@ impl<S: WorldSim> std::fmt::Debug for WorldScene<S> {
 
 /// Radius of a drawn food pellet, length units.
 pub const FOOD_PELLET_RADIUS: f32 = 2.5;
-
-/// Most ticks run for one rendered frame (a slow frame drops simulated time rather than
-/// spiralling).
-const MAX_TICKS_PER_STEP: usize = 8;
 
 impl<S: WorldSim> WorldScene<S> {
     /// Wraps a simulation whose species are all loaded (meshes are uploaded once at start).
@@ -283,15 +279,12 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
         if dt_s.is_finite() && dt_s > 0.0 {
             self.accumulator_s += f64::from(dt_s);
         }
+        // Every due tick runs: `shoal render --fps 4` simulates 15 ticks a frame. The window
+        // bounds a frame's real time instead (see `render::app`), so a slow frame cannot spiral.
         let tick = 1.0 / TICK_HZ;
-        let mut ticks = 0;
-        while self.accumulator_s >= tick - 1e-9 && ticks < MAX_TICKS_PER_STEP {
+        while self.accumulator_s >= tick - 1e-9 {
             self.sim.tick();
             self.accumulator_s -= tick;
-            ticks += 1;
-        }
-        if ticks == MAX_TICKS_PER_STEP {
-            self.accumulator_s = 0.0;
         }
         self.rebuild_instances();
         self.step_ms = start.elapsed().as_secs_f32() * 1e3;
@@ -329,6 +322,10 @@ impl<S: WorldSim> SceneDriver for WorldScene<S> {
 
     fn num_fish(&self) -> usize {
         self.sim.world().num_fish()
+    }
+
+    fn time_s(&self) -> f32 {
+        self.sim.world().time() as f32
     }
 
     fn fish_info(&self, fish: usize) -> Option<FishInfo> {

@@ -1,0 +1,272 @@
+//! The aquarium's panel driven like a user would: widgets found by their label and clicked
+//! through egui's own input (`egui_kittest`), over a real simulation (the Lua host, real
+//! species). Each test checks the simulation, not just the widget: clicking "quick turn left"
+//! must start a quick turn on the selected fish, and a click on the panel must not change the
+//! selection (the picker used to take every click that reached the window).
+
+use std::path::{Path, PathBuf};
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use glam::Vec2;
+use shoal::render::WorldScene;
+use shoal::render::app::{AppOptions, Aquarium};
+use shoal::script::Simulation;
+
+const VIEW: Vec2 = Vec2::new(960.0, 600.0);
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A copy of `scripts/` in a temporary directory, plus `extra` files (path under scripts/,
+/// source).
+fn scripts_with(extra: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("scripts"), dir.path());
+    for (path, source) in extra {
+        let p = dir.path().join(path);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, source).unwrap();
+    }
+    dir
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let target = to.join(e.file_name());
+        if e.path().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+/// Three black porgies with no behaviour (so only the panel moves them) and one running
+/// `behavior` if given.
+fn aquarium(scripts: &Path, behavior: Option<&str>, select: Option<usize>) -> Aquarium {
+    let extra = behavior.map_or(String::new(), |b| {
+        format!(r#"{{ species = "black_porgy", behavior = "{b}", pos = {{0, 150, 100}} }},"#)
+    });
+    let scene = format!(
+        r#"return {{
+  tank = {{ min = {{-400, 0, -250}}, max = {{400, 300, 250}} }},
+  fish = {{
+    {{ species = "black_porgy", pos = {{-120, 150, 0}}, heading = 0, speed = 30 }},
+    {{ species = "black_porgy", pos = {{0, 150, 0}}, heading = 0, speed = 30 }},
+    {{ species = "black_porgy", pos = {{120, 150, 0}}, heading = 0, speed = 30 }},
+    {extra}
+  }},
+}}"#
+    );
+    std::fs::write(scripts.join("scenes/panel_test.lua"), scene).unwrap();
+    let sim = Simulation::from_scene_with_scripts(
+        &repo(),
+        scripts,
+        Path::new("scenes/panel_test.lua"),
+        3,
+    )
+    .expect("the test scene loads");
+    let options = AppOptions {
+        select,
+        ..AppOptions::default()
+    };
+    let mut aq = Aquarium::new(Box::new(WorldScene::new(sim)), options);
+    aq.advance(1.0 / 60.0);
+    aq
+}
+
+fn harness(aq: Aquarium) -> Harness<'static, Aquarium> {
+    Harness::builder()
+        .with_size(egui::vec2(520.0, 1600.0))
+        .build_ui_state(|ui, aq: &mut Aquarium| aq.panel(ui), aq)
+}
+
+/// The inspector's value for `key` of fish `fish`.
+fn inspect(aq: &Aquarium, fish: usize, key: &str) -> String {
+    let mut rows = Vec::new();
+    aq.scene.inspect(fish, &mut rows);
+    rows.into_iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v)
+        .unwrap_or_default()
+}
+
+/// The pixel at the centre of fish `i` in a `VIEW`-sized window.
+fn pixel_of(aq: &Aquarium, i: usize) -> Vec2 {
+    let camera = aq.camera();
+    let c = aq.scene.fish_info(i).unwrap().center;
+    let ndc = camera.view_proj(VIEW.x / VIEW.y).project_point3(c);
+    Vec2::new((ndc.x + 1.0) * 0.5 * VIEW.x, (1.0 - ndc.y) * 0.5 * VIEW.y)
+}
+
+#[test]
+fn clicking_a_fish_selects_it_and_a_click_on_the_panel_does_not_change_the_selection() {
+    let scripts = scripts_with(&[]);
+    let mut aq = aquarium(scripts.path(), None, None);
+    assert_eq!(aq.selected(), None);
+    // Fish 2 is nearest the default camera's side; its centre picks a fish on that ray.
+    let at = pixel_of(&aq, 1);
+    aq.click(at, VIEW, false);
+    let picked = aq.selected().expect("a click on a fish selects it");
+    // The same spot, but where the panel covers the view: the panel takes the click.
+    aq.click(pixel_of(&aq, 0), VIEW, true);
+    assert_eq!(
+        aq.selected(),
+        Some(picked),
+        "a panel click must not reach the picker"
+    );
+    // Open water (the top-left corner looks up into the empty tank) deselects.
+    aq.click(Vec2::new(2.0, 2.0), VIEW, false);
+    assert_eq!(aq.selected(), None);
+}
+
+#[test]
+fn every_motion_button_starts_that_motion_on_the_selected_fish() {
+    let scripts = scripts_with(&[]);
+    let aq = aquarium(scripts.path(), None, Some(1));
+    let mut h = harness(aq);
+    h.run();
+    let buttons = [
+        ("accelerate", "accelerate"),
+        ("stop", "stop"),
+        ("swim", "swim"),
+        ("normal turn left", "normal_turn"),
+        ("normal turn right", "normal_turn"),
+        ("quick turn left", "quick_turn"),
+        ("quick turn right", "quick_turn"),
+        ("serial turn left", "serial_turn"),
+        ("serial turn right", "serial_turn"),
+        ("ascend", "ascend"),
+        ("descend", "descend"),
+    ];
+    for (label, motion) in buttons {
+        // Start from a plain swim so every button's effect is a change.
+        if label != "swim" {
+            h.get_by_label("swim").click();
+            h.run();
+            h.state_mut().advance(1.0 / 60.0);
+        }
+        h.get_by_label(label).click();
+        h.run();
+        // A request starts on the motion layer's next tick, as in the window's next frame.
+        h.state_mut().advance(1.0 / 60.0);
+        let aq = h.state_mut();
+        assert_eq!(
+            aq.selected(),
+            Some(1),
+            "{label}: the click kept the selection"
+        );
+        let now = inspect(aq, 1, "motion");
+        assert!(
+            now.starts_with(motion),
+            "after clicking {label:?} fish 1 should run {motion}, runs {now:?}"
+        );
+        assert!(
+            aq.console()
+                .any(|l| l == format!("fish #1: {label} requested")),
+            "the console says what was requested"
+        );
+        // Only the selected fish moved.
+        assert!(inspect(aq, 0, "motion").starts_with("swim"));
+    }
+}
+
+#[test]
+fn follow_pause_step_and_overlays_work_from_the_panel() {
+    let scripts = scripts_with(&[]);
+    let aq = aquarium(scripts.path(), None, Some(0));
+    let mut h = harness(aq);
+    h.run();
+    assert!(h.state().following(), "--select follows the fish");
+    h.get_by_label("follow").click();
+    h.run();
+    assert!(!h.state().following());
+    h.get_by_label("follow").click();
+    h.run();
+    assert!(h.state().following());
+
+    h.get_by_label("pause").click();
+    h.run();
+    assert!(h.state().paused());
+    let t0 = h.state().scene.time_s();
+    h.state_mut().advance(0.5);
+    assert_eq!(h.state().scene.time_s(), t0, "paused: no time passes");
+    h.get_by_label("step").click();
+    h.run();
+    h.state_mut().advance(0.5);
+    let dt = h.state().scene.time_s() - t0;
+    assert!(
+        (dt - 1.0 / 60.0).abs() < 1e-4,
+        "step is one tick, got {dt} s"
+    );
+    h.get_by_label("play").click();
+    h.run();
+    assert!(!h.state().paused());
+    let t1 = h.state().scene.time_s();
+    h.state_mut().advance(0.05);
+    assert!(h.state().scene.time_s() > t1, "playing again");
+
+    assert!(h.state().overlay_lines().is_empty());
+    h.get_by_label("skeleton and joints").click();
+    h.run();
+    assert!(h.state().overlays().skeleton);
+    h.state_mut().advance(1.0 / 60.0);
+    assert!(
+        !h.state().overlay_lines().is_empty(),
+        "the skeleton overlay draws segments"
+    );
+    h.get_by_label("skeleton and joints").click();
+    h.run();
+    h.state_mut().advance(1.0 / 60.0);
+    assert!(h.state().overlay_lines().is_empty());
+}
+
+#[test]
+fn a_slider_changes_the_live_species() {
+    let scripts = scripts_with(&[]);
+    let aq = aquarium(scripts.path(), None, Some(0));
+    let mut h = harness(aq);
+    h.run();
+    let before = h.state().scene.motion_params(0).unwrap();
+    // The slider and its number box share the label; set the slider itself.
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "s (speed, units/s)")
+        .set_value_accesskit(f64::from(before.s) + 17.0);
+    h.run();
+    let after = h.state().scene.motion_params(0).unwrap();
+    assert!(
+        (after.s - (before.s + 17.0)).abs() < 0.5,
+        "speed slider: {} → {}",
+        before.s,
+        after.s
+    );
+    assert_eq!(after.p, before.p, "only the speed changed");
+}
+
+#[test]
+fn the_console_shows_a_script_error_with_file_and_line() {
+    let scripts = scripts_with(&[(
+        "behaviors/broken.lua",
+        "return { tick = function(fish)\n  error('boom at the reef')\nend }\n",
+    )]);
+    let aq = aquarium(scripts.path(), Some("broken"), None);
+    let mut h = harness(aq);
+    h.state_mut().advance(0.5);
+    h.run();
+    assert!(
+        h.query_by_label_contains("boom at the reef").is_some(),
+        "the console panel shows the error"
+    );
+    let line = h
+        .state()
+        .console()
+        .find(|l| l.contains("boom at the reef"))
+        .expect("a console line")
+        .to_owned();
+    assert!(
+        line.contains("broken.lua:2:") && line.contains("fish #3") && line.contains("error"),
+        "the line names the error, file:line and the fish: {line}"
+    );
+}
