@@ -198,3 +198,118 @@ fn bench_render_reports_triangles_per_frame() {
         }
     }
 }
+
+/// The simulated time a `shoal render` clip ends at: every frame's ticks run, even below 8 fps.
+#[test]
+fn a_low_frame_rate_still_simulates_every_second_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let stdout = ok(&shoal(&[
+        "render",
+        "--seconds",
+        "2",
+        "--fps",
+        "2",
+        "--size",
+        "64x48",
+        "--scene",
+        "porgies",
+        "--fish",
+        "3",
+        "--out",
+        frames.to_str().unwrap(),
+    ]));
+    // 4 frames at t = 0, 0.5, 1, 1.5 s (each step is 30 ticks; at most 8 used to run).
+    assert!(
+        stdout.contains("4 frames, the last at t = 1.50 s"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn unwritable_outputs_cameras_and_selections_are_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let jpg = dir.path().join("x.jpg");
+    let out = shoal(&["render", "--out", jpg.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("cannot write .jpg") && stderr.contains(".png") && stderr.contains(".gif"),
+        "{stderr}"
+    );
+    assert!(!jpg.exists(), "no directory named x.jpg is made");
+
+    let out = shoal(&[
+        "render", "--scene", "porgies", "--fish", "3", "--select", "999", "--out", "x.png",
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--select 999") && stderr.contains("0 to 2"),
+        "{stderr}"
+    );
+
+    let out = shoal(&["render", "--camera", "sideways", "--out", "x.png"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("EX,EY,EZ:TX,TY,TZ"));
+
+    let out = shoal(&["render", "--camera", "follow", "--out", "x.png"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--select"));
+}
+
+/// A close-up that follows one fish shows that fish large: far more of the frame is fish than in
+/// the whole-tank view, and the overlays add their colours.
+#[test]
+fn follow_camera_and_overlays_show_one_fish_close_up() {
+    let dir = tempfile::tempdir().unwrap();
+    let wide = dir.path().join("wide.png");
+    let close = dir.path().join("close.png");
+    let base = [
+        "render",
+        "--scene",
+        "porgies",
+        "--fish",
+        "6",
+        "--seconds",
+        "0.2",
+        "--fps",
+        "10",
+        "--size",
+        "160x120",
+        "--seed",
+        "5",
+    ];
+    let mut a = base.to_vec();
+    a.extend(["--out", wide.to_str().unwrap()]);
+    ok(&shoal(&a));
+    let mut b = base.to_vec();
+    b.extend([
+        "--select",
+        "2",
+        "--camera",
+        "follow",
+        "--overlays",
+        "--out",
+        close.to_str().unwrap(),
+    ]);
+    ok(&shoal(&b));
+    let differs = |img: &image::RgbaImage| {
+        // Pixels far from the water's blue-green: fish, sand, rocks, overlays.
+        img.pixels()
+            .filter(|p| {
+                let [r, g, b, _] = p.0;
+                i32::from(r) > i32::from(b) + 20 || i32::from(r) + i32::from(g) > 400
+            })
+            .count()
+    };
+    let wide = image::open(&wide).unwrap().to_rgba8();
+    let close = image::open(&close).unwrap().to_rgba8();
+    assert_ne!(wide, close);
+    assert!(
+        differs(&close) > differs(&wide),
+        "close-up {} vs wide {}",
+        differs(&close),
+        differs(&wide)
+    );
+}

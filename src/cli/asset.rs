@@ -38,9 +38,10 @@ pub enum What {
         /// Output PNG.
         #[arg(long)]
         out: PathBuf,
-        /// Yaw (radians) applied to every driven joint `spine_*`; positive bends left.
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        yaw: f32,
+        /// Yaw (radians) applied to every driven joint `spine_*`; positive bends left. Default:
+        /// 0 (a straight fish), or 0.25 with `--swim` (a wave you can see).
+        #[arg(long, allow_hyphen_values = true)]
+        yaw: Option<f32>,
         /// Panel size in pixels.
         #[arg(long, default_value_t = 512)]
         size: u32,
@@ -122,9 +123,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             swim,
         } => {
             let img = if swim {
-                swim_sheet(&model, yaw, size)?
+                // With a peak yaw of 0 all eight views would be the same straight fish.
+                swim_sheet(&model, yaw.unwrap_or(SWIM_PREVIEW_YAW), size)?
             } else {
-                preview(&model, yaw, size)?
+                preview(&model, yaw.unwrap_or(0.0), size)?
             };
             img.save(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
@@ -133,6 +135,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+/// Peak joint yaw of `shoal asset preview --swim` without `--yaw`, radians.
+pub const SWIM_PREVIEW_YAW: f32 = 0.25;
 
 /// Skins `model` with every `spine_*` joint yawed by `yaw` and draws side and top views.
 pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<image::RgbImage> {

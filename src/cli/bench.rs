@@ -77,6 +77,12 @@ pub struct SimArgs {
     /// Script lanes (Lua states deciding in parallel; Lua driver). Default: one per thread.
     #[arg(long)]
     pub lanes: Option<usize>,
+    /// Benchmark this Lua scene (its fish and scripts) instead of the constant-density layout;
+    /// `--fish` and `--driver` do not apply.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    #[command(flatten)]
+    pub scripts: super::ScriptsArg,
 }
 
 /// Who decides what the fish do in `shoal bench sim`.
@@ -153,6 +159,9 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--fish needs positive counts, e.g. --fish 1000,10000");
     }
     let ticks = (args.seconds * TICK_HZ).round().max(1.0) as usize;
+    if let Some(scene) = &args.scene {
+        return run_scene_bench(&args, scene, ticks);
+    }
     let mut results: Vec<SimBenchResult> = Vec::new();
     let species = match args.driver {
         Driver::Rust => Some(
@@ -214,6 +223,65 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("drawing {}", path.display()))?;
         if !args.json {
             println!("plot written to {}", path.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `shoal bench sim --scene S`: the scene's own fish and scripts, timed like the layouts.
+fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result<ExitCode> {
+    let source = if args.scripts.scripts.is_some() {
+        args.scripts.resolve()?
+    } else {
+        super::ScriptSource {
+            root: args.root.clone(),
+            scripts: args.root.join("scripts"),
+            why: "--root",
+        }
+    };
+    if !args.json {
+        println!("{source}");
+    }
+    let mut sim =
+        Simulation::from_scene_with_scripts(&source.root, &source.scripts, scene, args.seed)
+            .with_context(|| format!("loading scene `{}`", scene.display()))?;
+    if let Some(n) = args.lanes {
+        if n == 0 {
+            anyhow::bail!("--lanes must be at least 1");
+        }
+        sim.set_lanes(n)?;
+    }
+    let mut sim = LuaSim(sim);
+    let result = measure(&mut sim, TICK_HZ as usize, ticks);
+    let errors = sim.0.error_messages();
+    let switched_off = sim.0.switched_off();
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "scene": scene.display().to_string(),
+                "tick_hz": TICK_HZ,
+                "results": [result],
+                "script_errors": errors.len(),
+                "switched_off": switched_off.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+            }))?
+        );
+    } else {
+        println!(
+            "scene {}, script lanes: {}",
+            scene.display(),
+            sim.0.num_lanes()
+        );
+        print_row(&result, true, Driver::Lua);
+        if !errors.is_empty() {
+            println!(
+                "{} distinct script errors; first: {}",
+                errors.len(),
+                errors[0]
+            );
+        }
+        for (name, why) in &switched_off {
+            println!("behaviour {name} switched off after {why}");
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -72,6 +72,13 @@ impl PresetArgs {
             p.f = v;
         }
         if let Some(degrees) = self.angle {
+            // Checked here, in the unit the designer typed (the motion layer speaks radians).
+            if !(degrees.is_finite() && degrees > 0.0 && degrees <= 360.0) {
+                anyhow::bail!(
+                    "--angle {degrees}: the turn angle must be in (0, 360] degrees; the direction \
+                     is --d (-1 left, 1 right)"
+                );
+            }
             p.turn_angle = degrees.to_radians();
         }
         if let Some(d) = self.d {

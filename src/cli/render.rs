@@ -40,6 +40,120 @@ pub struct Args {
     /// Output: `*.png` (last frame), `*.gif` (animation) or a directory (numbered PNGs).
     #[arg(long)]
     pub out: PathBuf,
+    /// Camera: `default` (the window's start view), `top` (the tank from above), `orbit` (once
+    /// around the tank over the clip), `follow` (close on the `--select`ed fish) or a fixed
+    /// `EX,EY,EZ:TX,TY,TZ` (eye and target, world units).
+    #[arg(long, default_value = "default", value_parser = parse_camera)]
+    pub camera: CameraSpec,
+    /// Highlight this fish (0-based, as in the window's panel); `--camera follow` follows it.
+    #[arg(long)]
+    pub select: Option<usize>,
+    /// Draw every debug overlay (skeletons, midlines, velocity, sensor ranges).
+    #[arg(long)]
+    pub overlays: bool,
+    #[command(flatten)]
+    pub scripts: super::ScriptsArg,
+}
+
+/// Where `shoal render` looks from (see [`Args::camera`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraSpec {
+    /// The window's start view.
+    Default,
+    /// Straight down onto the tank.
+    Top,
+    /// Once around the tank over the clip.
+    Orbit,
+    /// Close on the selected fish, following it.
+    Follow,
+    /// A fixed eye looking at a target, world units.
+    Fixed {
+        /// Eye position.
+        eye: glam::Vec3,
+        /// Point looked at.
+        target: glam::Vec3,
+    },
+}
+
+/// Parses [`Args::camera`].
+pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
+    match s.trim() {
+        "default" => return Ok(CameraSpec::Default),
+        "top" => return Ok(CameraSpec::Top),
+        "orbit" => return Ok(CameraSpec::Orbit),
+        "follow" => return Ok(CameraSpec::Follow),
+        _ => {}
+    }
+    let bad = || {
+        format!(
+            "camera `{s}`: expected default, top, orbit, follow, or EX,EY,EZ:TX,TY,TZ (eye and \
+             target, world units)"
+        )
+    };
+    let (eye, target) = s.split_once(':').ok_or_else(bad)?;
+    let v3 = |t: &str| -> Result<glam::Vec3, String> {
+        let v: Vec<f32> = t
+            .split(',')
+            .map(|x| x.trim().parse::<f32>().map_err(|_| bad()))
+            .collect::<Result<_, _>>()?;
+        match v[..] {
+            [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::Vec3::new(x, y, z)),
+            _ => Err(bad()),
+        }
+    };
+    let (eye, target) = (v3(eye)?, v3(target)?);
+    if (eye - target).length() < 1e-3 {
+        return Err(format!(
+            "camera `{s}`: the eye and the target are the same point"
+        ));
+    }
+    Ok(CameraSpec::Fixed { eye, target })
+}
+
+/// The camera for frame `frame` of `num_frames` (see [`CameraSpec`]).
+pub fn camera_for(
+    spec: CameraSpec,
+    scene: &dyn SceneDriver,
+    select: Option<usize>,
+    frame: u64,
+    num_frames: u64,
+) -> crate::render::Camera {
+    let base = scene.default_camera();
+    let tank = scene.frame_input().tank;
+    match spec {
+        CameraSpec::Default => base,
+        CameraSpec::Top => crate::render::Camera {
+            target: tank.center(),
+            pitch_rad: 1.5,
+            yaw_rad: 0.0,
+            distance: tank.size().x.max(tank.size().z) * 1.05 + tank.size().y * 0.5,
+            ..base
+        },
+        CameraSpec::Orbit => crate::render::Camera {
+            yaw_rad: base.yaw_rad + std::f32::consts::TAU * frame as f32 / num_frames.max(1) as f32,
+            ..base
+        },
+        CameraSpec::Follow => match select.and_then(|i| scene.fish_info(i)) {
+            Some(info) => crate::render::Camera {
+                target: info.center,
+                distance: info.radius * 5.0,
+                pitch_rad: 0.35,
+                ..base
+            },
+            None => base,
+        },
+        CameraSpec::Fixed { eye, target } => {
+            let d = eye - target;
+            let distance = d.length();
+            crate::render::Camera {
+                target,
+                distance,
+                pitch_rad: (d.y / distance).clamp(-1.0, 1.0).asin(),
+                yaw_rad: d.x.atan2(d.z),
+                ..base
+            }
+        }
+    }
 }
 
 /// Parses `WIDTHxHEIGHT`.
@@ -57,24 +171,13 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
-/// The repository root that holds `scripts/` and `assets/`: the working directory when it has
-/// them, else the source tree this binary was built from.
-pub fn project_root() -> PathBuf {
-    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    if cwd.join("scripts").is_dir() {
-        cwd
-    } else {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-    }
-}
-
 /// Fish in the `porgies` scene when `--fish` is not given.
 pub const DEFAULT_PORGIES: usize = 40;
 
 /// A world of `fish` black porgies (the generated asset, `assets/black_porgy.glb`) at constant
 /// density, driven by the built-in Rust wander/school driver.
-pub fn porgy_scene(fish: usize, seed: u64) -> anyhow::Result<Box<dyn SceneDriver>> {
-    let assets = project_root().join("assets");
+pub fn porgy_scene(root: &Path, fish: usize, seed: u64) -> anyhow::Result<Box<dyn SceneDriver>> {
+    let assets = root.join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets)
         .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
     let world = bench_world(species, fish, seed)?;
@@ -89,11 +192,12 @@ pub fn porgy_scene(fish: usize, seed: u64) -> anyhow::Result<Box<dyn SceneDriver
 /// overrides. With no `--scene`: the default Lua scene, else the porgy world, else the demo,
 /// whichever loads first (saying why the others did not).
 pub fn load_scene(
+    source: &super::ScriptSource,
     scene: Option<&Path>,
     seed: Option<u64>,
     fish: Option<usize>,
 ) -> anyhow::Result<Box<dyn SceneDriver>> {
-    let root = project_root();
+    let root = &source.root;
     let seed_or_1 = seed.unwrap_or(1);
     let lua = |path: &Path| -> anyhow::Result<Box<dyn SceneDriver>> {
         if fish.is_some() {
@@ -103,7 +207,7 @@ pub fn load_scene(
                 path.display()
             );
         }
-        let sim = Simulation::from_scene(&root, path, seed_or_1)
+        let sim = Simulation::from_scene_with_scripts(root, &source.scripts, path, seed_or_1)
             .with_context(|| format!("loading scene `{}`", path.display()))?;
         Ok(Box::new(WorldScene::new(sim)))
     };
@@ -121,19 +225,19 @@ pub fn load_scene(
     match scene {
         Some(p) if p.extension().is_some_and(|e| e == "lua") => lua(p),
         Some(p) if p.as_os_str() == "porgies" => {
-            porgy_scene(fish.unwrap_or(DEFAULT_PORGIES), seed_or_1)
+            porgy_scene(root, fish.unwrap_or(DEFAULT_PORGIES), seed_or_1)
         }
         Some(p) if p.as_os_str() == "demo" => demo(None),
         Some(p) => demo(Some(DemoSceneConfig::load(p).map_err(anyhow::Error::msg)?)),
         None => {
-            let default_lua = root.join("scripts/scenes/default.lua");
+            let default_lua = source.scripts.join("scenes/default.lua");
             if fish.is_none() && default_lua.is_file() {
                 match lua(&default_lua) {
                     Ok(s) => return Ok(s),
                     Err(e) => log::warn!("{e:#}; showing the porgy world instead"),
                 }
             }
-            match porgy_scene(fish.unwrap_or(DEFAULT_PORGIES), seed_or_1) {
+            match porgy_scene(root, fish.unwrap_or(DEFAULT_PORGIES), seed_or_1) {
                 Ok(s) => Ok(s),
                 Err(e) => {
                     log::warn!("{e:#}; showing the procedural demo instead");
@@ -158,8 +262,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if args.fps == 0 || args.fps > 240 {
         anyhow::bail!("--fps {} must be in 1..=240", args.fps);
     }
-    let mut scene = load_scene(args.scene.as_deref(), args.seed, args.fish)?;
-    let output = classify(&args.out);
+    let output = classify(&args.out)?;
+    let source = args.scripts.resolve()?;
+    println!("{source}");
+    let mut scene = load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
+    check_select(args.select, scene.num_fish())?;
+    if args.camera == CameraSpec::Follow && args.select.is_none() {
+        anyhow::bail!("--camera follow needs a fish to follow: add --select N");
+    }
+    scene.set_selected(args.select);
 
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
@@ -168,15 +279,40 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn classify(out: &Path) -> Output {
+/// An error unless `select` names one of `num_fish` fish (0-based).
+pub fn check_select(select: Option<usize>, num_fish: usize) -> anyhow::Result<()> {
+    match select {
+        Some(i) if i >= num_fish => anyhow::bail!(
+            "--select {i}: the scene has {num_fish} fish{}",
+            if num_fish > 0 {
+                format!(", numbered 0 to {}", num_fish - 1)
+            } else {
+                String::new()
+            }
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// What `--out` asks for: a `.png`, a `.gif`, or a directory (an existing one, or a path without
+/// an extension). Any other extension is refused before anything is rendered.
+fn classify(out: &Path) -> anyhow::Result<Output> {
+    if out.is_dir() {
+        return Ok(Output::Dir(out.to_owned()));
+    }
     match out
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
     {
-        Some(e) if e == "png" => Output::Png(out.to_owned()),
-        Some(e) if e == "gif" => Output::Gif(out.to_owned()),
-        _ => Output::Dir(out.to_owned()),
+        Some(e) if e == "png" => Ok(Output::Png(out.to_owned())),
+        Some(e) if e == "gif" => Ok(Output::Gif(out.to_owned())),
+        None => Ok(Output::Dir(out.to_owned())),
+        Some(e) => anyhow::bail!(
+            "--out {}: shoal render cannot write .{e} files; it writes .png (the last frame), \
+             .gif (an animation) or a directory of numbered PNGs (a path without an extension)",
+            out.display()
+        ),
     }
 }
 
@@ -195,7 +331,6 @@ fn render_frames(
     let target = OffscreenTarget::new(gpu, args.size.0, args.size.1);
     let dt = 1.0 / args.fps as f32;
     let num_frames = ((args.seconds * args.fps as f32).round() as u64).max(1);
-    let camera = scene.default_camera();
     let progress = if num_frames > 1 {
         let bar = indicatif::ProgressBar::new(num_frames);
         bar.set_style(
@@ -211,6 +346,13 @@ fn render_frames(
             .with_context(|| format!("cannot create output directory `{}`", dir.display()))?;
     }
     let mut gif_frames = Vec::new();
+    let mut overlay = Vec::new();
+    let toggles = crate::render::OverlayToggles {
+        skeleton: true,
+        midline: true,
+        velocity: true,
+        sensors: true,
+    };
     for frame in 0..num_frames {
         if frame > 0 {
             scene.step(dt);
@@ -221,8 +363,13 @@ fn render_frames(
             _ => true,
         };
         if draw {
+            overlay.clear();
+            if args.overlays {
+                scene.overlay_lines(toggles, &mut overlay);
+            }
             let mut input = scene.frame_input();
-            input.camera = camera;
+            input.camera = camera_for(args.camera, scene, args.select, frame, num_frames);
+            input.overlay = &overlay;
             renderer.render(gpu, target.view(), target.size(), &input)?;
             let image = target.read_rgba8(gpu)?;
             match output {
@@ -244,7 +391,11 @@ fn render_frames(
     let out = match output {
         Output::Png(p) | Output::Gif(p) | Output::Dir(p) => p,
     };
-    println!("wrote {} ({num_frames} frames simulated)", out.display());
+    println!(
+        "wrote {} ({num_frames} frames, the last at t = {:.2} s of simulated time)",
+        out.display(),
+        scene.time_s()
+    );
     Ok(())
 }
 

@@ -29,11 +29,16 @@ pub struct Args {
     /// Show every debug overlay at start.
     #[arg(long)]
     pub overlays: bool,
+    #[command(flatten)]
+    pub scripts: super::ScriptsArg,
 }
 
 /// Runs `shoal run`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let scene = super::render::load_scene(args.scene.as_deref(), args.seed, args.fish)?;
+    let source = args.scripts.resolve()?;
+    println!("{source}");
+    let scene = super::render::load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
+    super::render::check_select(args.select, scene.num_fish())?;
     let all = args.overlays;
     let options = AppOptions {
         frames: args.frames,
