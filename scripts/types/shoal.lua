@@ -28,6 +28,7 @@
 ---@field memory table        # per-fish memory: persists across ticks and script reloads
 ---@field intention? string   # last intention (set by the host; shown in the inspector)
 ---@field percepts? table     # last value perceive returned (set by the host; shown in the inspector)
+---@field params table        # the scene group's `params` (plain data, {} when none); read it, keep changes in memory
 
 ---One thing the fish sees.
 ---@class shoal.Percept
@@ -76,6 +77,83 @@
 ---@field satiation_per_food number  # hunger removed by one pellet
 ---@field fear_decay_per_s number    # fear decay per second once no predator is seen
 ---@field sociability number         # in [0, 1]: how strongly it keeps to its own species
+
+-- Data files -----------------------------------------------------------------------------------
+-- A scene file (scripts/scenes/*.lua) returns a shoal.Scene, a species file a shoal.SpeciesFile.
+-- Annotate the returned table (`---@type shoal.Scene`) to have them checked in your editor.
+-- Units: world units (a black porgy is 50 long; y up), seconds, radians.
+
+---@alias shoal.Vec3 number[]  # {x, y, z}
+
+---@class shoal.Box
+---@field min shoal.Vec3        # lower corner, below max on every axis
+---@field max shoal.Vec3        # upper corner
+
+---@class shoal.FishGroup
+---@field species string        # a file species/<name>.lua
+---@field count? integer        # how many fish, 0 to 200000 (default 1)
+---@field behavior? string      # a file behaviors/<name>.lua (none: the fish only swims)
+---@field pos? shoal.Vec3       # exact start of the group's first fish
+---@field region? shoal.Box     # box the fish start in (default: the middle half of the tank)
+---@field heading? number       # start heading, radians (default random)
+---@field speed? number         # start speed, units/s >= 0 (default the species' motion.s)
+---@field params? table         # plain data each fish reads as fish.params
+
+---@class shoal.FoodDrops
+---@field every number          # seconds between drops, > 0
+---@field count? integer        # pellets per drop (default 1)
+---@field start? number         # time of the first drop, seconds (default `every`)
+---@field region? shoal.Box     # where pellets appear (default a thin layer under the surface)
+
+---@class shoal.Obstacle
+---@field pos shoal.Vec3
+---@field radius number         # > 0
+
+---@class shoal.Current
+---@field pos shoal.Vec3
+---@field radius number         # > 0
+---@field velocity shoal.Vec3   # drift, units/s
+
+---@class shoal.Scene
+---@field tank shoal.Box
+---@field assets? string        # models directory relative to the repository root (default "assets")
+---@field species? string[]     # species to load although no group starts with them
+---@field fish? shoal.FishGroup[]
+---@field food? shoal.Vec3[]    # pellets present at the start
+---@field food_drops? shoal.FoodDrops
+---@field obstacles? shoal.Obstacle[]
+---@field currents? shoal.Current[]
+
+---@class shoal.MotionParams
+---@field p? number             # pivot, fraction of body length from the head (> 0.1424)
+---@field s? number             # cruising speed, units/s
+---@field l? number             # body length, units (the model is scaled to it)
+---@field max_amp? number       # maxAmp of A(x), units
+---@field lambda? number        # body wavelength, units
+---@field omega? number         # wave frequency (docs/motion.md)
+---@field tt? number            # turning time Tt, seconds
+---@field f? number             # turn amplitude weight, 1 to 2
+---@field turn_angle? number    # default turn angle, radians
+
+---@class shoal.Drives
+---@field hunger_per_s? number
+---@field satiation_per_food? number
+---@field fear_decay_per_s? number
+---@field sociability? number
+
+---@class shoal.SpeciesFile
+---@field base? "black_porgy"|"eel"  # start from this built-in description
+---@field name? string
+---@field asset? string         # skinned glTF model relative to assets/
+---@field vertebral_joints? string[]  # joints the motion layer bends, head to tail
+---@field motion? shoal.MotionParams
+---@field view_range? number    # units
+---@field view_angle_deg? number  # degrees
+---@field max_speed? number     # units/s
+---@field predator? boolean
+---@field color_tint? number[]  # {r, g, b} linear multiplier
+---@field drives? shoal.Drives
+---@field decision_hz? number   # decisions per second, (0, 60]
 
 ---@class shoal
 shoal = {}
