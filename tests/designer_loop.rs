@@ -288,3 +288,32 @@ fn scene_params_reach_the_fish_as_fish_params() {
     assert_eq!(b["n"], serde_json::json!(1));
     assert_eq!(b["name"], serde_json::json!("none"));
 }
+
+#[test]
+fn spawning_with_an_unknown_behaviour_or_species_says_what_exists() {
+    let mut sim = Simulation::empty(common::repo(), 1).unwrap();
+    let e = sim
+        .spawn(
+            "black_porgy",
+            glam::Vec3::new(0.0, 100.0, 0.0),
+            0.0,
+            0.0,
+            None,
+            Some("forrage"),
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("did you mean \"forage\"?"), "{e}");
+    let e = sim
+        .spawn(
+            "eal",
+            glam::Vec3::new(0.0, 100.0, 0.0),
+            0.0,
+            0.0,
+            None,
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("did you mean \"eel\"?"), "{e}");
+}

@@ -330,12 +330,23 @@ pub fn unknown_name(what: &str, name: &str, known: &[impl AsRef<str>]) -> String
 
 /// The entry of `known` closest to `name`, if it is close enough to be a likely typo.
 pub fn did_you_mean<'a>(name: &str, known: &'a [impl AsRef<str>]) -> Option<&'a str> {
+    // Close: a few edits for its length (`eal` → `eel`, `lamda` → `lambda`) or a similar
+    // spelling (`behaviour` → `behavior`); the fewest edits wins.
     known
         .iter()
-        .map(|k| (k.as_ref(), strsim::jaro_winkler(name, k.as_ref())))
-        .filter(|(_, score)| *score >= 0.8)
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(k, _)| k)
+        .map(|k| {
+            let k = k.as_ref();
+            (
+                k,
+                strsim::levenshtein(name, k),
+                strsim::jaro_winkler(name, k),
+            )
+        })
+        .filter(|&(_, edits, similar)| {
+            edits <= (name.chars().count() / 3).max(1) || similar >= 0.85
+        })
+        .min_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+        .map(|(k, _, _)| k)
 }
 
 /// Checks the numbers of a scene against their ranges; the error names the field (as
@@ -481,4 +492,39 @@ fn unknown_species_key(t: &Table, known: &serde_json::Value, path: &str) -> Opti
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggestions_catch_typos_and_not_strangers() {
+        let species = ["barracuda", "black_porgy", "eel"];
+        assert_eq!(did_you_mean("eal", &species), Some("eel"));
+        assert_eq!(did_you_mean("black_porgie", &species), Some("black_porgy"));
+        assert_eq!(did_you_mean("shark", &species), None);
+        let keys = ["species", "count", "behavior", "pos", "region"];
+        assert_eq!(did_you_mean("behaviour", &keys), Some("behavior"));
+        assert_eq!(did_you_mean("cuont", &keys), Some("count"));
+    }
+
+    #[test]
+    fn serde_messages_read_as_a_designer_would() {
+        assert_eq!(
+            humanize_serde("deserialize error: invalid value: integer `-5`, expected u32"),
+            "got -5, expected a whole number ≥ 0"
+        );
+        assert_eq!(
+            humanize_serde("invalid type: string \"fast\", expected f32"),
+            "got string \"fast\", expected a number"
+        );
+        assert_eq!(
+            humanize_serde("missing field `tank`"),
+            "missing key \"tank\""
+        );
+        let unknown =
+            humanize_serde("unknown field `behaviour`, expected one of `species`, `behavior`");
+        assert!(unknown.starts_with("unknown key \"behaviour\"; did you mean \"behavior\"?"));
+    }
 }

@@ -556,9 +556,16 @@ impl Simulation {
             .host()
             .root()
             .resolve_module(&format!("species/{name}"))
-            .map_err(|why| ScriptError::Data {
+            .map_err(|_| ScriptError::Data {
                 file: format!("species '{name}'"),
-                why,
+                why: format!(
+                    "{} — there is no scripts/species/{name}.lua",
+                    super::scene::unknown_name(
+                        "species",
+                        name,
+                        &script_names(self.host(), "species")
+                    )
+                ),
             })?;
         let (species, period_ticks) = self.load_species(&path)?;
         let id = wm(&mut self.world).add_species(species);
@@ -615,6 +622,9 @@ impl Simulation {
         behavior: Option<&str>,
     ) -> Result<FishId, ScriptError> {
         let sid = self.species_id(species)?;
+        if let Some(b) = behavior {
+            check_name(self.host(), "behaviors", b, "spawn", "behavior")?;
+        }
         let speed = speed.unwrap_or(self.world.species(sid).desc.motion.s);
         let seed = self.rng.random::<u64>();
         wm(&mut self.world)
