@@ -124,6 +124,8 @@ pub struct ScriptHost {
     fish_errors: HashMap<u32, String>,
     /// Every distinct error message, in order, for tests and `shoal test`.
     error_history: Vec<String>,
+    /// Whether the last failed decision was stopped by the instruction budget or memory limit.
+    last_call_hit_limit: bool,
     /// The scene's `params` of each fish that has some, by slot index with the generation they
     /// belong to; copied into the fish's table as `fish.params` when the table is made.
     fish_params: HashMap<u32, (u32, Arc<serde_json::Value>)>,
@@ -157,6 +159,7 @@ impl ScriptHost {
             load_errors: BTreeMap::new(),
             fish_errors: HashMap::new(),
             error_history: Vec::new(),
+            last_call_hit_limit: false,
             fish_params: HashMap::new(),
         })
     }
@@ -523,11 +526,7 @@ impl ScriptHost {
 
     /// Runs a decision under the per-call budget; `None` if the module never loaded.
     fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
-        let m = self.modules.get(module)?;
-        if m.quarantined.is_some() {
-            return None;
-        }
-        let table = m.table.as_ref()?;
+        let table = self.modules.get(module)?.table.as_ref()?;
         let _metered = self.begin_call();
         Some(self.driver.call::<()>((table, fish)))
     }
@@ -542,13 +541,11 @@ impl ScriptHost {
     ) -> Result<(), String> {
         match result {
             Ok(()) => {
-                if let Some(m) = self.modules.get_mut(module) {
-                    m.failures_in_a_row = 0;
-                }
+                self.last_call_hit_limit = false;
                 Ok(())
             }
             Err(e) => {
-                let limit_hit =
+                self.last_call_hit_limit =
                     matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted().is_some();
                 let mut msg = self.after_error(&e);
                 if !super::error::has_location(&msg) && !msg.starts_with(&self.root.display) {
@@ -560,19 +557,29 @@ impl ScriptHost {
                 if self.fish_errors.get(&id.index) != Some(&msg) {
                     self.fish_errors.insert(id.index, msg.clone());
                 }
-                self.strike(module, limit_hit, time_s);
                 Err(msg)
             }
         }
     }
 
-    /// Counts a failed call of `module`; past [`QUARANTINE_AFTER_FAILURES`] failures in a row or
-    /// [`QUARANTINE_AFTER_LIMIT_HITS`] budget or memory stops, switches the module off (its fish
-    /// keep their last motion) until its file is saved, and says so in the console.
-    fn strike(&mut self, module: ModuleIndex, limit_hit: bool, time_s: f64) {
+    /// Counts the outcome of a decision of `module` for the simulation's quarantine: a success
+    /// clears the failures in a row; past [`QUARANTINE_AFTER_FAILURES`] failures in a row or
+    /// [`QUARANTINE_AFTER_LIMIT_HITS`] budget or memory stops (the last call's, see
+    /// [`ScriptHost::run`]), the module is switched off until its file loads again, with a
+    /// warning in the console. The host itself still runs a switched-off module when asked;
+    /// the simulation asks [`ScriptHost::is_switched_off`] first.
+    pub fn count_outcome(&mut self, module: ModuleIndex, failed: bool, time_s: f64) {
+        let limit_hit = failed && self.last_call_hit_limit;
         let Some(m) = self.modules.get_mut(module) else {
             return;
         };
+        if !failed {
+            m.failures_in_a_row = 0;
+            return;
+        }
+        if m.quarantined.is_some() {
+            return;
+        }
         m.failures_in_a_row += 1;
         m.limit_hits += u32::from(limit_hit);
         let why = if m.limit_hits >= QUARANTINE_AFTER_LIMIT_HITS {
@@ -592,7 +599,7 @@ impl ScriptHost {
             m.name
         );
         m.quarantined = Some(why);
-        self.log(LogLevel::Error, &msg, None, time_s);
+        self.log(LogLevel::Warning, &msg, None, time_s);
     }
 
     /// True when module `module` is switched off (see [`ScriptHost::quarantine_of`]).

@@ -19,6 +19,9 @@ pub enum LogLevel {
     Info,
     /// A script error: a syntax error, a runtime error, a broken limit.
     Error,
+    /// Something the designer should know that is not itself a script error (a behaviour
+    /// switched off after repeated errors); kept once, like errors.
+    Warning,
 }
 
 /// One line of the script console.
@@ -40,8 +43,10 @@ impl std::fmt::Display for LogEntry {
     /// `[12.35 s] fish #3 behaviors/shy.lua:12: text (×4)`; errors say `error` after the time.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "[{:.2} s]", self.time_s)?;
-        if self.level == LogLevel::Error {
-            write!(f, " error")?;
+        match self.level {
+            LogLevel::Error => write!(f, " error")?,
+            LogLevel::Warning => write!(f, " warning")?,
+            LogLevel::Info => {}
         }
         if let Some(id) = self.fish {
             write!(f, " fish #{}", id.index)?;

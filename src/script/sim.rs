@@ -206,7 +206,10 @@ impl Lane {
                     std::mem::swap(&mut c.controls, &mut d.controls);
                 }
                 let species = &world.species(sid).desc.name;
-                let _ = host.run_fish(module, d.id, species, behavior, time_s);
+                let failed = host
+                    .run_fish(module, d.id, species, behavior, time_s)
+                    .is_err();
+                host.count_outcome(module, failed, time_s);
                 *decided += 1;
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                     std::mem::swap(&mut c.controls, &mut d.controls);
@@ -878,10 +881,10 @@ impl Simulation {
         let mut all: Vec<LogEntry> = Vec::new();
         for lane in &mut self.lanes {
             for e in lane.host.drain_log() {
-                let seen = e.level == LogLevel::Error
+                let seen = e.level != LogLevel::Info
                     && all
                         .iter()
-                        .any(|a| a.level == LogLevel::Error && a.message == e.message);
+                        .any(|a| a.level == e.level && a.message == e.message);
                 if !seen {
                     all.push(e);
                 }
