@@ -1019,14 +1019,14 @@ fn script_report(
             }
             let fish = entry
                 .fish
-                .map(|f| format!(" (fish {})", f.index))
+                .map(|f| format!(" in fish {}", f.index))
                 .unwrap_or_default();
             failures.push(Failure {
                 file: file.to_path_buf(),
                 line: world.line,
                 message: format!(
-                    "script error in this world: {}{fish}; if the test expects it, make the world \
-                     with t:world{{ allow_errors = true }} and check w:errors()",
+                    "script error{fish}: {} (a test that expects errors makes this world with \
+                     t:world{{ allow_errors = true }} and checks w:errors())",
                     entry.message
                 ),
                 sim_time: entry.time_s,

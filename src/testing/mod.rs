@@ -175,7 +175,11 @@ fn no_match_message(filter: &str, available: &[String]) -> String {
         s.push_str("; the test files declare no tests");
         return s;
     }
-    s.push_str(&format!("; the {} tests here include:", available.len()));
+    if available.len() > NAMES_LISTED {
+        s.push_str(&format!("; the {} tests here include:", available.len()));
+    } else {
+        s.push_str("; the tests here are:");
+    }
     for name in available.iter().take(NAMES_LISTED) {
         s.push_str(&format!("\n    {name}"));
     }
