@@ -3,10 +3,12 @@
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
-        .format_timestamp(None)
-        .init();
     let cli = shoal::cli::Cli::parse();
+    env_logger::Builder::from_env(
+        env_logger::Env::default().default_filter_or(cli.default_log_filter()),
+    )
+    .format_timestamp(None)
+    .init();
     match shoal::cli::run(cli) {
         Ok(code) => code,
         Err(err) => {

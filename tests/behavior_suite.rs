@@ -116,13 +116,15 @@ fn test_failure_names_file_line_expected_actual_and_time() {
     assert!((failure.sim_time - 2.0).abs() < 1e-6, "{failure}");
     let text = failure.to_string();
     assert!(text.contains("fail_test.lua:6:"), "{text}");
-    // The trace: a CSV with the fish moving along +x and a PNG top view.
+    // The trace: a CSV with the fish moving along +x and a PNG top view. The first seven
+    // columns (t, fish, x, y, z, heading, speed) are numbers; motion, intention and memory follow.
     let csv = std::fs::read_to_string(trace.join("fail_test-too_far.csv")).unwrap();
     let last: Vec<f64> = csv
         .lines()
         .last()
         .unwrap()
         .split(',')
+        .take(7)
         .map(|v| v.parse().unwrap())
         .collect();
     assert!(last[2] > 50.0, "the traced fish moved along +x: {last:?}");
@@ -218,5 +220,257 @@ fn test_cli_output_and_exit_code() {
     assert!(
         stdout.lines().any(|l| l == "1 passed, 1 failed"),
         "{stdout}"
+    );
+}
+
+/// Runs one test file written into a temporary directory and returns its outcomes.
+fn run_source(name: &str, source: &str, trace: Option<&Path>) -> Vec<testing::TestOutcome> {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), name, source);
+    let opts = RunOptions {
+        trace_dir: trace.map(Path::to_path_buf),
+        ..options()
+    };
+    testing::run_files(std::slice::from_ref(&file), &opts, |_| {})
+}
+
+/// A behaviour runtime error, a broken instruction budget and a file that fails to load each fail
+/// the test whose world ran them, named with file:line; `allow_errors = true` opts out.
+#[test]
+fn test_script_errors_fail_the_test_unless_allowed() {
+    let source = r#"
+local function world_with(t, body, allow)
+  local w = t:world{ seed = 2, scratch = true, allow_errors = allow }
+  w:write_script("behaviors/under_test.lua", body)
+  w:spawn{ species = "black_porgy", pos = {0, 200, 0}, behavior = "under_test" }
+  w:run(1)
+  return w
+end
+local RUNTIME = "local M = {}\nfunction M.tick(fish)\n  local x = nil\n  return x.y\nend\nreturn M\n"
+local LOOP = "local M = {}\nfunction M.tick(fish)\n  while true do end\nend\nreturn M\n"
+local SYNTAX = "local M = {\nfunction M.tick(fish)\nreturn M\n"
+test("runtime", function(t) world_with(t, RUNTIME, false); t:expect(true) end)
+test("budget", function(t) world_with(t, LOOP, false); t:expect(true) end)
+test("load", function(t) world_with(t, SYNTAX, false); t:expect(true) end)
+test("allowed", function(t)
+  local w = world_with(t, RUNTIME, true)
+  t:expect(#w:errors() == 1, "the error is still in w:errors()")
+end)
+test("clean", function(t) world_with(t, "return { tick = function(fish) end }", false); t:expect(true) end)
+"#;
+    let outcomes = run_source("errors_test.lua", source, None);
+    let by_name = |n: &str| outcomes.iter().find(|o| o.name == n).unwrap();
+    for (name, needle) in [
+        ("runtime", "under_test.lua:4:"),
+        ("budget", "instruction budget exceeded"),
+        ("load", "under_test.lua:"),
+    ] {
+        let o = by_name(name);
+        assert!(
+            !o.passed(),
+            "{name} should fail: {}",
+            testing::format_outcome(o)
+        );
+        let f = &o.failures[0];
+        assert_eq!(
+            f.line,
+            Some(3),
+            "the failure points at the t:world line: {f}"
+        );
+        assert!(
+            f.message.contains(needle) && f.message.contains("allow_errors = true"),
+            "{name}: {f}"
+        );
+    }
+    let allowed = by_name("allowed");
+    assert!(allowed.passed(), "{}", testing::format_outcome(allowed));
+    assert!(
+        allowed
+            .output
+            .iter()
+            .any(|l| l.error && l.message.contains("under_test.lua:4:")),
+        "an allowed error is still shown under the test: {:?}",
+        allowed.output
+    );
+    assert!(
+        testing::format_outcome(allowed).contains("error (allowed)"),
+        "{}",
+        testing::format_outcome(allowed)
+    );
+    assert!(by_name("clean").passed());
+}
+
+/// What a behaviour prints is kept with the test, in order, with its time and file:line.
+#[test]
+fn test_prints_are_kept_with_their_test() {
+    let source = r#"
+test("talks", function(t)
+  local w = t:world{ seed = 4, scratch = true }
+  w:write_script("behaviors/talker.lua", "local M = {}\nfunction M.tick(fish)\n  fish.memory.n = (fish.memory.n or 0) + 1\n  print('decision ' .. fish.memory.n)\nend\nreturn M\n")
+  w:spawn{ species = "black_porgy", pos = {0, 200, 0}, behavior = "talker" }
+  w:run(0.5)
+  t:expect(true)
+end)
+test("quiet", function(t) t:expect(true) end)
+"#;
+    let outcomes = run_source("talk_test.lua", source, None);
+    let talks = &outcomes[0];
+    let printed: Vec<&str> = talks
+        .output
+        .iter()
+        .filter(|l| !l.error)
+        .map(|l| l.message.as_str())
+        .collect();
+    assert!(
+        printed
+            .first()
+            .is_some_and(|m| m.contains("talker.lua:4: decision 1")),
+        "{printed:?}"
+    );
+    assert!(printed.len() >= 2, "several decisions printed: {printed:?}");
+    assert!(outcomes[1].output.is_empty(), "prints stay with their test");
+    let text = testing::format_outcome(talks);
+    assert!(
+        text.lines().nth(1).is_some_and(
+            |l| l.starts_with("    print [t = ") && l.contains("talker.lua:4: decision 1")
+        ),
+        "{text}"
+    );
+}
+
+/// A line of script output reads `[t = …] fish N: file:line: text`.
+#[test]
+fn test_script_line_format_names_time_and_fish() {
+    let outcome = testing::TestOutcome {
+        file: PathBuf::from("x_test.lua"),
+        name: "n".into(),
+        failures: Vec::new(),
+        sim_seconds: 2.0,
+        wall: std::time::Duration::ZERO,
+        num_checks: 1,
+        trace_files: Vec::new(),
+        output: vec![testing::ScriptLine {
+            world: 0,
+            time_s: 1.25,
+            fish: Some(3),
+            message: "scripts/behaviors/a.lua:7: hello".into(),
+            error: false,
+        }],
+    };
+    let text = testing::format_outcome(&outcome);
+    assert_eq!(
+        text.lines().nth(1),
+        Some("    print [t = 1.25 s] fish 3: scripts/behaviors/a.lua:7: hello"),
+        "{text}"
+    );
+}
+
+/// A misspelt key is an error naming it and the key meant, not silently ignored.
+#[test]
+fn test_unknown_keys_are_errors_with_a_suggestion() {
+    let source = r#"
+test("spawn typo", function(t)
+  local w = t:world{ seed = 1 }
+  w:spawn{ species = "black_porgy", pos = {0, 200, 0}, behaviour = "forage" }
+end)
+test("world typo", function(t)
+  t:world{ sead = 1 }
+end)
+test("far off", function(t)
+  t:world{ colour = "red" }
+end)
+"#;
+    let outcomes = run_source("keys_test.lua", source, None);
+    let f = &outcomes[0].failures[0];
+    assert_eq!(f.line, Some(4), "{f}");
+    assert!(
+        f.message.contains("unknown key `behaviour`")
+            && f.message.contains("did you mean `behavior`?"),
+        "{f}"
+    );
+    let f = &outcomes[1].failures[0];
+    assert!(
+        f.message.contains("unknown key `sead`") && f.message.contains("did you mean `seed`?"),
+        "{f}"
+    );
+    let f = &outcomes[2].failures[0];
+    assert!(
+        f.message.contains("unknown key `colour`")
+            && !f.message.contains("did you mean")
+            && f.message.contains("allow_errors"),
+        "lists the keys there are: {f}"
+    );
+}
+
+/// The trace CSV carries motion, intention and memory; a spreadsheet-style reader parses the
+/// memory column back to the fish's memory.
+#[test]
+fn test_trace_csv_has_motion_intention_and_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = r#"
+test("forager", function(t)
+  local w = t:world{ seed = 7 }
+  w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, behavior = "forage" }
+  w:food{ pos = {150, 200, 50} }
+  w:food{ pos = {-300, 200, -200} }
+  w:obstacle{ pos = {-100, 200, 150}, radius = 40 }
+  w:run(6)
+  t:expect(false, "forced failure to write a trace")
+end)
+"#;
+    let outcomes = run_source("csv_test.lua", source, Some(dir.path()));
+    assert_eq!(outcomes[0].trace_files.len(), 2, "{:?}", outcomes[0]);
+    let mut reader = csv::Reader::from_path(dir.path().join("csv_test-forager.csv")).unwrap();
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(
+        header,
+        [
+            "t",
+            "fish",
+            "x",
+            "y",
+            "z",
+            "heading",
+            "speed",
+            "motion",
+            "intention",
+            "memory"
+        ]
+    );
+    let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    let last = rows.last().unwrap();
+    assert!(!last[7].is_empty(), "a motion is playing: {last:?}");
+    assert!(
+        ["eat", "search", "wander", "avoid"].contains(&&last[8]),
+        "the forage intention: {last:?}"
+    );
+    let memory: serde_json::Value = serde_json::from_str(&last[9]).unwrap();
+    assert!(
+        memory.get("hunger").is_some_and(|h| h.is_number()),
+        "memory holds hunger: {memory}"
+    );
+    let png = image::open(dir.path().join("csv_test-forager.png"))
+        .unwrap()
+        .to_rgb8();
+    let count = |rgb: [u8; 3]| png.pixels().filter(|p| p.0 == rgb).count();
+    assert!(count([20, 60, 110]) > 500, "the tank outline is drawn");
+    assert!(count([120, 116, 110]) > 300, "the rock is drawn to scale");
+    assert!(count([20, 150, 40]) > 50, "food is drawn");
+}
+
+/// `--filter` text found in no test name or file name is an error listing the tests there are.
+#[test]
+fn test_filter_matching_nothing_lists_tests() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "named_test.lua",
+        "test(\"first\", function(t) t:expect(true) end)\ntest(\"second\", function(t) t:expect(true) end)\n",
+    );
+    let err = testing::no_match(&[file], "zzz", &options()).to_string();
+    assert!(err.contains("\"zzz\""), "{err}");
+    assert!(
+        err.contains("named_test.lua :: first") && err.contains("named_test.lua :: second"),
+        "{err}"
     );
 }

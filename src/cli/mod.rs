@@ -129,6 +129,18 @@ pub fn error_chain(err: &anyhow::Error) -> String {
     line
 }
 
+impl Cli {
+    /// The log filter where `RUST_LOG` does not set one. `shoal test` shows what scripts print
+    /// and the errors they raise under each test on stdout, so there the script console's echo
+    /// on stderr is off.
+    pub fn default_log_filter(&self) -> &'static str {
+        match self.command {
+            Some(Command::Test(_)) => "info,shoal::script::log=off",
+            _ => "info",
+        }
+    }
+}
+
 /// Runs the parsed command line and returns the process exit code.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {

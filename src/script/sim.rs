@@ -874,6 +874,19 @@ impl Simulation {
         self.lane_of(id).host.memory_json(id)
     }
 
+    /// A field of a fish's script table as JSON — `intention` and `percepts` are what its
+    /// behaviour produced at its last decision (as [`Simulation::inspect`] shows them); null when
+    /// unset or before the fish's first decision.
+    pub fn script_field_json(&self, id: FishId, key: &str) -> serde_json::Value {
+        self.lane_of(id)
+            .host
+            .existing_fish_table(id)
+            .and_then(|t| t.raw_get::<Value>(key).ok())
+            .map_or(serde_json::Value::Null, |v| {
+                super::host::value_to_json(&v, 0)
+            })
+    }
+
     /// Console entries logged since the last call, from every lane, oldest first: each distinct
     /// error once (an error every lane logged — a file failing to load, a runaway behaviour that
     /// fish of two lanes run — appears once, with the first fish), and every print.

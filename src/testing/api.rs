@@ -11,11 +11,13 @@
 //! ```
 //!
 //! - `test(name, fn)` declares a test; `fn(t)` runs after the whole file has been read.
-//! - `t:world{seed, scene?, tank?}` → world. `scene` is relative to `scripts/`; `tank` is
-//!   `{min = {x,y,z}, max = {x,y,z}}` and overrides the scene's tank.
+//! - `t:world{seed, scene?, tank?, scratch?, allow_errors?}` → world. `scene` is relative to
+//!   `scripts/`; `tank` is `{min = {x,y,z}, max = {x,y,z}}` and overrides the scene's tank. A
+//!   script error in the world fails the test unless `allow_errors = true`.
 //! - `w:spawn{species, pos, heading?, pitch?, speed?, behavior?}` → fish, whose fields `pos`,
-//!   `heading`, `pitch`, `speed`, `depth`, `behavior`, `motion`, `memory`, `id`, `alive` read
-//!   the live state. A fish with no behaviour is driven by the test itself:
+//!   `heading`, `pitch`, `speed`, `depth`, `behavior`, `motion`, `memory`, `intention`,
+//!   `percepts`, `id`, `alive` read the live state (`intention` and `percepts`: what its
+//!   behaviour's last decision produced). A fish with no behaviour is driven by the test itself:
 //!   `fish:swim(speed)`, `fish:accelerate(speed, seconds)`, `fish:stop(seconds?)`,
 //!   `fish:turn(kind, degrees, side)` (`kind` = "normal" | "quick" | "serial", `side` = "left" |
 //!   "right"), `fish:ascend(height)`, `fish:descend(depth)`, `fish:set_behavior(name)`.
@@ -34,6 +36,8 @@
 //! - `t:expect(cond, msg)`, `t:near(actual, expected, tol, msg)`, `t:less(a, b, msg)`,
 //!   `t:greater(a, b, msg)`: record a failure (with file, line, expected, actual, simulated time)
 //!   and carry on; a Lua error ends the test as a failure.
+//! - A key an option table does not take is an error naming it, with a "did you mean".
+//! - What the world's scripts `print` is kept with the test ([`ScriptLine`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -43,9 +47,10 @@ use glam::Vec3;
 use mlua::{Lua, LuaSerdeExt, Table, UserData, UserDataFields, UserDataMethods, Value};
 
 use super::trace::{Sample, Trace};
-use super::{Failure, RunOptions, TestOutcome};
+use super::{Failure, RunOptions, ScriptLine, TestOutcome};
 use crate::motion::{MotionRequest, Side, TurnKind};
 use crate::script::Simulation;
+use crate::script::log::{LogEntry, LogLevel};
 use crate::world::{FishId, FoodId};
 
 /// Ticks between trace samples (6 = 10 Hz at the 60 Hz tick).
@@ -66,25 +71,57 @@ struct WorldState {
     sim: Simulation,
     /// The private copy of `scripts/` and `assets/` of a `scratch = true` world (removed on drop).
     scratch: Option<tempfile::TempDir>,
+    /// `t:world{ allow_errors = true }`: script errors are expected, not failures.
+    allow_errors: bool,
+    /// The test-file line of the `t:world` call that made this world.
+    line: Option<usize>,
+    /// What the world's scripts logged (prints, errors), oldest first.
+    log: Vec<LogEntry>,
     trace: Vec<Sample>,
     fish: Vec<FishId>,
     foods: Vec<FoodId>,
 }
 
+/// A script value from [`Simulation::script_field_json`] for a CSV cell: a string as it is,
+/// nothing for nil, anything else as compact JSON.
+fn cell_text(value: serde_json::Value) -> String {
+    match value {
+        serde_json::Value::Null => String::new(),
+        serde_json::Value::String(s) => s,
+        other => other.to_string(),
+    }
+}
+
 impl WorldState {
+    /// Records every fish's state.
     fn record(&mut self) {
-        let t = self.sim.world().time();
-        for (i, &id) in self.fish.iter().enumerate() {
-            if let Some(root) = self.sim.world().root(id) {
-                self.trace.push(Sample {
-                    t,
-                    fish: i as u32,
-                    pos: root.pos,
-                    heading: root.heading,
-                    speed: root.speed,
-                });
-            }
+        for i in 0..self.fish.len() {
+            self.record_fish(self.fish[i]);
         }
+    }
+
+    /// Records one fish's state (a fish just spawned).
+    fn record_fish(&mut self, id: FishId) {
+        let sim = &self.sim;
+        let world = sim.world();
+        if let Some(root) = world.root(id) {
+            self.trace.push(Sample {
+                t: world.time(),
+                fish: id.index,
+                pos: root.pos,
+                heading: root.heading,
+                speed: root.speed,
+                motion: world.current_motion(id).unwrap_or_default().to_owned(),
+                intention: cell_text(sim.script_field_json(id, "intention")),
+                memory: cell_text(sim.memory_json(id)),
+            });
+        }
+    }
+
+    /// Moves what the scripts logged since the last call into [`WorldState::log`].
+    fn drain_log(&mut self) {
+        let entries = self.sim.drain_log();
+        self.log.extend(entries);
     }
 
     fn step(&mut self) {
@@ -102,9 +139,25 @@ impl WorldState {
     fn to_trace(&self) -> Trace {
         let world = self.sim.world();
         let tank = world.tank();
+        let labels = self
+            .fish
+            .iter()
+            .map(|&id| {
+                let species = world
+                    .species_of(id)
+                    .map(|s| world.species(s).desc.name.clone())
+                    .unwrap_or_default();
+                let behavior = world.behavior_of(id).unwrap_or("test-driven");
+                (
+                    id.index,
+                    format!("fish {}: {species}, {behavior}", id.index),
+                )
+            })
+            .collect();
         Trace {
             tank: (tank.min, tank.max),
             samples: self.trace.clone(),
+            labels,
             foods: self
                 .foods
                 .iter()
@@ -203,6 +256,47 @@ fn located(lua: &Lua, message: impl std::fmt::Display) -> mlua::Error {
     }
 }
 
+/// The keys each option table of the test API takes.
+const WORLD_KEYS: &[&str] = &["seed", "scene", "tank", "scratch", "allow_errors"];
+const TANK_KEYS: &[&str] = &["min", "max"];
+const SPAWN_KEYS: &[&str] = &["species", "pos", "heading", "pitch", "speed", "behavior"];
+const FOOD_KEYS: &[&str] = &["pos"];
+const OBSTACLE_KEYS: &[&str] = &["pos", "radius"];
+
+/// An error (at the test's line) for the first key of `table` that `what` does not take, naming
+/// the key, the closest known one and every known one; so that a typo such as `behaviour` is not
+/// silently ignored.
+fn check_keys(lua: &Lua, table: &Table, what: &str, known: &[&str]) -> mlua::Result<()> {
+    let mut unknown = Vec::new();
+    for pair in table.pairs::<Value, Value>() {
+        let (key, _) = pair?;
+        let key = match &key {
+            Value::String(s) => s.to_string_lossy(),
+            other => other
+                .to_string()
+                .unwrap_or_else(|_| other.type_name().to_owned()),
+        };
+        if !known.contains(&key.as_str()) {
+            unknown.push(key);
+        }
+    }
+    // Table order is not stable: report the same key every run.
+    unknown.sort();
+    let Some(key) = unknown.first() else {
+        return Ok(());
+    };
+    let hint = crate::script::scene::did_you_mean(key, known)
+        .map(|k| format!(" — did you mean `{k}`?"))
+        .unwrap_or_default();
+    Err(located(
+        lua,
+        format!(
+            "{what}: unknown key `{key}`{hint} ({what} takes {})",
+            known.join(", ")
+        ),
+    ))
+}
+
 fn vec3_from(value: &Value, what: &str) -> mlua::Result<Vec3> {
     let Value::Table(t) = value else {
         return Err(mlua::Error::runtime(format!(
@@ -274,9 +368,12 @@ impl UserData for TestHandle {
                 Some(t) => t,
                 None => lua.create_table()?,
             };
+            check_keys(lua, &opts, "t:world", WORLD_KEYS)?;
             let seed: u64 = opts.get::<Option<u64>>("seed")?.unwrap_or(1);
             let scene: Option<String> = opts.get("scene")?;
             let scratch_wanted = opts.get::<Option<bool>>("scratch")?.unwrap_or(false);
+            let allow_errors = opts.get::<Option<bool>>("allow_errors")?.unwrap_or(false);
+            let line = caller_line(lua);
             let mut root = this.0.borrow().root.clone();
             let scratch = if scratch_wanted {
                 let dir = make_scratch(&root)
@@ -292,6 +389,7 @@ impl UserData for TestHandle {
             }
             .map_err(|e| located(lua, format!("t:world: {e}")))?;
             if let Some(tank) = opts.get::<Option<Table>>("tank")? {
+                check_keys(lua, &tank, "t:world tank", TANK_KEYS)?;
                 let min = vec3_from(&tank.get("min")?, "tank.min")?;
                 let max = vec3_from(&tank.get("max")?, "tank.max")?;
                 sim.set_tank(min, max)
@@ -300,6 +398,9 @@ impl UserData for TestHandle {
             let world = Cell::new(WorldState {
                 sim,
                 scratch,
+                allow_errors,
+                line,
+                log: Vec::new(),
                 trace: Vec::new(),
                 fish: Vec::new(),
                 foods: Vec::new(),
@@ -367,6 +468,7 @@ impl WorldHandle {
         for _ in 0..ticks {
             world.step();
         }
+        world.drain_log();
         let now = world.sim.world().time();
         drop(world);
         let mut test = self.test.borrow_mut();
@@ -409,6 +511,7 @@ impl UserData for WorldHandle {
 
     fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
         methods.add_method("spawn", |lua, this, opts: Table| {
+            check_keys(lua, &opts, "w:spawn", SPAWN_KEYS)?;
             let species: String = opts
                 .get::<Option<String>>("species")?
                 .ok_or_else(|| located(lua, "w:spawn needs species = \"name\""))?;
@@ -423,13 +526,14 @@ impl UserData for WorldHandle {
                 .spawn(&species, pos, heading, pitch, speed, behavior.as_deref())
                 .map_err(|e| located(lua, format!("w:spawn: {e}")))?;
             world.fish.push(id);
-            world.record();
+            world.record_fish(id);
             Ok(FishHandle {
                 world: this.world.clone(),
                 id,
             })
         });
-        methods.add_method("food", |_, this, opts: Table| {
+        methods.add_method("food", |lua, this, opts: Table| {
+            check_keys(lua, &opts, "w:food", FOOD_KEYS)?;
             let pos = vec3_from(&opts.get("pos")?, "pos")?;
             let mut world = this.world.borrow_mut();
             let id = world.sim.world_mut().add_food(pos);
@@ -439,7 +543,8 @@ impl UserData for WorldHandle {
                 id,
             })
         });
-        methods.add_method("obstacle", |_, this, opts: Table| {
+        methods.add_method("obstacle", |lua, this, opts: Table| {
+            check_keys(lua, &opts, "w:obstacle", OBSTACLE_KEYS)?;
             let pos = vec3_from(&opts.get("pos")?, "pos")?;
             let radius: f32 = opts.get("radius")?;
             if !(radius.is_finite() && radius > 0.0) {
@@ -616,6 +721,15 @@ fn make_scratch(root: &Path) -> std::io::Result<tempfile::TempDir> {
     Ok(dir)
 }
 
+/// A script value read back from a fish (a copy: changing it does not change the fish); JSON
+/// null is Lua nil.
+fn json_to_lua(lua: &Lua, json: &serde_json::Value) -> mlua::Result<Value> {
+    let options = mlua::serde::SerializeOptions::new()
+        .serialize_none_to_null(false)
+        .serialize_unit_to_null(false);
+    lua.to_value_with(json, options)
+}
+
 fn parse_side(side: &str) -> mlua::Result<Side> {
     match side {
         "left" => Ok(Side::Left),
@@ -700,8 +814,15 @@ impl UserData for FishHandle {
         });
         fields.add_field_method_get("memory", |lua, this| {
             let world = this.world.borrow();
-            let json = world.sim.memory_json(this.id);
-            lua.to_value(&json)
+            json_to_lua(lua, &world.sim.memory_json(this.id))
+        });
+        fields.add_field_method_get("intention", |lua, this| {
+            let world = this.world.borrow();
+            json_to_lua(lua, &world.sim.script_field_json(this.id, "intention"))
+        });
+        fields.add_field_method_get("percepts", |lua, this| {
+            let world = this.world.borrow();
+            json_to_lua(lua, &world.sim.script_field_json(this.id, "percepts"))
         });
     }
 
@@ -785,31 +906,13 @@ fn test_lua() -> mlua::Result<Lua> {
     Ok(lua)
 }
 
-/// Runs every test of one file (filtered by `options.filter`) and returns their outcomes.
-/// A file that does not load yields one failed outcome named after the file.
-pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
-    let load_failure = |message: String| TestOutcome {
-        file: file.to_path_buf(),
-        name: "(load)".into(),
-        failures: vec![Failure {
-            file: file.to_path_buf(),
-            line: None,
-            message,
-            sim_time: 0.0,
-        }],
-        sim_seconds: 0.0,
-        wall: std::time::Duration::ZERO,
-        num_checks: 0,
-        trace_files: Vec::new(),
-    };
-    let source = match std::fs::read_to_string(file) {
-        Ok(s) => s,
-        Err(e) => return vec![load_failure(format!("cannot read: {e}"))],
-    };
-    let lua = match test_lua() {
-        Ok(lua) => lua,
-        Err(e) => return vec![load_failure(format!("cannot create a Lua state: {e}"))],
-    };
+/// The tests a file declares, in order, with the Lua state they run in; an error message when the
+/// file does not load.
+type Declared = (Lua, Vec<(String, mlua::Function)>);
+
+fn load_tests(file: &Path, options: &RunOptions) -> Result<Declared, String> {
+    let source = std::fs::read_to_string(file).map_err(|e| format!("cannot read: {e}"))?;
+    let lua = test_lua().map_err(|e| format!("cannot create a Lua state: {e}"))?;
     let declared: Cell<Vec<(String, mlua::Function)>> = Cell::new(Vec::new());
     let register = {
         let declared = declared.clone();
@@ -818,14 +921,48 @@ pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
             Ok(())
         })
     };
-    if let Err(e) = register.and_then(|f| lua.globals().set("test", f)) {
-        return vec![load_failure(format!("cannot register test(): {e}"))];
-    }
+    register
+        .and_then(|f| lua.globals().set("test", f))
+        .map_err(|e| format!("cannot register test(): {e}"))?;
     let chunk_name = format!("@{}", display_path(file, &options.root));
-    if let Err(e) = lua.load(&source).set_name(chunk_name).exec() {
-        return vec![load_failure(first_line(&e.to_string()))];
-    }
+    lua.load(&source)
+        .set_name(chunk_name)
+        .exec()
+        .map_err(|e| first_line(&e.to_string()))?;
     let tests = std::mem::take(&mut *declared.borrow_mut());
+    Ok((lua, tests))
+}
+
+/// The names of the tests a file declares (none if it does not load).
+pub fn test_names(file: &Path, options: &RunOptions) -> Vec<String> {
+    load_tests(file, options)
+        .map(|(_, tests)| tests.into_iter().map(|(name, _)| name).collect())
+        .unwrap_or_default()
+}
+
+/// Runs every test of one file (filtered by `options.filter`) and returns their outcomes.
+/// A file that does not load yields one failed outcome named after the file.
+pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
+    let (lua, tests) = match load_tests(file, options) {
+        Ok(declared) => declared,
+        Err(message) => {
+            return vec![TestOutcome {
+                file: file.to_path_buf(),
+                name: "(load)".into(),
+                failures: vec![Failure {
+                    file: file.to_path_buf(),
+                    line: None,
+                    message,
+                    sim_time: 0.0,
+                }],
+                sim_seconds: 0.0,
+                wall: std::time::Duration::ZERO,
+                num_checks: 0,
+                trace_files: Vec::new(),
+                output: Vec::new(),
+            }];
+        }
+    };
     let file_name = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -841,6 +978,67 @@ pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
         outcomes.push(run_one(&lua, file, &name, function, options));
     }
     outcomes
+}
+
+/// Most distinct script errors reported as failures per world; the rest are counted.
+const ERRORS_REPORTED: usize = 5;
+
+/// Splits what a world's scripts logged into failures (its errors, unless the world allows them)
+/// and output lines (prints, and the errors it allows), errors deduplicated by message.
+fn script_report(
+    file: &Path,
+    index: usize,
+    world: &WorldState,
+    failures: &mut Vec<Failure>,
+    output: &mut Vec<ScriptLine>,
+) {
+    let mut seen_errors: Vec<&str> = Vec::new();
+    let mut unreported = 0usize;
+    for entry in &world.log {
+        let is_error = entry.level == LogLevel::Error;
+        if is_error {
+            if seen_errors.contains(&entry.message.as_str()) {
+                continue;
+            }
+            seen_errors.push(&entry.message);
+        }
+        if is_error && !world.allow_errors {
+            if seen_errors.len() > ERRORS_REPORTED {
+                unreported += 1;
+                continue;
+            }
+            let fish = entry
+                .fish
+                .map(|f| format!(" in fish {}", f.index))
+                .unwrap_or_default();
+            failures.push(Failure {
+                file: file.to_path_buf(),
+                line: world.line,
+                message: format!(
+                    "script error{fish}: {} (a test that expects errors makes this world with \
+                     t:world{{ allow_errors = true }} and checks w:errors())",
+                    entry.message
+                ),
+                sim_time: entry.time_s,
+            });
+            continue;
+        }
+        output.push(ScriptLine {
+            world: index,
+            time_s: entry.time_s,
+            fish: entry.fish.map(|f| f.index),
+            message: entry.message.clone(),
+            error: is_error,
+        });
+    }
+    if unreported > 0 {
+        failures.push(Failure {
+            file: file.to_path_buf(),
+            line: world.line,
+            message: format!("… and {unreported} more distinct script errors in this world"),
+            sim_time: world.sim.world().time(),
+        });
+    }
 }
 
 fn run_one(
@@ -890,8 +1088,17 @@ fn run_one(
                 worlds: s.worlds.clone(),
             }
         });
+    // Script errors first: they are usually why a check failed.
+    let mut failures = Vec::new();
+    let mut output = Vec::new();
+    for (i, world) in state.worlds.iter().enumerate() {
+        let mut world = world.borrow_mut();
+        world.drain_log();
+        script_report(file, i, &world, &mut failures, &mut output);
+    }
+    failures.extend(state.failures);
     let mut trace_files = Vec::new();
-    if !state.failures.is_empty()
+    if !failures.is_empty()
         && let Some(dir) = &options.trace_dir
     {
         let stem = format!(
@@ -915,18 +1122,24 @@ fn run_one(
                 .and_then(|()| trace.write_top_view(&png))
             {
                 Ok(()) => trace_files.extend([csv, png]),
-                Err(e) => log::warn!("{e}"),
+                Err(e) => failures.push(Failure {
+                    file: file.to_path_buf(),
+                    line: None,
+                    message: format!("trace not written: {e}"),
+                    sim_time: state.last_time,
+                }),
             }
         }
     }
     TestOutcome {
         file: file.to_path_buf(),
         name: name.to_string(),
-        failures: state.failures,
+        failures,
         sim_seconds: state.sim_seconds,
         wall: super::elapsed_since(start),
         num_checks: state.num_checks,
         trace_files,
+        output,
     }
 }
 

@@ -4,7 +4,10 @@
 //! A test file calls `test(name, fn)`; each `fn(t)` builds worlds with `t:world{…}`, spawns fish,
 //! runs simulated time and checks outcomes with `t:expect` / `t:near` (see [`api`] for the whole
 //! Lua surface). Every failed check records the test file and line, the expected and actual values
-//! and the simulated time, so a designer can find the failure without a debugger. With a trace
+//! and the simulated time, so a designer can find the failure without a debugger. A script error
+//! (a behaviour's runtime error, a broken budget, a file that fails to load) in one of a test's
+//! worlds fails the test too, unless the world was made with `allow_errors = true`. What scripts
+//! `print` is kept with the test that ran them ([`TestOutcome::output`]). With a trace
 //! directory, each failing test also writes its fish trajectories (CSV) and a top-view plot (PNG).
 
 pub mod api;
@@ -51,6 +54,40 @@ impl std::fmt::Display for Failure {
     }
 }
 
+/// A line the scripts of a test's world wrote: a `print` (or another console message, such as a
+/// reload notice) or a script error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScriptLine {
+    /// Which of the test's worlds (0 = the first `t:world`).
+    pub world: usize,
+    /// Simulated seconds when it was written.
+    pub time_s: f64,
+    /// The fish whose script wrote it (`fish.id`), if any.
+    pub fish: Option<u32>,
+    /// `file:line: text` as the script console shows it.
+    pub message: String,
+    /// A script error (shown only where the world allows errors; otherwise it is a failure).
+    pub error: bool,
+}
+
+impl ScriptLine {
+    /// `[t = 1.23 s] fish 0: scripts/behaviors/x.lua:5: text`, plus the world where the test has
+    /// several.
+    fn describe(&self, several_worlds: bool) -> String {
+        let mut s = format!("[t = {:.2} s]", self.time_s);
+        if several_worlds {
+            s.push_str(&format!(" world {}", self.world));
+        }
+        match self.fish {
+            Some(fish) => s.push_str(&format!(" fish {fish}")),
+            None => s.push_str(" (no fish)"),
+        }
+        s.push_str(": ");
+        s.push_str(&self.message);
+        s
+    }
+}
+
 /// The result of one `test(name, fn)`.
 #[derive(Debug, Clone)]
 pub struct TestOutcome {
@@ -68,6 +105,8 @@ pub struct TestOutcome {
     pub num_checks: usize,
     /// Trace files written for this test, if it failed and tracing was on.
     pub trace_files: Vec<PathBuf>,
+    /// What its worlds' scripts printed (and the errors its worlds allowed), in order.
+    pub output: Vec<ScriptLine>,
 }
 
 impl TestOutcome {
@@ -115,6 +154,62 @@ pub enum RunError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// `--filter` matched no test.
+    #[error("{}", no_match_message(filter, available))]
+    NoMatch {
+        /// The filter text.
+        filter: String,
+        /// `file :: name` of every test the files declare.
+        available: Vec<String>,
+    },
+}
+
+/// How many test names a [`RunError::NoMatch`] message lists.
+const NAMES_LISTED: usize = 8;
+
+fn no_match_message(filter: &str, available: &[String]) -> String {
+    let mut s = format!(
+        "--filter {filter:?} matches no test (it is looked for in test names and file names)"
+    );
+    if available.is_empty() {
+        s.push_str("; the test files declare no tests");
+        return s;
+    }
+    if available.len() > NAMES_LISTED {
+        s.push_str(&format!("; the {} tests here include:", available.len()));
+    } else {
+        s.push_str("; the tests here are:");
+    }
+    for name in available.iter().take(NAMES_LISTED) {
+        s.push_str(&format!("\n    {name}"));
+    }
+    if available.len() > NAMES_LISTED {
+        s.push_str(&format!(
+            "\n    … and {} more",
+            available.len() - NAMES_LISTED
+        ));
+    }
+    s
+}
+
+/// The [`RunError::NoMatch`] for `filter` over `files`, listing the tests they declare.
+pub fn no_match(files: &[PathBuf], filter: &str, options: &RunOptions) -> RunError {
+    let available = files
+        .iter()
+        .flat_map(|file| {
+            let short = file
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            api::test_names(file, options)
+                .into_iter()
+                .map(move |name| format!("{short} :: {name}"))
+        })
+        .collect();
+    RunError::NoMatch {
+        filter: filter.to_owned(),
+        available,
+    }
 }
 
 /// Every `*_test.lua` under `paths` (files are taken as given), sorted, without duplicates.
@@ -190,6 +285,15 @@ pub fn format_outcome(outcome: &TestOutcome) -> String {
     );
     for failure in &outcome.failures {
         line.push_str(&format!("\n    {failure}"));
+    }
+    let several_worlds = outcome.output.iter().any(|l| l.world > 0);
+    for out in &outcome.output {
+        let label = if out.error {
+            "error (allowed)"
+        } else {
+            "print"
+        };
+        line.push_str(&format!("\n    {label} {}", out.describe(several_worlds)));
     }
     for path in &outcome.trace_files {
         line.push_str(&format!("\n    trace: {}", path.display()));

@@ -46,3 +46,15 @@ test("a sated porgy ignores food", function(t)
   w:run(5)
   t:expect(not ignored.eaten, "a sated fish does not go for food")
 end)
+
+test("intention and percepts can be read", function(t)
+  local w = t:world{ seed = 7 }
+  local fish = w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, behavior = "forage" }
+  t:expect(fish.intention == nil, "no intention before the first decision")
+  w:food{ pos = {150, 200, 50} }
+  w:run(1)
+  t:expect(fish.intention == "eat", "a hungry porgy that sees food intends to eat, got "
+    .. tostring(fish.intention))
+  t:expect(fish.percepts ~= nil and fish.percepts.food_id ~= nil, "its percepts hold the food")
+  t:near(fish.percepts.food_x, 150, 1e-3, "the food it perceived is the one there is")
+end)

@@ -1,7 +1,8 @@
 -- A broken script hurts only the fish running it, and live edits keep what fish remember.
 
 test("a script error in one fish does not stop the others", function(t)
-  local w = t:world{ seed = 51, scratch = true }
+  -- The error is the point of this test: allow it, then check it was reported.
+  local w = t:world{ seed = 51, scratch = true, allow_errors = true }
   w:write_script("behaviors/broken.lua", [[
 local M = {}
 function M.behave(fish)
@@ -52,7 +53,7 @@ return M
 end)
 
 test("a reload that fails keeps the last good version", function(t)
-  local w = t:world{ seed = 53, scratch = true }
+  local w = t:world{ seed = 53, scratch = true, allow_errors = true }
   w:write_script("behaviors/steady.lua", [[
 local M = {}
 function M.behave(fish) fish.memory.ticks = (fish.memory.ticks or 0) + 1 end
@@ -65,4 +66,7 @@ return M
   local before = fish.memory.ticks
   w:run(1)
   t:greater(fish.memory.ticks, before, "the old version keeps running")
+  local errors = w:errors()
+  t:expect(#errors == 1 and errors[1]:find("steady.lua", 1, true) ~= nil,
+    "the failed reload is the one script error: " .. table.concat(errors, "; "))
 end)
