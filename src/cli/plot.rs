@@ -216,14 +216,17 @@ fn draw_midlines(
             .draw()
             .map_err(plot_err)?;
     }
-    // Amplitude envelope ±|A(x)| of the swim wave and the pivot.
+    // Amplitude envelope of the swim wave (±|A_f(x)| ahead of the pivot, ±|A(x)| behind it)
+    // and the pivot.
     let envelope = |sign: f32| {
         (0..=100).map(move |i| {
             let x = i as f32 / 100.0;
-            (
-                x,
-                sign * wave::amplitude(x * p.l, p.p, p.l, p.max_amp).abs() / p.l,
-            )
+            let a = if x < p.p {
+                wave::front_amplitude(x * p.l, p.p, p.l)
+            } else {
+                wave::amplitude(x * p.l, p.p, p.l, p.max_amp)
+            };
+            (x, sign * a.abs() / p.l)
         })
     };
     let grey = RGBColor(150, 150, 150);
