@@ -192,9 +192,9 @@ fn draw_midlines(
         / p.l;
     let y_max = (y_max * 1.15).max(0.12);
     let caption = if turn {
-        "midline during the turn (dots: driven joints; dashed: ±|A(x)|)"
+        "midline during the turn (dots: driven joints; dashed: envelope ±|A_f|, ±|A|)"
     } else {
-        "midline over one tail beat (dots: driven joints; dashed: ±|A(x)|)"
+        "midline over one tail beat (dots: driven joints; dashed: envelope ±|A_f|, ±|A|)"
     };
     let mut builder = ChartBuilder::on(area);
     builder.margin(14);
