@@ -226,20 +226,18 @@ impl MotionParams {
 
     /// The black porgy, swimming like a carangiform fish (docs/motion.md, "Defaults and biology").
     ///
-    /// p = 0.3: the pivot, where the body wave starts and the measured amplitude is smallest, in
-    /// the front third (Jayne & Lauder 1995: amplitude rises from about 0.25 L; Videler & Hess
-    /// 1984: minimum near 0.25 L). s = 50 (one body length per second), l = 50, λ = 1.2·l, which
-    /// the posed body (rigid segments, Fig. 5 weights) shows as a body wave of about 0.9 L
-    /// (carangiform fish: 0.8 – 1.2 L), ω = 6 so the tail beats at s·p·ω/λ = 1.5 Hz per body
-    /// length per second, maxAmp = 0.16·l so the posed tail tip sweeps about 0.2·l peak to peak,
-    /// which makes the Strouhal number about 0.3 at every speed; Tt = 2 s, f = 1, turn angle 90°.
+    /// Table 1's p = 0.4, s = 50 (one body length per second), l = 50 and maxAmp = l/5, with
+    /// λ = 1.2·l, which the posed body (rigid segments, Fig. 5 weights) shows as a body wave of
+    /// about one body length (carangiform fish: 0.8 – 1.2 L), and ω = 4.5 so the tail beats at
+    /// s·p·ω/λ = 1.5 Hz per body length per second. The posed tail tip sweeps about 0.2·l peak to
+    /// peak, so the Strouhal number is about 0.3 at every speed; Tt = 2 s, f = 1, turn angle 90°.
     pub const BLACK_PORGY: Self = Self {
-        p: 0.3,
+        p: 0.4,
         s: 50.0,
         l: 50.0,
-        max_amp: 50.0 * 0.16,
+        max_amp: 50.0 / 5.0,
         lambda: 50.0 * 1.2,
-        omega: 6.0,
+        omega: 4.5,
         tt: 2.0,
         f: 1.0,
         turn_angle: std::f32::consts::FRAC_PI_2,
