@@ -401,10 +401,13 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
     }
 }
 
+/// Published envelope curves: (label, (x, a(x)) points).
+type Curves = Vec<(String, Vec<(f32, f32)>)>;
+/// Published ranges at one station: (label, x, lowest a, highest a).
+type Bars = Vec<(String, f32, f32, f32)>;
+
 /// The envelope published for `mode`, as (x, a(x)) curves and (x, lo, hi) bars, with labels.
-fn published_envelope(
-    mode: Mode,
-) -> (Vec<(String, Vec<(f32, f32)>)>, Vec<(String, f32, f32, f32)>) {
+fn published_envelope(mode: Mode) -> (Curves, Bars) {
     let mackerel: Vec<(f32, f32)> = (0..=50)
         .map(|i| {
             let x = i as f32 / 50.0;
@@ -607,6 +610,16 @@ pub fn plot(subject: &Subject, ms: &[Measurement], out: &Path) -> anyhow::Result
 
 /// Runs `shoal kinematics`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = args.plot.as_deref().and_then(Path::parent)
+        && !dir.as_os_str().is_empty()
+        && !dir.is_dir()
+    {
+        bail!(
+            "--plot {}: the directory {} does not exist",
+            args.plot.as_deref().unwrap_or(dir).display(),
+            dir.display()
+        );
+    }
     let subject = subject(&args, &project_root())?;
     let speeds = speeds(&args, &subject.params)?;
     let ms = measure(&subject, &speeds)?;

@@ -223,7 +223,7 @@ pub fn analyze(series: &MidlineSeries) -> Result<Kinematics, KinematicsError> {
     let k1 = ((t1 / dt).floor() as usize).min(frames - 1);
 
     let speed = (series.forward[k1] - series.forward[k0]) / ((k1 - k0) as f32 * dt);
-    if !(speed > 0.0) {
+    if speed.is_nan() || speed <= 0.0 {
         return Err(KinematicsError::NotSwimming { speed });
     }
 
