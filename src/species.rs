@@ -15,7 +15,7 @@
 use glam::{Mat3, Mat4, Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
-use crate::motion::{Body, MotionParams};
+use crate::motion::{Body, MotionParams, PowerProfile};
 use crate::skeleton::JointTransform;
 use crate::skin::FishModel;
 
@@ -68,6 +68,10 @@ pub struct SpeciesDesc {
     /// Motion parameters (pivot p, speed s, body length l, …). `l` also sets the fish's size
     /// in the world: the model is scaled so its body (snout to tail tip) is `l` long.
     pub motion: MotionParams,
+    /// How strongly each driven joint bends along the body: `"fig5"` (the paper's black porgy,
+    /// the default) or `"uniform"` (anguilliform swimmers; docs/motion.md).
+    #[serde(default)]
+    pub power_profile: PowerProfile,
     /// How far the fish sees, world units.
     #[serde(default = "default_view_range")]
     pub view_range: f32,
@@ -159,6 +163,7 @@ impl SpeciesDesc {
                 .collect(),
             // The motion layer's black porgy defaults (Table 1 Ex1), written once there.
             motion: MotionParams::BLACK_PORGY,
+            power_profile: PowerProfile::Fig5,
             view_range: 250.0,
             view_angle_deg: 300.0,
             max_speed: 120.0,
@@ -168,9 +173,12 @@ impl SpeciesDesc {
         }
     }
 
-    /// An eel-like fish on `assets/eel.glb`: long, slender, its motion centre towards the front
-    /// (pivot p = 0.2, Table 1 Ex3's pivot), a shorter body wave (anguilliform: λ = 0.6·l) and a
-    /// slower cruise.
+    /// An eel-like fish on `assets/eel.glb`, swimming like an anguilliform fish (docs/motion.md):
+    /// long, slender, its motion centre towards the front (pivot p = 0.2, Table 1 Ex3's pivot),
+    /// a body wave shorter than the body (λ = 0.7·l, more than one wave on the body), every joint
+    /// bending with the same weight (the whole body undulates), ω = 6 so the tail beats at
+    /// s·p·ω/λ ≈ 1.7 Hz per body length per second (Strouhal number about 0.3), and a slower
+    /// cruise.
     pub fn eel() -> Self {
         Self {
             name: "eel".into(),
@@ -184,12 +192,13 @@ impl SpeciesDesc {
                 s: 30.0,
                 l: 70.0,
                 max_amp: 70.0 / 8.0,
-                lambda: 42.0,
-                omega: 3.0,
+                lambda: 0.7 * 70.0,
+                omega: 6.0,
                 tt: 2.5,
                 f: 1.0,
                 turn_angle: std::f32::consts::FRAC_PI_2,
             },
+            power_profile: PowerProfile::Uniform,
             view_range: 180.0,
             view_angle_deg: 280.0,
             max_speed: 70.0,
@@ -419,7 +428,7 @@ impl SpeciesRig {
         joints_x.push(1.0);
         let power = joints_x[..driven.len()]
             .iter()
-            .map(|&x| crate::motion::power_after_fig5(x))
+            .map(|&x| desc.power_profile.weight(x))
             .collect();
 
         // Bend axes in each driven joint's local frame: ventral direction through the inverse of

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 pub mod asset;
 pub mod bench;
+pub mod kinematics;
 pub mod motion;
 pub mod plot;
 pub mod render;
@@ -32,6 +33,8 @@ pub enum Command {
     Motion(motion::Args),
     /// Plot a motion preset's body midlines (Fig. 4, 6-9 of the paper).
     Plot(plot::Args),
+    /// Measure steady swimming as biologists do (frequency, envelope, wavelength, St).
+    Kinematics(kinematics::Args),
     /// Skin a glTF model in a pose and write the skinned positions.
     Skin(skin::Args),
     /// Build assets: the generated black porgy and eel, or rig a static mesh.
@@ -149,6 +152,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Motion(args)) => motion::run(args),
         Some(Command::Plot(args)) => plot::run(args),
+        Some(Command::Kinematics(args)) => kinematics::run(args),
         Some(Command::Skin(args)) => skin::run(args),
         Some(Command::Asset(args)) => asset::run(args),
         Some(Command::Test(args)) => test::run(args),

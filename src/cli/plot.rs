@@ -192,9 +192,9 @@ fn draw_midlines(
         / p.l;
     let y_max = (y_max * 1.15).max(0.12);
     let caption = if turn {
-        "midline during the turn (dots: driven joints; dashed: ±|A(x)|)"
+        "midline during the turn (dots: driven joints; dashed: envelope ±|A_f|, ±|A|)"
     } else {
-        "midline over one tail beat (dots: driven joints; dashed: ±|A(x)|)"
+        "midline over one tail beat (dots: driven joints; dashed: envelope ±|A_f|, ±|A|)"
     };
     let mut builder = ChartBuilder::on(area);
     builder.margin(14);
@@ -216,14 +216,17 @@ fn draw_midlines(
             .draw()
             .map_err(plot_err)?;
     }
-    // Amplitude envelope ±|A(x)| of the swim wave and the pivot.
+    // Amplitude envelope of the swim wave (±|A_f(x)| ahead of the pivot, ±|A(x)| behind it)
+    // and the pivot.
     let envelope = |sign: f32| {
         (0..=100).map(move |i| {
             let x = i as f32 / 100.0;
-            (
-                x,
-                sign * wave::amplitude(x * p.l, p.p, p.l, p.max_amp).abs() / p.l,
-            )
+            let a = if x < p.p {
+                wave::front_amplitude(x * p.l, p.p, p.l)
+            } else {
+                wave::amplitude(x * p.l, p.p, p.l, p.max_amp)
+            };
+            (x, sign * a.abs() / p.l)
         })
     };
     let grey = RGBColor(150, 150, 150);

@@ -33,6 +33,32 @@ pub fn power_after_fig5(x: f32) -> f32 {
     }
 }
 
+/// How strongly each driven joint bends, as a function of its place along the body.
+///
+/// The paper's Fig. 5 is the black porgy's (a carangiform fish: the rear myotomes deliver most of
+/// the power). Anguilliform swimmers such as eels undulate and push along the whole body
+/// (Gillis 1998; Müller et al. 2001: the flow beside a swimming eel grows almost linearly from
+/// head to tail, thrust is made all along the body), so a species may choose uniform weights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PowerProfile {
+    /// [`power_after_fig5`] (the default, the paper's black porgy).
+    #[default]
+    Fig5,
+    /// Every joint weight 1: the body bends as the wave says, all along.
+    Uniform,
+}
+
+impl PowerProfile {
+    /// The weight of a joint at `x` (fraction of body length from the head).
+    pub fn weight(self, x: f32) -> f32 {
+        match self {
+            PowerProfile::Fig5 => power_after_fig5(x),
+            PowerProfile::Uniform => 1.0,
+        }
+    }
+}
+
 impl Body {
     /// The paper's default: 7 vertebral segments of equal length, so 6 driven joints at
     /// x = 1/7 … 6/7, then the tail tip at 1; weights from [`power_after_fig5`].

@@ -23,12 +23,14 @@
 use glam::Vec3;
 
 pub mod body;
+pub mod kinematics;
 pub mod player;
 pub mod presets;
 pub mod record;
 pub mod wave;
 
-pub use body::{MidlinePoseJob, power_after_fig5};
+pub use body::{MidlinePoseJob, PowerProfile, power_after_fig5};
+pub use kinematics::{Kinematics, KinematicsError, MidlineSeries, analyze, record_swim};
 pub use player::{MotionPlayer, WaveTable};
 pub use presets::Preset;
 pub use record::{Recording, record_preset};
@@ -203,21 +205,39 @@ fn check(name: &'static str, value: f32, ok: bool, why: &str) -> Result<(), Moti
 }
 
 impl MotionParams {
-    /// The black porgy defaults (the paper's fish, Table 1 Ex1's pivot and length).
+    /// The values the paper's Table 1 experiments start from (the presets `ex1` … `ex4` override
+    /// p, s, l, Tt and f on top of these).
     ///
-    /// p = 0.4, s = 50 (one body length per second), l = 50, λ = l (a carangiform body wave about
-    /// one body long), ω = 3.75 so the tail beats at s·p·ω/λ = 1.5 Hz per body length per second,
-    /// maxAmp = l/5 so the posed tail tip (Fig. 5 weights applied) sweeps 0.2·l peak to peak
-    /// (the bare curve F would sweep 2·(1 − p)·maxAmp = 0.24·l; the weights take 16 % off), which
-    /// makes the Strouhal number 1.5 Hz·0.2·l/(1 l/s) = 0.30 at every speed; Tt = 2 s, f = 1,
-    /// turn angle 90°.
-    pub const BLACK_PORGY: Self = Self {
+    /// p = 0.4, s = 50 (one body length per second), l = 50, λ = l, ω = 3.75 so the tail beats
+    /// at s·p·ω/λ = 1.5 Hz per body length per second, maxAmp = l/5, Tt = 2 s, f = 1, turn
+    /// angle 90°. Kept as they were when the presets were first matched to the paper's figures, so
+    /// `shoal plot --preset exN` keeps its meaning whatever the species defaults become.
+    pub const TABLE_1: Self = Self {
         p: 0.4,
         s: 50.0,
         l: 50.0,
         max_amp: 50.0 / 5.0,
         lambda: 50.0,
         omega: 3.75,
+        tt: 2.0,
+        f: 1.0,
+        turn_angle: std::f32::consts::FRAC_PI_2,
+    };
+
+    /// The black porgy, swimming like a carangiform fish (docs/motion.md, "Defaults and biology").
+    ///
+    /// Table 1's p = 0.4, s = 50 (one body length per second), l = 50 and maxAmp = l/5, with
+    /// λ = 1.2·l, which the posed body (rigid segments, Fig. 5 weights) shows as a body wave of
+    /// about one body length (carangiform fish: 0.8 – 1.2 L), and ω = 4.5 so the tail beats at
+    /// s·p·ω/λ = 1.5 Hz per body length per second. The posed tail tip sweeps about 0.2·l peak to
+    /// peak, so the Strouhal number is about 0.3 at every speed; Tt = 2 s, f = 1, turn angle 90°.
+    pub const BLACK_PORGY: Self = Self {
+        p: 0.4,
+        s: 50.0,
+        l: 50.0,
+        max_amp: 50.0 / 5.0,
+        lambda: 50.0 * 1.2,
+        omega: 4.5,
         tt: 2.0,
         f: 1.0,
         turn_angle: std::f32::consts::FRAC_PI_2,

@@ -344,7 +344,11 @@ impl WaveTable {
                     };
                     WaveSample {
                         xp,
-                        amp: wave::amplitude(xl, p, l, params.max_amp),
+                        amp: if xp < 0.0 {
+                            wave::front_amplitude(xl, p, l)
+                        } else {
+                            wave::amplitude(xl, p, l, params.max_amp)
+                        },
                         swim: swim.sin_cos(),
                         turn: (TAU * xp / wavelength).sin_cos(),
                     }

@@ -7,8 +7,8 @@
 //! | ex3 | quick turn | 0.20 | 40 | 50 | −1 | 2000 ms | – |
 //! | ex4 | serial turn | 0.40 | 35 | 50 | −1 | 2400 ms | – |
 //!
-//! Entries the table leaves blank ("N/A") keep the black porgy defaults of
-//! [`MotionParams::BLACK_PORGY`]; the turn angle is 90°.
+//! Entries the table leaves blank ("N/A") keep the values of [`MotionParams::TABLE_1`]; the
+//! turn angle is 90°.
 
 use super::{MotionError, MotionParams, MotionRequest, RootState, Side, TurnKind};
 
@@ -31,7 +31,7 @@ impl Preset {
 
     /// The preset called `name` (`ex1` … `ex4`).
     pub fn by_name(name: &str) -> Result<Self, MotionError> {
-        let base = MotionParams::BLACK_PORGY;
+        let base = MotionParams::TABLE_1;
         let preset = match name {
             "ex1" => Self {
                 name: "ex1",

@@ -37,6 +37,24 @@ pub fn amplitude(x: f32, p: f32, l: f32, max_amp: f32) -> f32 {
     (x - p * l) / l * max_amp
 }
 
+/// Amplitude of the front wave F_f at the snout, as a fraction of the body length: 1/50.
+///
+/// Equation (3) prints F_f with no amplitude factor, i.e. an amplitude of one length unit; Table 1's
+/// fish is l = 50 units long, so the snout swings 1/50 = 0.02 body lengths, the snout amplitude
+/// of carangiform fish (Videler & Hess 1984, mackerel ≈ 0.02 L; Jayne & Lauder 1995, bass 0.004 –
+/// 0.012 L). We keep that ratio for every body length (see `docs/motion.md`).
+pub const FRONT_AMPLITUDE_BODY_LENGTHS: f32 = 1.0 / 50.0;
+
+/// The front wave's amplitude A_f(x) for x ≤ p·l, length units: zero at the pivot, growing
+/// linearly to −[`FRONT_AMPLITUDE_BODY_LENGTHS`]·l at the snout (x = 0).
+///
+/// Signed like [`amplitude`] (negative in front of the pivot), so the snout swings opposite to
+/// the tail near the pivot (carangiform head recoil) and the curve is continuous at the pivot.
+/// Needs p > 0 (every valid pivot is).
+pub fn front_amplitude(x: f32, p: f32, l: f32) -> f32 {
+    (x - p * l) / p * FRONT_AMPLITUDE_BODY_LENGTHS
+}
+
 /// λ' = (132·p − 18.8)·λ: the stretched wavelength of the front wave F_f, length units.
 ///
 /// Positive only for p > 18.8/132 ≈ 0.1424 ([`P_MIN`]); [`crate::motion::MotionParams::validate`]
@@ -62,12 +80,13 @@ pub fn tail_beat_hz(s: f32, p: f32, omega: f32, lambda: f32) -> f32 {
     omega_prime(s, p, omega) / lambda
 }
 
-/// Equation (3), the front wave F_f = A(x)·sin(2π·x'/λ' − φ), for x' ≤ 0.
+/// Equation (3), the front wave F_f = A_f(x)·sin(2π·x'/λ' − φ), for x' ≤ 0.
 ///
-/// The paper prints F_f without an amplitude factor and with its own time term ω'·t/λ'. We
-/// scale it by the signed envelope A(x) (so it is zero at the pivot, meets F_b there with the same
-/// slope and shrinks with the body) and drive it with the back wave's phase φ (so head and tail
-/// beat at the same frequency, as in every fish). Returns length units.
+/// The paper prints F_f without an amplitude factor (an amplitude of one length unit) and with
+/// its own time term ω'·t/λ'. `amplitude` is [`front_amplitude`]: the literal unit amplitude at
+/// the snout on Table 1's 50-unit fish, tapered to zero at the pivot so the curve is continuous
+/// there. F_f is driven by the back wave's phase φ (so head and tail beat at the same frequency,
+/// as in every fish). Returns length units.
 pub fn f_front(amplitude: f32, x_prime: f32, lambda_prime: f32, phase: f32) -> f32 {
     amplitude * (TAU * x_prime / lambda_prime - phase).sin()
 }
@@ -127,7 +146,8 @@ pub fn t_locomotion(s_wave: f32, t_wave: f32, ip: f32) -> f32 {
     s_wave * (1.0 - ip) + t_wave * ip
 }
 
-/// The swim wave S(x, t) of (3)/(4): F_f in front of the pivot, F_b behind it. Length units.
+/// The swim wave S(x, t) of (3)/(4): F_f (amplitude [`front_amplitude`]) in front of the pivot,
+/// F_b (amplitude [`amplitude`]) behind it. Length units.
 ///
 /// `x` length units from the head; `gain` scales the whole wave (the player's speed gain).
 #[allow(clippy::too_many_arguments)]
@@ -142,11 +162,10 @@ pub fn swim_wave(
     gain: f32,
 ) -> f32 {
     let xp = x_prime(x, p, l);
-    let a = amplitude(x, p, l, max_amp) * gain;
     if xp < 0.0 {
-        f_front(a, xp, lambda_prime, phase)
+        f_front(front_amplitude(x, p, l) * gain, xp, lambda_prime, phase)
     } else {
-        f_back(a, xp, lambda, phase)
+        f_back(amplitude(x, p, l, max_amp) * gain, xp, lambda, phase)
     }
 }
 
@@ -228,10 +247,31 @@ mod tests {
                 close(before, after, 1e-3),
                 "jump at pivot: {before} vs {after}"
             );
-            // Same slope on both sides: A'(x) = amp/l, multiplied by sin(−φ).
-            let slope = amp / l * (-phase).sin();
-            assert!(close((after - before) / (2.0 * eps), slope, 2e-2));
+            // One-sided slopes at the pivot: behind it A'(x)·sin(−φ) = amp/l·sin(−φ); in front
+            // A_f'(x)·sin(−φ) = 0.02/p·sin(−φ) (snout amplitude 0.02·l over p·l). A kink, not a
+            // jump: the front is nearly still while the back carries the wave.
+            let h = 0.05;
+            let pivot = swim_wave(20.0, p, l, amp, lam, lp, phase, 1.0);
+            let back = (swim_wave(20.0 + h, p, l, amp, lam, lp, phase, 1.0) - pivot) / h;
+            let front = (pivot - swim_wave(20.0 - h, p, l, amp, lam, lp, phase, 1.0)) / h;
+            assert!(close(back, amp / l * (-phase).sin(), 2e-3), "{back}");
+            assert!(close(front, 0.02 / p * (-phase).sin(), 2e-3), "{front}");
         }
+    }
+
+    #[test]
+    fn test_front_amplitude_is_the_literal_unit_amplitude_on_table_1s_fish() {
+        // Eq. (3) has amplitude 1: on the l = 50 fish the snout swings exactly one unit.
+        assert!(close(front_amplitude(0.0, 0.4, 50.0), -1.0, 1e-6));
+        assert!(close(front_amplitude(0.0, 0.2, 50.0), -1.0, 1e-6));
+        // Zero at the pivot, half way in between; scales with the body (l = 80 → 1.6).
+        assert!(close(front_amplitude(20.0, 0.4, 50.0), 0.0, 1e-6));
+        assert!(close(front_amplitude(10.0, 0.4, 50.0), -0.5, 1e-6));
+        assert!(close(front_amplitude(0.0, 0.3, 80.0), -1.6, 1e-5));
+        // The swim wave uses it ahead of the pivot: φ = −π/2 puts the snout at A_f·sin(~π/2).
+        let lp = lambda_prime(0.4, 50.0);
+        let s = swim_wave(0.0, 0.4, 50.0, 10.0, 50.0, lp, -PI / 2.0, 1.0);
+        assert!(close(s, -(TAU * -20.0 / lp + PI / 2.0).sin(), 1e-5), "{s}");
     }
 
     #[test]
