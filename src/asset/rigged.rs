@@ -204,6 +204,12 @@ impl RiggedMesh {
         if !images.is_empty() {
             root["images"] = Value::Array(images);
         }
+        // Material extensions (KHR_texture_transform, KHR_materials_unlit …) must be declared.
+        let mut used = std::collections::BTreeSet::new();
+        extension_names(&materials.materials, &mut used);
+        if !used.is_empty() {
+            root["extensionsUsed"] = json!(used);
+        }
         if materials.textures.as_array().is_some_and(|t| !t.is_empty()) {
             root["textures"] = materials.textures.clone();
         }
@@ -211,5 +217,23 @@ impl RiggedMesh {
             root["samplers"] = materials.samplers.clone();
         }
         b.finish(root)
+    }
+}
+
+/// Collects the keys of every `extensions` object inside `v`.
+fn extension_names(v: &Value, out: &mut std::collections::BTreeSet<String>) {
+    match v {
+        Value::Object(map) => {
+            for (k, child) in map {
+                if k == "extensions"
+                    && let Value::Object(exts) = child
+                {
+                    out.extend(exts.keys().cloned());
+                }
+                extension_names(child, out);
+            }
+        }
+        Value::Array(items) => items.iter().for_each(|c| extension_names(c, out)),
+        _ => {}
     }
 }
