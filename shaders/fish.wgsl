@@ -114,7 +114,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
     if ((in.flags & 1u) != 0u) {
         color = color + vec3<f32>(1.0, 0.8, 0.2) * (0.25 + rim * 1.2);
     }
-    return vec4<f32>(apply_fog(color, in.world_pos), base.a);
+    if (material.alpha_mode == 2u) {
+        return vec4<f32>(apply_fog(color, in.world_pos), base.a);
+    }
+    return vec4<f32>(apply_fog(color, in.world_pos), 1.0);
 }
 
 // Planar shadows: the same skinned fish squashed onto the sand along the light direction, drawn

@@ -49,6 +49,7 @@ fn quad(z: f32) -> RiggedMesh {
         normals: vec![Vec3::Z; 4],
         colors: vec![[1.0; 4]; 4],
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]),
+        tangents: None,
         influences: vec![Influences::from_pairs(&[(0, 1.0)], 0); 4],
         indices: vec![0, 2, 1, 1, 2, 3],
     }

@@ -171,6 +171,8 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
     let mut colors = Vec::new();
     let mut uvs: Vec<[f32; 2]> = Vec::new();
     let mut all_uvs = true;
+    let mut tangents: Vec<[f32; 4]> = Vec::new();
+    let mut all_tangents = true;
     let mut indices = Vec::new();
     let mut material = None;
     for node in scene.scene_mesh_nodes() {
@@ -207,6 +209,17 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
             match &prim.uvs {
                 Some(u) => uvs.extend(u),
                 None => all_uvs = false,
+            }
+            // Tangents follow the surface: the linear part of the transform, handedness
+            // flipped with a mirroring one.
+            let flip = if g.determinant() < 0.0 { -1.0 } else { 1.0 };
+            match &prim.tangents {
+                Some(ts) => tangents.extend(ts.iter().map(|t| {
+                    let v = Mat3::from_mat4(g) * Vec3::new(t[0], t[1], t[2]);
+                    let v = v.normalize_or(Vec3::X);
+                    [v.x, v.y, v.z, if t[3] < 0.0 { -flip } else { flip }]
+                })),
+                None => all_tangents = false,
             }
             if g.determinant() < 0.0 {
                 for t in prim.indices.chunks_exact(3) {
@@ -358,10 +371,22 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         } else {
             None
         },
+        tangents: None,
         influences,
         indices,
     };
-    let materials = copy_material(scene, material, rigged.uvs.is_some(), &mut warnings)?;
+    let have_tangents = all_tangents && tangents.len() == rigged.positions.len();
+    let materials = copy_material(
+        scene,
+        material,
+        rigged.uvs.is_some(),
+        have_tangents,
+        &mut warnings,
+    )?;
+    let mut rigged = rigged;
+    if materials.materials[0].get("normalTexture").is_some() {
+        rigged.tangents = Some(tangents);
+    }
     let glb = rigged.to_glb(&materials, "shoal asset rig");
     Ok(Rigged {
         glb,
@@ -452,6 +477,7 @@ fn copy_material(
     scene: &GltfScene,
     material: Option<usize>,
     have_uvs: bool,
+    have_tangents: bool,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialSet, RigError> {
     let default = MaterialSet::pbr("rigged", [1.0, 1.0, 1.0, 1.0], 0.0, 0.6);
@@ -500,6 +526,13 @@ fn copy_material(
         warnings,
     };
     copier.remap(&mut m, "material");
+    // A normal map needs a tangent space; without the file's tangents it would be one a viewer
+    // makes up, so it is dropped rather than kept wrong.
+    if !have_tangents && let Some(obj) = m.as_object_mut() && obj.remove("normalTexture").is_some() {
+        copier.warnings.push(format!(
+            "{file}: material.normalTexture dropped: not every primitive has TANGENT"
+        ));
+    }
     set.textures = Value::Array(copier.textures);
     set.samplers = Value::Array(copier.samplers);
     set.images = copier.images;

@@ -88,6 +88,8 @@ pub struct RiggedMesh {
     pub colors: Vec<[f32; 4]>,
     /// Optional texture coordinates (set 0).
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Optional tangents (xyz unit, w = ±1 handedness), written when a normal map needs them.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Skin influences per vertex.
     pub influences: Vec<Influences>,
     /// Triangle list.
@@ -156,6 +158,9 @@ impl RiggedMesh {
         });
         if let Some(uv) = uv {
             attributes["TEXCOORD_0"] = json!(uv);
+        }
+        if let Some(t) = &self.tangents {
+            attributes["TANGENT"] = json!(b.vec4s(t));
         }
         let mut nodes = vec![json!({"name": self.name, "mesh": 0, "skin": 0})];
         for (j, name) in self.joint_names.iter().enumerate() {

@@ -72,6 +72,8 @@ pub struct ScenePrimitive {
     pub uvs: Option<Vec<[f32; 2]>>,
     /// Every TEXCOORD_n set, n = 0, 1, … (empty when there is none).
     pub tex_coords: Vec<Vec<[f32; 2]>>,
+    /// TANGENT (xyz and handedness w), if present.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Up to four influences per vertex, indices into the skin's joint list.
     pub joints: Option<Vec<[u16; 4]>>,
     /// The matching weights, summing to 1.
@@ -395,6 +397,21 @@ impl GltfScene {
             tex_coords.push((0..n).map(|i| [raw.float(i, 0), raw.float(i, 1)]).collect());
         }
         let uvs = tex_coords.first().cloned();
+        let tangents = match prim.get(&gltf::Semantic::Tangents) {
+            None => None,
+            Some(acc) => {
+                let raw = RawAccessor::new(&acc, buffers, &self.path, &format!("{label} TANGENT"))?;
+                same_count(&raw, "TANGENT")?;
+                if raw.dims != 4 {
+                    return Err(raw.error("must be VEC4"));
+                }
+                Some(
+                    (0..n)
+                        .map(|i| std::array::from_fn(|k| raw.float(i, k)))
+                        .collect(),
+                )
+            }
+        };
         // Skinning attributes: every set, merged, four strongest kept.
         let mut sets = Vec::new();
         for set in 0.. {
@@ -482,6 +499,7 @@ impl GltfScene {
             vertex_colors,
             uvs,
             tex_coords,
+            tangents,
             joints,
             weights,
             indices,
