@@ -41,7 +41,9 @@ fn rigged_red_finned_fish_loads_binds_bends_and_validates() {
     // three textures, each its own embedded image (issue 15).
     let pbr = material.pbr_metallic_roughness();
     let normal = material.normal_texture().expect("normal map kept");
-    let mr = pbr.metallic_roughness_texture().expect("metallic-roughness map kept");
+    let mr = pbr
+        .metallic_roughness_texture()
+        .expect("metallic-roughness map kept");
     let base = pbr.base_color_texture().unwrap();
     let images: std::collections::BTreeSet<usize> = [
         base.texture().source().index(),
@@ -72,7 +74,10 @@ fn rigged_red_finned_fish_loads_binds_bends_and_validates() {
     let gltf::image::Source::View { view, .. } = normal.texture().source().source() else {
         panic!("the normal map is not embedded");
     };
-    assert_eq!(&blob[view.offset()..view.offset() + view.length()], &source[..]);
+    assert_eq!(
+        &blob[view.offset()..view.offset() + view.length()],
+        &source[..]
+    );
     let prim = gltf.meshes().next().unwrap().primitives().next().unwrap();
     assert_eq!(
         prim.get(&gltf::Semantic::TexCoords(0)).unwrap().count(),

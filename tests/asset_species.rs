@@ -22,7 +22,11 @@ fn deep_bodies_get_porgy_motion_and_slender_ones_eel_motion() {
     assert_eq!(porgy.desc.motion.l, 50.0);
     assert_eq!(porgy.desc.motion.lambda, 50.0);
     let eel = suggest("e", "eel.glb", &model("eel.glb")).unwrap();
-    assert_eq!(eel.swimming_mode, "anguilliform-like", "{}", eel.slenderness);
+    assert_eq!(
+        eel.swimming_mode, "anguilliform-like",
+        "{}",
+        eel.slenderness
+    );
     assert_eq!(eel.base, "eel");
     assert!((eel.desc.motion.p - 0.2).abs() < 1e-6);
     assert_eq!(eel.desc.motion.lambda, (0.6 * eel.desc.motion.l).round());
@@ -114,7 +118,11 @@ fn species_command_writes_a_loadable_species_and_refuses_to_overwrite() {
     let mut forced = args.to_vec();
     forced.push("--force");
     assert!(shoal(&forced).status.success());
-    assert!(std::fs::read_to_string(&file).unwrap().contains("vertebral_joints"));
+    assert!(
+        std::fs::read_to_string(&file)
+            .unwrap()
+            .contains("vertebral_joints")
+    );
 
     // A bad name is refused before anything is written.
     let bad = shoal(&[

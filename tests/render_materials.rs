@@ -179,7 +179,12 @@ fn textured_quad_shows_its_texels_exactly() {
     );
     // The quad spans about 2 / (2 · 3 · tan 0.45) ≈ 69 % of the view: quadrant centres at
     // 50 % ± 17 %.
-    for (x, y, want) in [(21, 21, RED), (42, 21, GREEN), (21, 42, BLUE), (42, 42, YELLOW)] {
+    for (x, y, want) in [
+        (21, 21, RED),
+        (42, 21, GREEN),
+        (21, 42, BLUE),
+        (42, 42, YELLOW),
+    ] {
         assert_eq!(img.get_pixel(x, y).0, want, "pixel ({x}, {y})");
     }
 }
@@ -286,10 +291,7 @@ fn missing_or_broken_texture_warns_and_draws_the_base_colour() {
     let missing = patch_glb(&good, |root| {
         root["images"][0] = json!({"uri": "textures/gone.png"});
     });
-    let broken = quad(0.0).to_glb(
-        &textured(b"not a png at all".to_vec(), material),
-        "test",
-    );
+    let broken = quad(0.0).to_glb(&textured(b"not a png at all".to_vec(), material), "test");
     let gpu = gpu();
     for (name, bytes, says) in [
         ("missing.glb", missing, "gone.png"),
@@ -332,7 +334,10 @@ fn textured_draw_calls_do_not_grow_with_the_fish_count() {
         let fish: Vec<(u32, Mat4)> = (0..n)
             .map(|i| {
                 let a = i as f32 * 0.37;
-                (0, Mat4::from_translation(Vec3::new(a.sin(), a.cos(), -0.01 * i as f32)))
+                (
+                    0,
+                    Mat4::from_translation(Vec3::new(a.sin(), a.cos(), -0.01 * i as f32)),
+                )
             })
             .collect();
         let (_, t) = render(

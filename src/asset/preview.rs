@@ -129,15 +129,26 @@ pub fn render_views_material(
                             }
                         }
                         AlphaMode::Blend => {
-                            let below = img.get_pixel(x, py).0.map(crate::skin::material::srgb_to_linear);
+                            let below = img
+                                .get_pixel(x, py)
+                                .0
+                                .map(crate::skin::material::srgb_to_linear);
                             let a = rgba.w.clamp(0.0, 1.0);
                             let out = lit * a + Vec3::new(below[0], below[1], below[2]) * (1.0 - a);
-                            img.put_pixel(x, py, Rgb([to_srgb8(out.x), to_srgb8(out.y), to_srgb8(out.z)]));
+                            img.put_pixel(
+                                x,
+                                py,
+                                Rgb([to_srgb8(out.x), to_srgb8(out.y), to_srgb8(out.z)]),
+                            );
                             continue;
                         }
                     }
                     zbuf[zi] = z;
-                    img.put_pixel(x, py, Rgb([to_srgb8(lit.x), to_srgb8(lit.y), to_srgb8(lit.z)]));
+                    img.put_pixel(
+                        x,
+                        py,
+                        Rgb([to_srgb8(lit.x), to_srgb8(lit.y), to_srgb8(lit.z)]),
+                    );
                 }
             }
         }

@@ -528,7 +528,10 @@ fn copy_material(
     copier.remap(&mut m, "material");
     // A normal map needs a tangent space; without the file's tangents it would be one a viewer
     // makes up, so it is dropped rather than kept wrong.
-    if !have_tangents && let Some(obj) = m.as_object_mut() && obj.remove("normalTexture").is_some() {
+    if !have_tangents
+        && let Some(obj) = m.as_object_mut()
+        && obj.remove("normalTexture").is_some()
+    {
         copier.warnings.push(format!(
             "{file}: material.normalTexture dropped: not every primitive has TANGENT"
         ));

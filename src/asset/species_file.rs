@@ -100,7 +100,9 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
     };
     desc.view_range = base_desc.view_range;
     desc.view_angle_deg = base_desc.view_angle_deg;
-    desc.max_speed = (lerp(120.0 / 50.0, 70.0 / 70.0) * l).round();
+    // Top speed per body length: the porgy's 120 / 50, the eel's 70 / 70.
+    let porgy_top = SpeciesDesc::black_porgy().max_speed / porgy.l;
+    desc.max_speed = (lerp(porgy_top, eel.max_speed / eel.motion.l) * l).round();
     desc.drives = base_desc.drives;
     let swimming_mode = if t >= 0.75 {
         "anguilliform-like"

@@ -160,10 +160,7 @@ pub fn species(args: &SpeciesArgs) -> anyhow::Result<()> {
     use crate::asset::species_file::{relative_path, suggest};
     let name = &args.name;
     anyhow::ensure!(
-        !name.is_empty()
-            && name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_'),
+        !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
         "--name {name:?}: use letters, digits and underscores only (it is also the file name)"
     );
     let root = args

@@ -8,8 +8,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::skin::material::{AlphaMode, Sampler, TextureImage, Wrap, srgb_to_linear};
 use crate::skin::Material;
+use crate::skin::material::{AlphaMode, Sampler, TextureImage, Wrap, srgb_to_linear};
 
 /// `MaterialParams.alpha_mode` values (see `shaders/fish.wgsl`).
 pub const ALPHA_OPAQUE: u32 = 0;
@@ -266,7 +266,9 @@ mod tests {
     #[test]
     fn mip_chain_averages_in_linear_light() {
         // Black and white texels average to linear 0.5, which is sRGB 188, not 128.
-        let rgba = [0, 0, 0, 255, 255, 255, 255, 255, 0, 0, 0, 255, 255, 255, 255, 255];
+        let rgba = [
+            0, 0, 0, 255, 255, 255, 255, 255, 0, 0, 0, 255, 255, 255, 255, 255,
+        ];
         let levels = mip_chain(2, 2, &rgba);
         assert_eq!(levels.len(), 2);
         assert_eq!((levels[1].0, levels[1].1), (1, 1));

@@ -486,7 +486,10 @@ impl Renderer {
         let uvs: Vec<[f32; 2]> = if mesh.uvs.is_empty() {
             vec![[0.0; 2]; n]
         } else {
-            mesh.uvs.iter().map(|uv| uv.map(|x| if x.is_finite() { x } else { 0.0 })).collect()
+            mesh.uvs
+                .iter()
+                .map(|uv| uv.map(|x| if x.is_finite() { x } else { 0.0 }))
+                .collect()
         };
         let uv_label = format!("{} texture coordinates", mesh.label);
         let uvs = gpu
@@ -867,29 +870,33 @@ impl Renderer {
             }
             // Opaque and masked species first, then blended ones over them.
             for blend_pass in [false, true] {
-            pass.set_pipeline(if blend_pass {
-                &self.pipelines.fish_blend
-            } else {
-                &self.pipelines.fish
-            });
-            for mesh in self.meshes.iter().filter(|m| m.material.blend == blend_pass) {
-                let first = mesh.first_bucket as usize;
-                let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
-                if ranges.iter().all(|&(begin, end)| end == begin) {
-                    continue;
-                }
-                pass.set_bind_group(1, &mesh.material.bind_group, &[]);
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_vertex_buffer(2, mesh.uvs.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
-                    if end > begin {
-                        pass.draw_indexed(level_range(level), 0, begin..end);
-                        triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
-                        draws += 1;
+                pass.set_pipeline(if blend_pass {
+                    &self.pipelines.fish_blend
+                } else {
+                    &self.pipelines.fish
+                });
+                for mesh in self
+                    .meshes
+                    .iter()
+                    .filter(|m| m.material.blend == blend_pass)
+                {
+                    let first = mesh.first_bucket as usize;
+                    let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
+                    if ranges.iter().all(|&(begin, end)| end == begin) {
+                        continue;
+                    }
+                    pass.set_bind_group(1, &mesh.material.bind_group, &[]);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_vertex_buffer(2, mesh.uvs.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
+                        if end > begin {
+                            pass.draw_indexed(level_range(level), 0, begin..end);
+                            triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
+                            draws += 1;
+                        }
                     }
                 }
-            }
             }
             stats.num_triangles = triangles;
 

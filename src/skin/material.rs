@@ -323,10 +323,7 @@ fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> 
             } else {
                 let base = path.parent().unwrap_or(Path::new("."));
                 let file = base.join(percent_decode(uri));
-                (
-                    format!("image {index} ({uri})"),
-                    ImageSource::File(file),
-                )
+                (format!("image {index} ({uri})"), ImageSource::File(file))
             }
         }
         gltf::image::Source::View { view, .. } => {
@@ -464,7 +461,10 @@ mod tests {
 
     #[test]
     fn data_uris_decode() {
-        assert_eq!(decode_data_uri("data:image/png;base64,aGVsbG8=").unwrap(), b"hello");
+        assert_eq!(
+            decode_data_uri("data:image/png;base64,aGVsbG8=").unwrap(),
+            b"hello"
+        );
         assert!(decode_data_uri("data:image/png;base64,a*b").is_none());
     }
 
