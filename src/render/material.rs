@@ -75,7 +75,17 @@ pub(super) fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
 
 /// The mip chain of an sRGB RGBA8 image, full size first, each level half the previous
 /// (rounded down, at least 1), averaged in linear light (alpha linearly).
-pub fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
+///
+/// With `mask_cutoff` (a `MASK` material) alpha is kept binary instead: a texel of the next level
+/// is opaque (1) where at least half of the texels it covers pass the cutoff, else clear (0).
+/// Averaged alpha would sink below the cutoff at a distance and the fins would crumble away (the
+/// RedFinnedFish's cutoff is 1.0, so any averaging at an edge cut the texel).
+pub fn mip_chain(
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+    mask_cutoff: Option<f32>,
+) -> Vec<(u32, u32, Vec<u8>)> {
     let lut: Vec<f32> = (0..=255u8).map(srgb_to_linear).collect();
     let mut levels = vec![(width, height, rgba.to_vec())];
     let mut linear: Vec<f32> = rgba
@@ -93,6 +103,16 @@ pub fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>
     while w > 1 || h > 1 {
         let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
         let mut next = vec![0.0f32; nw * nh * 4];
+        let pass = |a: f32| match mask_cutoff {
+            Some(c) => {
+                if a >= c {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            None => a,
+        };
         // Each texel of the next level averages the 2×2 (or 2×1 / 1×2) block above it.
         let (sx, sy) = (if w > 1 { 2 } else { 1 }, if h > 1 { 2 } else { 1 });
         let inv = 1.0 / (sx * sy) as f32;
@@ -102,10 +122,14 @@ pub fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>
                 for dy in 0..sy {
                     for dx in 0..sx {
                         let i = ((y * sy + dy) * w + x * sx + dx) * 4;
-                        for k in 0..4 {
+                        for k in 0..3 {
                             next[o + k] += linear[i + k] * inv;
                         }
+                        next[o + 3] += pass(linear[i + 3]) * inv;
                     }
+                }
+                if mask_cutoff.is_some() {
+                    next[o + 3] = if next[o + 3] >= 0.5 { 1.0 } else { 0.0 };
                 }
             }
         }
@@ -172,8 +196,12 @@ pub(super) fn upload(
         label: "white".into(),
     };
     let image = material.base_color_texture.as_deref().unwrap_or(&white);
+    let mask_cutoff = match material.alpha_mode {
+        AlphaMode::Mask { cutoff } => Some(cutoff),
+        _ => None,
+    };
     let levels = if image.sampler.mipmaps {
-        mip_chain(image.width, image.height, &image.rgba)
+        mip_chain(image.width, image.height, &image.rgba, mask_cutoff)
     } else {
         vec![(image.width, image.height, image.rgba.clone())]
     };
@@ -269,7 +297,7 @@ mod tests {
         let rgba = [
             0, 0, 0, 255, 255, 255, 255, 255, 0, 0, 0, 255, 255, 255, 255, 255,
         ];
-        let levels = mip_chain(2, 2, &rgba);
+        let levels = mip_chain(2, 2, &rgba, None);
         assert_eq!(levels.len(), 2);
         assert_eq!((levels[1].0, levels[1].1), (1, 1));
         assert_eq!(levels[1].2[0], 188);
@@ -278,9 +306,21 @@ mod tests {
 
     #[test]
     fn mip_chain_of_a_non_square_image_ends_at_one_texel() {
-        let levels = mip_chain(8, 2, &[128; 8 * 2 * 4]);
+        let levels = mip_chain(8, 2, &[128; 8 * 2 * 4], None);
         let sizes: Vec<(u32, u32)> = levels.iter().map(|l| (l.0, l.1)).collect();
         assert_eq!(sizes, vec![(8, 2), (4, 1), (2, 1), (1, 1)]);
         assert!(levels.iter().all(|l| l.2.len() == (l.0 * l.1 * 4) as usize));
+    }
+
+    #[test]
+    fn masked_mips_keep_coverage_binary() {
+        // Alphas 255, 255, 254, 0 with cutoff 1.0: two of four pass, so the texel stays opaque;
+        // averaged it would be 0.75 and cut away.
+        let a = |v| [200, 100, 50, v];
+        let rgba = [a(255), a(255), a(254), a(0)].concat();
+        assert_eq!(mip_chain(2, 2, &rgba, Some(1.0))[1].2[3], 255);
+        assert_eq!(mip_chain(2, 2, &rgba, None)[1].2[3], 191);
+        let rgba = [a(255), a(0), a(254), a(0)].concat();
+        assert_eq!(mip_chain(2, 2, &rgba, Some(1.0))[1].2[3], 0);
     }
 }
