@@ -486,6 +486,21 @@ fn rigged_red_finned_fish_close_up() {
     );
     assert!(colours.len() > 40, "only {} colours", colours.len());
     check_reference("red_finned_fish", &with_tex);
+
+    // `SHOAL_DOC_IMAGES=1` also writes the before/after pictures of scripts/README.md's "Bring
+    // your own fish" (material ignored, as the renderer drew it before issue 15; and now).
+    if std::env::var_os("SHOAL_DOC_IMAGES").is_some_and(|v| v == "1") {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/images");
+        let big = (512, 320);
+        render(&gpu, &[plain], &fish, camera, big, look)
+            .0
+            .save(dir.join("byof-before.png"))
+            .unwrap();
+        render(&gpu, &[textured], &fish, camera, big, look)
+            .0
+            .save(dir.join("byof-after.png"))
+            .unwrap();
+    }
 }
 
 /// Compares with `tests/reference/<name>.png` like `render_reference.rs` (a pixel differs when

@@ -6,7 +6,7 @@
 //! - slender (ratio ≥ [`ANGUILLIFORM_RATIO`], an eel's ≈ 12): anguilliform like the built-in eel
 //!   — pivot near the head (p = 0.2), a short body wave (λ = 0.6 l), wider swings (maxAmp = l/8),
 //!   a slower cruise;
-//! - deep (ratio ≤ [`CARANGIFORM_RATIO`], a porgy's ≈ 2.5): carangiform like the black porgy
+//! - deep (ratio ≤ [`CARANGIFORM_RATIO`], a porgy's ≈ 2): carangiform like the black porgy
 //!   (Table 1 Ex1: p = 0.4, λ = l, maxAmp = l/5, cruising at a body length per second);
 //! - in between: linearly interpolated.
 //!
@@ -133,7 +133,7 @@ impl SpeciesSuggestion {
         format!(
             "-- {name}: made by `shoal asset species` from {model}.\n\
              -- Its body is {ratio:.1} times as long as it is deep or wide, so it swims {mode}\n\
-             -- (between the deep black porgy, ratio ≈ 2.5, and the slender eel, ≈ 12). Every value\n\
+             -- (between the deep black porgy, ratio ≈ 2, and the slender eel, ≈ 12). Every value\n\
              -- is a suggestion: edit and save, and live fish pick it up.\n\
              return {{\n  \
                base = {base:?},             -- senses and drives of the nearer built-in species\n  \
