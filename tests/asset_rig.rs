@@ -37,6 +37,47 @@ fn rigged_red_finned_fish_loads_binds_bends_and_validates() {
             .base_color_texture()
             .is_some()
     );
+    // So do the normal and metallic-roughness maps, the alpha mode and double-sidedness:
+    // three textures, each its own embedded image (issue 15).
+    let pbr = material.pbr_metallic_roughness();
+    let normal = material.normal_texture().expect("normal map kept");
+    let mr = pbr
+        .metallic_roughness_texture()
+        .expect("metallic-roughness map kept");
+    let base = pbr.base_color_texture().unwrap();
+    let images: std::collections::BTreeSet<usize> = [
+        base.texture().source().index(),
+        normal.texture().source().index(),
+        mr.texture().source().index(),
+    ]
+    .into();
+    assert_eq!(images.len(), 3);
+    assert_eq!(gltf.images().len(), 3);
+    assert_eq!(material.alpha_mode(), gltf::material::AlphaMode::Mask);
+    assert_eq!(material.alpha_cutoff(), Some(1.0));
+    assert!(material.double_sided());
+    assert_eq!(pbr.metallic_factor(), 0.0);
+    assert!(
+        !rigged.warnings.iter().any(|w| w.contains("dropped")),
+        "{:?}",
+        rigged.warnings
+    );
+    // The embedded images are the source PNGs, byte for byte.
+    let source = std::fs::read(
+        red_finned_fish()
+            .parent()
+            .unwrap()
+            .join("textures/Full_Fish_Material_normal.png"),
+    )
+    .unwrap();
+    let blob = gltf.blob.as_ref().unwrap();
+    let gltf::image::Source::View { view, .. } = normal.texture().source().source() else {
+        panic!("the normal map is not embedded");
+    };
+    assert_eq!(
+        &blob[view.offset()..view.offset() + view.length()],
+        &source[..]
+    );
     let prim = gltf.meshes().next().unwrap().primitives().next().unwrap();
     assert_eq!(
         prim.get(&gltf::Semantic::TexCoords(0)).unwrap().count(),

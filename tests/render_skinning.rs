@@ -58,6 +58,8 @@ fn gpu_skinning_matches_cpu_lbs_on_a_two_bone_strip() {
         joints: &joints,
         weights: &weights,
         indices: &indices,
+        uvs: &[],
+        material: None,
     };
     // Palette at offset 3 (first three entries are decoys that must not be used).
     let decoy = Mat4::from_scale(Vec3::splat(100.0));
@@ -192,6 +194,7 @@ fn skinned_mesh_from_the_skin_layer_uploads_and_skins() {
         joints: fish.joints.clone(),
         weights: fish.weights.clone(),
         indices: fish.indices.clone(),
+        ..Default::default()
     };
     let upload = MeshUpload::from_skinned_mesh("porgy stand-in", &mesh);
     assert_eq!(upload.positions, &fish.positions[..]);

@@ -11,6 +11,7 @@ mod glb;
 pub mod preview;
 pub mod rig;
 mod rigged;
+pub mod species_file;
 
 pub use fish::{DRIVEN_JOINTS, FishPlan, JOINT_NAMES, MedianFin, Profile, chain_blend, smoothstep};
 pub use glb::GlbBuilder;

@@ -1,9 +1,16 @@
 //! A CPU preview of a skinned fish: side and top orthographic views, flat-shaded triangles with
 //! a z-buffer. For checking shape, fins and bending by eye (`shoal asset preview`); the real
 //! renderer is `crate::render`.
+//!
+//! With a material ([`render_views_material`]) it samples the base-colour texture (bilinear, at
+//! full size) and honours the alpha mode as the renderer does: `MASK` cuts texels below the
+//! cutoff away, `BLEND` blends over what is drawn (in triangle order, depth tested, not
+//! written), and an unlit material is not shaded.
 
 use glam::{Vec3, Vec4};
 use image::{Rgb, RgbImage};
+
+use crate::skin::{AlphaMode, Material};
 
 /// One orthographic view: screen right and up directions (unit, perpendicular); depth is
 /// `right × up` (towards the viewer).
@@ -25,6 +32,25 @@ pub fn render_views(
     views: &[View],
     size: u32,
 ) -> RgbImage {
+    render_views_material(positions, colors, &[], None, indices, views, size)
+}
+
+/// Like [`render_views`], with the mesh's material and its base-colour texture coordinates
+/// (`uvs`, one per vertex; empty when the material has no texture).
+pub fn render_views_material(
+    positions: &[Vec3],
+    colors: &[[f32; 4]],
+    uvs: &[[f32; 2]],
+    material: Option<&Material>,
+    indices: &[u32],
+    views: &[View],
+    size: u32,
+) -> RgbImage {
+    let texture = material
+        .and_then(|m| m.base_color_texture.as_deref())
+        .filter(|_| uvs.len() == positions.len());
+    let alpha_mode = material.map_or(AlphaMode::Opaque, |m| m.alpha_mode);
+    let unlit = material.is_some_and(|m| m.unlit);
     let mut img = RgbImage::from_pixel(size, size * views.len() as u32, Rgb([24, 40, 64]));
     let centre = positions.iter().copied().sum::<Vec3>() / positions.len().max(1) as f32;
     let radius = positions
@@ -52,13 +78,12 @@ pub fn render_views(
             let n = (positions[b] - positions[a])
                 .cross(positions[c] - positions[a])
                 .normalize_or_zero();
-            let shade = 0.35 + 0.65 * n.dot(light).abs();
+            let shade = if unlit {
+                1.0
+            } else {
+                0.35 + 0.65 * n.dot(light).abs()
+            };
             let col = (Vec4::from(colors[a]) + Vec4::from(colors[b]) + Vec4::from(colors[c])) / 3.0;
-            let rgb = Rgb([
-                to_srgb8(col.x * shade),
-                to_srgb8(col.y * shade),
-                to_srgb8(col.z * shade),
-            ]);
             let (pa, pb, pc) = (
                 project(positions[a]),
                 project(positions[b]),
@@ -83,10 +108,47 @@ pub fn render_views(
                     }
                     let z = w0 * pa.z + w1 * pb.z + w2 * pc.z;
                     let zi = (y * size + x) as usize;
-                    if z > zbuf[zi] {
-                        zbuf[zi] = z;
-                        img.put_pixel(x, y + panel as u32 * size, rgb);
+                    if z <= zbuf[zi] {
+                        continue;
                     }
+                    let mut rgba = col;
+                    if let Some(t) = texture {
+                        let uv = [
+                            w0 * uvs[a][0] + w1 * uvs[b][0] + w2 * uvs[c][0],
+                            w0 * uvs[a][1] + w1 * uvs[b][1] + w2 * uvs[c][1],
+                        ];
+                        rgba *= Vec4::from(t.sample_linear(uv));
+                    }
+                    let lit = rgba.truncate() * shade;
+                    let py = y + panel as u32 * size;
+                    match alpha_mode {
+                        AlphaMode::Opaque => {}
+                        AlphaMode::Mask { cutoff } => {
+                            if rgba.w < cutoff {
+                                continue;
+                            }
+                        }
+                        AlphaMode::Blend => {
+                            let below = img
+                                .get_pixel(x, py)
+                                .0
+                                .map(crate::skin::material::srgb_to_linear);
+                            let a = rgba.w.clamp(0.0, 1.0);
+                            let out = lit * a + Vec3::new(below[0], below[1], below[2]) * (1.0 - a);
+                            img.put_pixel(
+                                x,
+                                py,
+                                Rgb([to_srgb8(out.x), to_srgb8(out.y), to_srgb8(out.z)]),
+                            );
+                            continue;
+                        }
+                    }
+                    zbuf[zi] = z;
+                    img.put_pixel(
+                        x,
+                        py,
+                        Rgb([to_srgb8(lit.x), to_srgb8(lit.y), to_srgb8(lit.z)]),
+                    );
                 }
             }
         }

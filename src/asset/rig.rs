@@ -15,9 +15,10 @@
 //! - **Weights**: by position along the axis, each vertex belongs to the chain joint whose
 //!   segment holds it, handed over to the next by a smoothstep within ±35% of the shorter
 //!   neighbouring segment around each joint (at most two influences, summing to 1).
-//! - **Materials**: the first material's base colour factor and texture (embedded in the GLB),
-//!   metallic/roughness factors, alpha mode and double-sidedness are kept, with TEXCOORD_0.
-//!   Normal and metallic-roughness textures are dropped (a warning says so).
+//! - **Materials**: the first material is kept whole (every factor, alpha mode,
+//!   double-sidedness, extensions) with every texture it uses (base colour, metallic-roughness,
+//!   normal, occlusion, emissive) embedded in the GLB with its sampler, and TEXCOORD_0. A
+//!   texture on another coordinate set, or whose image cannot be read, is dropped with a warning.
 //!
 //! The mesh is baked into scene space (every mesh node's global transform applied), so the rig's
 //! model space is the source file's scene space.
@@ -170,6 +171,8 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
     let mut colors = Vec::new();
     let mut uvs: Vec<[f32; 2]> = Vec::new();
     let mut all_uvs = true;
+    let mut tangents: Vec<[f32; 4]> = Vec::new();
+    let mut all_tangents = true;
     let mut indices = Vec::new();
     let mut material = None;
     for node in scene.scene_mesh_nodes() {
@@ -206,6 +209,17 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
             match &prim.uvs {
                 Some(u) => uvs.extend(u),
                 None => all_uvs = false,
+            }
+            // Tangents follow the surface: the linear part of the transform, handedness
+            // flipped with a mirroring one.
+            let flip = if g.determinant() < 0.0 { -1.0 } else { 1.0 };
+            match &prim.tangents {
+                Some(ts) => tangents.extend(ts.iter().map(|t| {
+                    let v = Mat3::from_mat4(g) * Vec3::new(t[0], t[1], t[2]);
+                    let v = v.normalize_or(Vec3::X);
+                    [v.x, v.y, v.z, if t[3] < 0.0 { -flip } else { flip }]
+                })),
+                None => all_tangents = false,
             }
             if g.determinant() < 0.0 {
                 for t in prim.indices.chunks_exact(3) {
@@ -357,10 +371,22 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         } else {
             None
         },
+        tangents: None,
         influences,
         indices,
     };
-    let materials = copy_material(scene, material, rigged.uvs.is_some(), &mut warnings)?;
+    let have_tangents = all_tangents && tangents.len() == rigged.positions.len();
+    let materials = copy_material(
+        scene,
+        material,
+        rigged.uvs.is_some(),
+        have_tangents,
+        &mut warnings,
+    )?;
+    let mut rigged = rigged;
+    if materials.materials[0].get("normalTexture").is_some() {
+        rigged.tangents = Some(tangents);
+    }
     let glb = rigged.to_glb(&materials, "shoal asset rig");
     Ok(Rigged {
         glb,
@@ -441,11 +467,17 @@ fn perpendicular_frame(axis: Vec3) -> (Vec3, Vec3) {
     (u, axis.cross(u))
 }
 
-/// Copies the first material's base colour (factor and texture) and scalar PBR factors.
+/// Copies the first material whole: its JSON as written (factors, alpha mode, double-sidedness,
+/// normal scale, occlusion strength, emissive factor and every extension), with every texture it
+/// refers to (base colour, metallic-roughness, normal, occlusion, emissive, and textures of
+/// material extensions) re-pointed at images embedded in the GLB, with their samplers. A
+/// texture whose image cannot be read, or that needs a coordinate set the rig does not keep
+/// (only TEXCOORD_0 is kept), is dropped with a warning naming it.
 fn copy_material(
     scene: &GltfScene,
     material: Option<usize>,
     have_uvs: bool,
+    have_tangents: bool,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialSet, RigError> {
     let default = MaterialSet::pbr("rigged", [1.0, 1.0, 1.0, 1.0], 0.0, 0.6);
@@ -459,37 +491,21 @@ fn copy_material(
     let Ok(gltf) = gltf::Gltf::from_slice(&bytes) else {
         return Ok(default);
     };
-    let Some(mat) = gltf.document.materials().nth(index) else {
+    // The file's own JSON, so nothing the gltf crate does not model is lost.
+    let raw: Option<Value> = if bytes.starts_with(b"glTF") {
+        gltf::Glb::from_slice(&bytes)
+            .ok()
+            .and_then(|glb| serde_json::from_slice(&glb.json).ok())
+    } else {
+        serde_json::from_slice(&bytes).ok()
+    };
+    let Some(raw) = raw else {
         return Ok(default);
     };
-    let pbr = mat.pbr_metallic_roughness();
-    let mut pbr_json = json!({
-        "baseColorFactor": pbr.base_color_factor(),
-        "metallicFactor": pbr.metallic_factor(),
-        "roughnessFactor": pbr.roughness_factor(),
-    });
-    let mut m = json!({
-        "name": mat.name().unwrap_or("rigged"),
-        "doubleSided": mat.double_sided(),
-    });
-    match mat.alpha_mode() {
-        gltf::material::AlphaMode::Opaque => {}
-        gltf::material::AlphaMode::Mask => {
-            m["alphaMode"] = json!("MASK");
-            m["alphaCutoff"] = json!(mat.alpha_cutoff().unwrap_or(0.5));
-        }
-        gltf::material::AlphaMode::Blend => m["alphaMode"] = json!("BLEND"),
-    }
-    if mat.normal_texture().is_some()
-        || pbr.metallic_roughness_texture().is_some()
-        || mat.occlusion_texture().is_some()
-        || mat.emissive_texture().is_some()
-    {
-        warnings.push(format!(
-            "{}: only the base colour texture is kept; normal, metallic-roughness, occlusion and emissive textures are dropped",
-            scene.path.display()
-        ));
-    }
+    let Some(mut m) = raw["materials"].get(index).cloned() else {
+        return Ok(default);
+    };
+    let file = scene.path.display().to_string();
     let mut set = MaterialSet {
         materials: Value::Null,
         textures: json!([]),
@@ -497,40 +513,149 @@ fn copy_material(
         images: Vec::new(),
         material: 0,
     };
-    if let Some(info) = pbr.base_color_texture() {
-        let tex = info.texture();
-        let image = tex.source();
-        let loaded = if !have_uvs || info.tex_coord() != 0 {
-            Err("the texture needs TEXCOORD_0 on every primitive".to_string())
-        } else {
-            read_image(scene, &gltf, &image)
-        };
-        match loaded {
-            Ok((data, mime)) => {
-                set.images.push((data, mime));
-                let s = tex.sampler();
-                let mut sampler = json!({});
-                if let Some(f) = s.mag_filter() {
-                    sampler["magFilter"] = json!(f.as_gl_enum());
-                }
-                if let Some(f) = s.min_filter() {
-                    sampler["minFilter"] = json!(f.as_gl_enum());
-                }
-                sampler["wrapS"] = json!(s.wrap_s().as_gl_enum());
-                sampler["wrapT"] = json!(s.wrap_t().as_gl_enum());
-                set.samplers = json!([sampler]);
-                set.textures = json!([{"sampler": 0, "source": 0}]);
-                pbr_json["baseColorTexture"] = json!({"index": 0});
-            }
-            Err(why) => warnings.push(format!(
-                "{}: base colour texture dropped: {why}",
-                scene.path.display()
-            )),
-        }
+    let mut copier = TextureCopier {
+        scene,
+        gltf: &gltf,
+        have_uvs,
+        file: &file,
+        textures: Vec::new(),
+        samplers: Vec::new(),
+        images: Vec::new(),
+        image_of: std::collections::BTreeMap::new(),
+        texture_of: std::collections::BTreeMap::new(),
+        warnings,
+    };
+    copier.remap(&mut m, "material");
+    // A normal map needs a tangent space; without the file's tangents it would be one a viewer
+    // makes up, so it is dropped rather than kept wrong.
+    if !have_tangents
+        && let Some(obj) = m.as_object_mut()
+        && obj.remove("normalTexture").is_some()
+    {
+        copier.warnings.push(format!(
+            "{file}: material.normalTexture dropped: not every primitive has TANGENT"
+        ));
     }
-    m["pbrMetallicRoughness"] = pbr_json;
+    set.textures = Value::Array(copier.textures);
+    set.samplers = Value::Array(copier.samplers);
+    set.images = copier.images;
+    if m.get("name").is_none() {
+        m["name"] = json!("rigged");
+    }
     set.materials = json!([m]);
     Ok(set)
+}
+
+/// Re-points a material's texture references at the rigged GLB's own textures.
+struct TextureCopier<'a> {
+    scene: &'a GltfScene,
+    gltf: &'a gltf::Gltf,
+    have_uvs: bool,
+    file: &'a str,
+    textures: Vec<Value>,
+    samplers: Vec<Value>,
+    images: Vec<(Vec<u8>, String)>,
+    /// Source image index → embedded image index.
+    image_of: std::collections::BTreeMap<usize, usize>,
+    /// Source texture index → new texture index (`None`: dropped).
+    texture_of: std::collections::BTreeMap<usize, Option<usize>>,
+    warnings: &'a mut Vec<String>,
+}
+
+impl TextureCopier<'_> {
+    /// Walks `v`; every `…Texture` object with an `index` is a textureInfo to re-point (or to
+    /// remove when its texture cannot be copied).
+    fn remap(&mut self, v: &mut Value, at: &str) {
+        let Value::Object(map) = v else {
+            return;
+        };
+        let keys: Vec<String> = map.keys().cloned().collect();
+        for key in keys {
+            let is_info = key.ends_with("Texture")
+                && map[&key].get("index").and_then(Value::as_u64).is_some();
+            if is_info {
+                let info = &map[&key];
+                let old = info["index"].as_u64().unwrap_or(0) as usize;
+                let set = info.get("texCoord").and_then(Value::as_u64).unwrap_or(0);
+                let what = format!("{at}.{key} (texture {old})");
+                let new = if set != 0 || !self.have_uvs {
+                    self.warnings.push(format!(
+                        "{}: {what} dropped: it needs TEXCOORD_{set}, and the rig keeps TEXCOORD_0 only{}",
+                        self.file,
+                        if self.have_uvs { "" } else { " (which not every primitive has)" }
+                    ));
+                    None
+                } else {
+                    self.texture(old, &what)
+                };
+                match new {
+                    Some(n) => map[&key]["index"] = json!(n),
+                    None => {
+                        map.remove(&key);
+                    }
+                }
+            } else if let Some(child) = map.get_mut(&key) {
+                self.remap(child, &format!("{at}.{key}"));
+            }
+        }
+    }
+
+    fn texture(&mut self, old: usize, what: &str) -> Option<usize> {
+        if let Some(&done) = self.texture_of.get(&old) {
+            return done;
+        }
+        let result = self.copy_texture(old);
+        let new = match result {
+            Ok(n) => Some(n),
+            Err(why) => {
+                self.warnings
+                    .push(format!("{}: {what} dropped: {why}", self.file));
+                None
+            }
+        };
+        self.texture_of.insert(old, new);
+        new
+    }
+
+    fn copy_texture(&mut self, old: usize) -> Result<usize, String> {
+        let tex = self
+            .gltf
+            .document
+            .textures()
+            .nth(old)
+            .ok_or_else(|| format!("texture {old} does not exist"))?;
+        let image = tex.source();
+        let source = match self.image_of.get(&image.index()) {
+            Some(&i) => i,
+            None => {
+                let (data, mime) = read_image(self.scene, self.gltf, &image)
+                    .map_err(|e| format!("image {}: {e}", image.index()))?;
+                self.images.push((data, mime));
+                self.image_of.insert(image.index(), self.images.len() - 1);
+                self.images.len() - 1
+            }
+        };
+        let s = tex.sampler();
+        let mut sampler = json!({});
+        if let Some(f) = s.mag_filter() {
+            sampler["magFilter"] = json!(f.as_gl_enum());
+        }
+        if let Some(f) = s.min_filter() {
+            sampler["minFilter"] = json!(f.as_gl_enum());
+        }
+        sampler["wrapS"] = json!(s.wrap_s().as_gl_enum());
+        sampler["wrapT"] = json!(s.wrap_t().as_gl_enum());
+        let sampler_index = match self.samplers.iter().position(|x| *x == sampler) {
+            Some(i) => i,
+            None => {
+                self.samplers.push(sampler);
+                self.samplers.len() - 1
+            }
+        };
+        self.textures
+            .push(json!({"sampler": sampler_index, "source": source}));
+        Ok(self.textures.len() - 1)
+    }
 }
 
 fn read_image(
@@ -543,7 +668,7 @@ fn read_image(
             if uri.starts_with("data:") {
                 return Err("data-URI images are not copied".into());
             }
-            let decoded = percent_decode(uri);
+            let decoded = crate::skin::material::percent_decode(uri);
             let base = scene.path.parent().unwrap_or(Path::new("."));
             let file = base.join(&decoded);
             let data = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
@@ -577,24 +702,4 @@ fn mime_of(name: &str) -> Option<String> {
     } else {
         None
     }
-}
-
-fn percent_decode(s: &str) -> String {
-    let hex = |b: u8| (b as char).to_digit(16);
-    let bytes = s.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%'
-            && i + 2 < bytes.len()
-            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-            continue;
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }

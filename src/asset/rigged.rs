@@ -88,6 +88,8 @@ pub struct RiggedMesh {
     pub colors: Vec<[f32; 4]>,
     /// Optional texture coordinates (set 0).
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Optional tangents (xyz unit, w = ±1 handedness), written when a normal map needs them.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Skin influences per vertex.
     pub influences: Vec<Influences>,
     /// Triangle list.
@@ -157,6 +159,9 @@ impl RiggedMesh {
         if let Some(uv) = uv {
             attributes["TEXCOORD_0"] = json!(uv);
         }
+        if let Some(t) = &self.tangents {
+            attributes["TANGENT"] = json!(b.vec4s(t));
+        }
         let mut nodes = vec![json!({"name": self.name, "mesh": 0, "skin": 0})];
         for (j, name) in self.joint_names.iter().enumerate() {
             let local = match self.joint_parents[j] {
@@ -204,6 +209,12 @@ impl RiggedMesh {
         if !images.is_empty() {
             root["images"] = Value::Array(images);
         }
+        // Material extensions (KHR_texture_transform, KHR_materials_unlit …) must be declared.
+        let mut used = std::collections::BTreeSet::new();
+        extension_names(&materials.materials, &mut used);
+        if !used.is_empty() {
+            root["extensionsUsed"] = json!(used);
+        }
         if materials.textures.as_array().is_some_and(|t| !t.is_empty()) {
             root["textures"] = materials.textures.clone();
         }
@@ -211,5 +222,23 @@ impl RiggedMesh {
             root["samplers"] = materials.samplers.clone();
         }
         b.finish(root)
+    }
+}
+
+/// Collects the keys of every `extensions` object inside `v`.
+fn extension_names(v: &Value, out: &mut std::collections::BTreeSet<String>) {
+    match v {
+        Value::Object(map) => {
+            for (k, child) in map {
+                if k == "extensions"
+                    && let Value::Object(exts) = child
+                {
+                    out.extend(exts.keys().cloned());
+                }
+                extension_names(child, out);
+            }
+        }
+        Value::Array(items) => items.iter().for_each(|c| extension_names(c, out)),
+        _ => {}
     }
 }

@@ -50,6 +50,26 @@ pub enum What {
         #[arg(long)]
         swim: bool,
     },
+    /// Write a species script for a rigged model (scripts/species/NAME.lua), its motion
+    /// suggested from the body's shape, and print a scene snippet.
+    Species(SpeciesArgs),
+}
+
+/// Arguments of `shoal asset species`.
+#[derive(Debug, clap::Args)]
+pub struct SpeciesArgs {
+    /// The rigged model (.gltf/.glb with joints spine_1 …, e.g. from `shoal asset rig`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Species name: letters, digits and underscores (also the file name).
+    #[arg(long)]
+    pub name: String,
+    /// The project folder holding scripts/ and assets/ (default: the current project).
+    #[arg(long)]
+    pub root: Option<PathBuf>,
+    /// Overwrite an existing scripts/species/NAME.lua.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `shoal asset rig`.
@@ -132,6 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {}", out.display());
         }
+        What::Species(args) => species(&args)?,
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -139,13 +160,64 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 /// Peak joint yaw of `shoal asset preview --swim` without `--yaw`, radians.
 pub const SWIM_PREVIEW_YAW: f32 = 0.25;
 
+/// `shoal asset species`: writes the species script and prints what to add to a scene.
+pub fn species(args: &SpeciesArgs) -> anyhow::Result<()> {
+    use crate::asset::species_file::{relative_path, suggest};
+    let name = &args.name;
+    anyhow::ensure!(
+        !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
+        "--name {name:?}: use letters, digits and underscores only (it is also the file name)"
+    );
+    let root = match &args.root {
+        Some(root) => root.clone(),
+        // The project the scripts come from: ./ when it has scripts/, else the source tree.
+        None => super::ScriptsArg::default().resolve()?.root,
+    };
+    let species_dir = root.join("scripts").join("species");
+    anyhow::ensure!(
+        species_dir.is_dir(),
+        "{}: no such folder; run in the project folder or give --root",
+        species_dir.display()
+    );
+    let out = species_dir.join(format!("{name}.lua"));
+    anyhow::ensure!(
+        args.force || !out.exists(),
+        "{} already exists; pass --force to overwrite it",
+        out.display()
+    );
+    let fish = crate::skin::FishModel::load(&args.model)?;
+    for w in &fish.warnings {
+        eprintln!("warning: {w}");
+    }
+    let asset = relative_path(&root.join("assets"), &args.model);
+    let suggestion = suggest(name, &asset, &fish)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    write(&out, suggestion.to_lua(&args.model).as_bytes())?;
+    let m = &suggestion.desc.motion;
+    println!(
+        "wrote {} ({}: length {:.1}× its depth or width; l = {}, p = {:.2}, λ = {})",
+        out.display(),
+        suggestion.swimming_mode,
+        suggestion.slenderness,
+        m.l,
+        m.p,
+        m.lambda
+    );
+    println!("add to a scene's `fish` list (e.g. scripts/scenes/default.lua):");
+    println!("{}", suggestion.scene_snippet());
+    Ok(())
+}
+
 /// Skins `model` with every `spine_*` joint yawed by `yaw` and draws side and top views.
 pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<image::RgbImage> {
     let fish = crate::skin::FishModel::load(model)?;
+    for w in &fish.warnings {
+        eprintln!("warning: {w}");
+    }
     let (rig, _) = preview_rig(model, &fish)?;
     let yaws = vec![yaw; rig.num_driven()];
     let (positions, f, u) = posed(&fish, &rig, &yaws)?;
-    use crate::asset::preview::{View, render_views};
+    use crate::asset::preview::{View, render_views_material};
     let right = f.cross(u);
     let views = [
         View { right: -f, up: u },
@@ -154,9 +226,11 @@ pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<i
             up: right,
         },
     ];
-    Ok(render_views(
+    Ok(render_views_material(
         &positions,
         &fish.mesh.colors,
+        &fish.mesh.uvs,
+        Some(&fish.mesh.material),
         &fish.mesh.indices,
         &views,
         size,
@@ -170,8 +244,11 @@ pub fn swim_sheet(
     amplitude: f32,
     size: u32,
 ) -> anyhow::Result<image::RgbImage> {
-    use crate::asset::preview::{View, render_views};
+    use crate::asset::preview::{View, render_views_material};
     let fish = crate::skin::FishModel::load(model)?;
+    for w in &fish.warnings {
+        eprintln!("warning: {w}");
+    }
     let (rig, _) = preview_rig(model, &fish)?;
     let mut sheet = image::RgbImage::new(size * 4, size * 2);
     for frame in 0..8u32 {
@@ -185,9 +262,11 @@ pub fn swim_sheet(
             right: -f,
             up: f.cross(u),
         }];
-        let img = render_views(
+        let img = render_views_material(
             &positions,
             &fish.mesh.colors,
+            &fish.mesh.uvs,
+            Some(&fish.mesh.material),
             &fish.mesh.indices,
             &views,
             size,

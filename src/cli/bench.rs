@@ -354,6 +354,13 @@ pub struct RenderArgs {
     /// detail.
     #[arg(long, default_value_t = crate::render::DEFAULT_LOD_TOLERANCE_PX)]
     pub lod_tolerance_px: f32,
+    /// Draw this rigged model (joints spine_1 …, e.g. from `shoal asset rig`) instead of the
+    /// black porgy, with its material and textures.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Ignore the model's material: vertex colours only, opaque (to time what textures cost).
+    #[arg(long)]
+    pub no_materials: bool,
 }
 
 /// Median and nearest-rank p99 of `samples` (sorted in place). Empty input gives zeros.
@@ -411,8 +418,22 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             ..DemoSceneConfig::default()
         };
         config.validate().map_err(anyhow::Error::msg)?;
-        let mut scene = DemoScene::new(config);
-        for m in scene.meshes() {
+        let mut scene = match &args.model {
+            None => DemoScene::new(config),
+            Some(path) => {
+                let model = crate::skin::FishModel::load(path)?;
+                let desc = crate::asset::species_file::suggest("bench", "", &model)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+                    .desc;
+                let rig = crate::render::DemoRig::asset(&desc, path).map_err(anyhow::Error::msg)?;
+                DemoScene::with_rig(config, rig, Vec::new())
+            }
+        };
+        for mut m in scene.meshes() {
+            if args.no_materials {
+                m.material = None;
+                m.uvs = &[];
+            }
             let id = renderer.upload_mesh(&gpu, &m)?;
             if n == args.fish[0] {
                 let levels: Vec<String> = renderer

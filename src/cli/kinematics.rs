@@ -10,7 +10,6 @@ use anyhow::{Context as _, anyhow, bail};
 use plotters::prelude::*;
 use serde::Serialize;
 
-use super::render::project_root;
 use crate::motion::kinematics::{self, Kinematics, MidlineSeries};
 use crate::motion::{Body, MotionParams, Preset};
 use crate::script::{Limits, ScriptHost};
@@ -620,7 +619,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             dir.display()
         );
     }
-    let subject = subject(&args, &project_root())?;
+    // Species files of ./scripts when there is one, else of the source tree.
+    let subject = subject(&args, &super::ScriptsArg::default().resolve()?.root)?;
     let speeds = speeds(&args, &subject.params)?;
     let ms = measure(&subject, &speeds)?;
     if let Some(path) = &args.plot {

@@ -27,6 +27,7 @@ mod camera;
 mod demo_rig;
 mod gpu;
 pub mod lod;
+pub mod material;
 pub mod props;
 mod renderer;
 mod scene;
@@ -107,6 +108,11 @@ pub struct MeshUpload<'a> {
     pub weights: &'a [[f32; 4]],
     /// Triangle list, counter-clockwise front faces.
     pub indices: &'a [u32],
+    /// Base-colour texture coordinates, one per vertex, or empty when `material` has no
+    /// texture.
+    pub uvs: &'a [[f32; 2]],
+    /// The species' material (texture, alpha mode …); `None` draws the vertex colours opaque.
+    pub material: Option<&'a crate::skin::Material>,
 }
 
 impl<'a> MeshUpload<'a> {
@@ -120,6 +126,8 @@ impl<'a> MeshUpload<'a> {
             joints: &mesh.joints,
             weights: &mesh.weights,
             indices: &mesh.indices,
+            uvs: &mesh.uvs,
+            material: Some(&mesh.material),
         }
     }
 }

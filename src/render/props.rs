@@ -36,6 +36,8 @@ impl PropMesh {
             joints: &self.joints,
             weights: &self.weights,
             indices: &self.indices,
+            uvs: &[],
+            material: None,
         }
     }
 

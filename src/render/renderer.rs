@@ -11,6 +11,7 @@ use glam::{Mat4, Vec3};
 use super::lod::{
     Frustum, LodLevel, LodSelector, MAX_LODS, MeshBounds, MeshLods, ShadowProjection,
 };
+use super::material::{self, GpuMaterial};
 use super::shaders::ShaderSources;
 use super::{FrameInput, Gpu, MeshId, MeshUpload, RenderError};
 
@@ -142,6 +143,10 @@ struct GpuMesh {
     first_bucket: u32,
     num_vertices: u32,
     num_joints: u32,
+    /// Base-colour texture coordinates (vertex buffer slot 2; zeros without a texture).
+    uvs: wgpu::Buffer,
+    /// Its material (bind group 1); blended species are drawn in the second fish pass.
+    material: GpuMaterial,
 }
 
 /// Instance bucket of something not drawn (culled).
@@ -152,6 +157,8 @@ struct Pipelines {
     background: wgpu::RenderPipeline,
     floor: wgpu::RenderPipeline,
     fish: wgpu::RenderPipeline,
+    /// Fish whose material is `BLEND`: alpha blended, depth tested but not written.
+    fish_blend: wgpu::RenderPipeline,
     shadows: wgpu::RenderPipeline,
     lines_fogged: wgpu::RenderPipeline,
     lines_overlay: wgpu::RenderPipeline,
@@ -173,6 +180,7 @@ pub struct Renderer {
     sample_count: u32,
     sources: ShaderSources,
     scene_layout: wgpu::BindGroupLayout,
+    material_layout: wgpu::BindGroupLayout,
     readback_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     palettes: GrowBuffer,
@@ -245,6 +253,7 @@ impl Renderer {
                 },
             ],
         });
+        let material_layout = material::layout(device);
         let storage_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -302,6 +311,7 @@ impl Renderer {
             device,
             &sources,
             &scene_layout,
+            &material_layout,
             &readback_layout,
             color_format,
             sample_count,
@@ -311,6 +321,7 @@ impl Renderer {
             sample_count,
             sources,
             scene_layout,
+            material_layout,
             readback_layout,
             globals,
             palettes,
@@ -370,6 +381,7 @@ impl Renderer {
             &gpu.device,
             &sources,
             &self.scene_layout,
+            &self.material_layout,
             &self.readback_layout,
             self.color_format,
             self.sample_count,
@@ -405,6 +417,12 @@ impl Renderer {
                     "{name} has {len} entries but positions has {n}"
                 )));
             }
+        }
+        if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
+            return Err(bad(format!(
+                "uvs has {} entries but positions has {n}",
+                mesh.uvs.len()
+            )));
         }
         if n == 0 || mesh.indices.is_empty() {
             return Err(bad("no vertices or no indices".into()));
@@ -465,6 +483,37 @@ impl Renderer {
                 contents: bytemuck::cast_slice(&lods.indices),
                 usage: wgpu::BufferUsages::INDEX,
             });
+        let uvs: Vec<[f32; 2]> = if mesh.uvs.is_empty() {
+            vec![[0.0; 2]; n]
+        } else {
+            mesh.uvs
+                .iter()
+                .map(|uv| uv.map(|x| if x.is_finite() { x } else { 0.0 }))
+                .collect()
+        };
+        let uv_label = format!("{} texture coordinates", mesh.label);
+        let uvs = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&uv_label),
+                contents: bytemuck::cast_slice(&uvs),
+                usage: wgpu::BufferUsages::VERTEX,
+            });
+        // A texture without coordinates cannot be sampled: keep the rest of the material.
+        let without_uvs = mesh
+            .material
+            .filter(|m| mesh.uvs.is_empty() && m.base_color_texture.is_some())
+            .map(|m| crate::skin::Material {
+                base_color_texture: None,
+                ..m.clone()
+            });
+        let material = material::upload(
+            &gpu.device,
+            &gpu.queue,
+            &self.material_layout,
+            mesh.label,
+            without_uvs.as_ref().or(mesh.material),
+        );
         let first_bucket = self.num_lod_buckets;
         self.num_lod_buckets += lods.levels.len() as u32;
         self.meshes.push(GpuMesh {
@@ -475,6 +524,8 @@ impl Renderer {
             first_bucket,
             num_vertices: n as u32,
             num_joints,
+            uvs,
+            material,
         });
         Ok(MeshId(self.meshes.len() as u32 - 1))
     }
@@ -808,27 +859,42 @@ impl Renderer {
                     let Some(level) = mesh.levels.last().filter(|_| end > begin) else {
                         continue;
                     };
+                    pass.set_bind_group(1, &mesh.material.bind_group, &[]);
                     pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_vertex_buffer(2, mesh.uvs.slice(..));
                     pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(level_range(level), 0, begin..end);
                     triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
                     draws += 1;
                 }
             }
-            pass.set_pipeline(&self.pipelines.fish);
-            for mesh in &self.meshes {
-                let first = mesh.first_bucket as usize;
-                let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
-                if ranges.iter().all(|&(begin, end)| end == begin) {
-                    continue;
-                }
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
-                    if end > begin {
-                        pass.draw_indexed(level_range(level), 0, begin..end);
-                        triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
-                        draws += 1;
+            // Opaque and masked species first, then blended ones over them.
+            for blend_pass in [false, true] {
+                pass.set_pipeline(if blend_pass {
+                    &self.pipelines.fish_blend
+                } else {
+                    &self.pipelines.fish
+                });
+                for mesh in self
+                    .meshes
+                    .iter()
+                    .filter(|m| m.material.blend == blend_pass)
+                {
+                    let first = mesh.first_bucket as usize;
+                    let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
+                    if ranges.iter().all(|&(begin, end)| end == begin) {
+                        continue;
+                    }
+                    pass.set_bind_group(1, &mesh.material.bind_group, &[]);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_vertex_buffer(2, mesh.uvs.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
+                        if end > begin {
+                            pass.draw_indexed(level_range(level), 0, begin..end);
+                            triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
+                            draws += 1;
+                        }
                     }
                 }
             }
@@ -1048,6 +1114,7 @@ fn build_pipelines(
     device: &wgpu::Device,
     sources: &ShaderSources,
     scene_layout: &wgpu::BindGroupLayout,
+    material_layout: &wgpu::BindGroupLayout,
     readback_layout: &wgpu::BindGroupLayout,
     color_format: wgpu::TextureFormat,
     sample_count: u32,
@@ -1082,6 +1149,11 @@ fn build_pipelines(
         bind_group_layouts: &[Some(scene_layout)],
         immediate_size: 0,
     });
+    let fish_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("fish pipeline layout"),
+        bind_group_layouts: &[Some(scene_layout), Some(material_layout)],
+        immediate_size: 0,
+    });
     let readback_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("skin read-back pipeline layout"),
         bind_group_layouts: &[Some(readback_layout)],
@@ -1113,6 +1185,7 @@ fn build_pipelines(
     })];
     let tri = wgpu::PrimitiveState::default();
     let simple = |label: &str,
+                  layout: &wgpu::PipelineLayout,
                   module: &wgpu::ShaderModule,
                   vs: &str,
                   fs: &str,
@@ -1122,7 +1195,7 @@ fn build_pipelines(
                   targets: &[Option<wgpu::ColorTargetState>]| {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
-            layout: Some(&scene_pl),
+            layout: Some(layout),
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some(vs),
@@ -1144,6 +1217,7 @@ fn build_pipelines(
     };
     let background = simple(
         "background pipeline",
+        &scene_pl,
         &env_mod,
         "vs_background",
         "fs_background",
@@ -1154,6 +1228,7 @@ fn build_pipelines(
     );
     let floor = simple(
         "floor pipeline",
+        &scene_pl,
         &env_mod,
         "vs_floor",
         "fs_floor",
@@ -1176,7 +1251,9 @@ fn build_pipelines(
             shader_location: 7,
         },
     ];
-    // Fish and their shadows read the same mesh vertices and per-instance data.
+    let uv_attrs = wgpu::vertex_attr_array![8 => Float32x2];
+    // Fish and their shadows read the same mesh vertices, per-instance data and texture
+    // coordinates.
     let fish_buffers = [
         Some(wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<Vertex>() as u64,
@@ -1188,9 +1265,15 @@ fn build_pipelines(
             step_mode: wgpu::VertexStepMode::Instance,
             attributes: &instance_attrs,
         }),
+        Some(wgpu::VertexBufferLayout {
+            array_stride: 8,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &uv_attrs,
+        }),
     ];
     let fish = simple(
         "fish pipeline",
+        &fish_pl,
         &fish_mod,
         "vs_main",
         "fs_main",
@@ -1201,6 +1284,22 @@ fn build_pipelines(
         },
         depth(true, wgpu::CompareFunction::Less),
         &opaque,
+    );
+    // BLEND materials: after every opaque fish, blended over them, depth tested against them
+    // but not written, so blended fins show through each other and from both sides.
+    let fish_blend = simple(
+        "blended fish pipeline",
+        &fish_pl,
+        &fish_mod,
+        "vs_main",
+        "fs_main",
+        &fish_buffers,
+        wgpu::PrimitiveState {
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth(false, wgpu::CompareFunction::Less),
+        &blended,
     );
     // Multiply the floor by the shadow's shade; depth tested against the floor, not written.
     let multiply = [Some(wgpu::ColorTargetState {
@@ -1217,6 +1316,7 @@ fn build_pipelines(
     })];
     let shadows = simple(
         "fish shadow pipeline",
+        &fish_pl,
         &fish_mod,
         "vs_shadow",
         "fs_shadow",
@@ -1240,6 +1340,7 @@ fn build_pipelines(
     };
     let lines_fogged = simple(
         "tank edge lines pipeline",
+        &scene_pl,
         &lines_mod,
         "vs_line",
         "fs_line_fogged",
@@ -1250,6 +1351,7 @@ fn build_pipelines(
     );
     let lines_overlay = simple(
         "overlay lines pipeline",
+        &scene_pl,
         &lines_mod,
         "vs_line",
         "fs_line_overlay",
@@ -1276,6 +1378,7 @@ fn build_pipelines(
         background,
         floor,
         fish,
+        fish_blend,
         shadows,
         lines_fogged,
         lines_overlay,

@@ -272,6 +272,12 @@ impl DemoScene {
                 }
             }
         };
+        Self::with_rig(config, rig, log)
+    }
+
+    /// Builds the scene with a given fish (e.g. [`DemoRig::asset`] of any rigged model;
+    /// `config.mesh` is then ignored). `log` starts the scene's log.
+    pub fn with_rig(config: DemoSceneConfig, rig: DemoRig, log: Vec<String>) -> Self {
         let nj = rig.num_joints();
         let body = rig.body().clone();
         let mut rng = rand_pcg::Pcg32::seed_from_u64(config.seed);

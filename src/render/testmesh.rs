@@ -230,6 +230,8 @@ impl TestFish {
             joints: &self.joints,
             weights: &self.weights,
             indices: &self.indices,
+            uvs: &[],
+            material: None,
         }
     }
 

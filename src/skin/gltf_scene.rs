@@ -19,6 +19,7 @@ use gltf::mesh::Mode;
 
 use super::SkinError;
 use super::lbs::{LinearBlendSkinningJob, transform_normal};
+use super::material::{SceneMaterial, read_materials};
 use crate::skeleton::JointTransform;
 
 /// Required extensions shoal cannot read (geometry compression).
@@ -69,6 +70,10 @@ pub struct ScenePrimitive {
     pub vertex_colors: Option<Vec<[f32; 4]>>,
     /// TEXCOORD_0, if present.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Every TEXCOORD_n set, n = 0, 1, … (empty when there is none).
+    pub tex_coords: Vec<Vec<[f32; 2]>>,
+    /// TANGENT (xyz and handedness w), if present.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Up to four influences per vertex, indices into the skin's joint list.
     pub joints: Option<Vec<[u16; 4]>>,
     /// The matching weights, summing to 1.
@@ -103,6 +108,8 @@ pub struct GltfScene {
     pub skins: Vec<SceneSkin>,
     /// Every mesh, by mesh index.
     pub meshes: Vec<SceneMesh>,
+    /// Every material, by material index (images not decoded yet).
+    pub materials: Vec<SceneMaterial>,
     /// Things shoal could read past but a person should know about.
     pub warnings: Vec<String>,
 }
@@ -165,6 +172,7 @@ impl GltfScene {
             scene_roots: Vec::new(),
             skins: Vec::new(),
             meshes: Vec::new(),
+            materials: read_materials(&gltf.document, &buffers, path),
             warnings: Vec::new(),
         };
         scene.read_nodes(&gltf.document)?;
@@ -377,16 +385,31 @@ impl GltfScene {
             }
             vertex_colors = Some(vc);
         }
-        let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
+        // Every TEXCOORD_n set present from 0 up (a material may use any of them).
+        let mut tex_coords: Vec<Vec<[f32; 2]>> = Vec::new();
+        while let Some(acc) = prim.get(&gltf::Semantic::TexCoords(tex_coords.len() as u32)) {
+            let name = format!("TEXCOORD_{}", tex_coords.len());
+            let raw = RawAccessor::new(&acc, buffers, &self.path, &format!("{label} {name}"))?;
+            same_count(&raw, &name)?;
+            if raw.dims != 2 {
+                return Err(raw.error("must be VEC2"));
+            }
+            tex_coords.push((0..n).map(|i| [raw.float(i, 0), raw.float(i, 1)]).collect());
+        }
+        let uvs = tex_coords.first().cloned();
+        let tangents = match prim.get(&gltf::Semantic::Tangents) {
             None => None,
             Some(acc) => {
-                let raw =
-                    RawAccessor::new(&acc, buffers, &self.path, &format!("{label} TEXCOORD_0"))?;
-                same_count(&raw, "TEXCOORD_0")?;
-                if raw.dims != 2 {
-                    return Err(raw.error("must be VEC2"));
+                let raw = RawAccessor::new(&acc, buffers, &self.path, &format!("{label} TANGENT"))?;
+                same_count(&raw, "TANGENT")?;
+                if raw.dims != 4 {
+                    return Err(raw.error("must be VEC4"));
                 }
-                Some((0..n).map(|i| [raw.float(i, 0), raw.float(i, 1)]).collect())
+                Some(
+                    (0..n)
+                        .map(|i| std::array::from_fn(|k| raw.float(i, k)))
+                        .collect(),
+                )
             }
         };
         // Skinning attributes: every set, merged, four strongest kept.
@@ -475,6 +498,8 @@ impl GltfScene {
             colors,
             vertex_colors,
             uvs,
+            tex_coords,
+            tangents,
             joints,
             weights,
             indices,

@@ -12,12 +12,14 @@ use std::path::PathBuf;
 
 mod gltf_scene;
 mod lbs;
+pub mod material;
 mod model;
 
 pub use gltf_scene::{
     GltfScene, PoseRotations, PosedPrimitive, SceneMesh, SceneNode, ScenePrimitive, SceneSkin,
 };
 pub use lbs::{LinearBlendSkinningJob, palette, transform_normal};
+pub use material::{AlphaMode, Material, TextureImage};
 pub use model::{FishModel, SkinnedMesh, vertex_normals};
 
 use crate::skeleton::SkeletonError;

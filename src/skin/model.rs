@@ -7,6 +7,7 @@ use glam::{Mat4, Vec3};
 
 use super::SkinError;
 use super::gltf_scene::{GltfScene, skin_vertex};
+use super::material::{Material, transform_uvs};
 use crate::skeleton::{JointTransform, Skeleton};
 
 /// Vertex data of a skinned mesh in the skeleton's bind (rest) pose, all primitives merged.
@@ -24,6 +25,11 @@ pub struct SkinnedMesh {
     pub weights: Vec<[f32; 4]>,
     /// Triangle list over all primitives.
     pub indices: Vec<u32>,
+    /// Texture coordinates of the material's base-colour texture, one per vertex
+    /// (`KHR_texture_transform` applied); empty when the material has no usable texture.
+    pub uvs: Vec<[f32; 2]>,
+    /// The material (of the first primitive; one material per species).
+    pub material: Material,
 }
 
 impl SkinnedMesh {
@@ -264,6 +270,7 @@ impl FishModel {
             }
             out.indices.extend(prim.indices.iter().map(|i| i + base));
         }
+        resolve_material(scene, &mesh.primitives, &mut out, &mut warnings);
         let file = path.display();
         if inconsistent > 0 {
             warnings.push(format!(
@@ -320,4 +327,45 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
         normals[c] += n;
     }
     normals.iter().map(|n| n.normalize_or_zero()).collect()
+}
+
+/// Gives `out` the first primitive's material, with its base-colour texture decoded and the
+/// texture's coordinate set (transformed) as `out.uvs`. Problems are warnings: the fish then
+/// keeps its base colour.
+fn resolve_material(
+    scene: &GltfScene,
+    primitives: &[super::gltf_scene::ScenePrimitive],
+    out: &mut SkinnedMesh,
+    warnings: &mut Vec<String>,
+) {
+    let file = scene.path.display();
+    let first = primitives.first().and_then(|p| p.material);
+    if primitives.iter().any(|p| p.material != first) {
+        warnings.push(format!(
+            "{file}: the skinned mesh's primitives use several materials; all are drawn with the first"
+        ));
+    }
+    let Some(scene_material) = first.and_then(|m| scene.materials.get(m)) else {
+        return;
+    };
+    let set = scene_material
+        .base_color
+        .as_ref()
+        .map_or(0, |t| t.tex_coord as usize);
+    let mut uvs = Vec::with_capacity(out.positions.len());
+    let mut has_uvs = true;
+    for p in primitives {
+        match p.tex_coords.get(set) {
+            Some(t) if t.len() == p.positions.len() => uvs.extend_from_slice(t),
+            _ => has_uvs = false,
+        }
+    }
+    let material = scene_material.resolve(&scene.path, has_uvs, warnings);
+    if material.base_color_texture.is_some() {
+        if let Some(t) = &scene_material.base_color {
+            transform_uvs(&mut uvs, &t.transform);
+        }
+        out.uvs = uvs;
+    }
+    out.material = material;
 }

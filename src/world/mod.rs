@@ -202,6 +202,11 @@ impl Species {
             reason,
         };
         let model = FishModel::load(&path).map_err(|e| fail(e.to_string()))?;
+        // A texture that cannot be used is not fatal (the fish keeps its base colour), but a
+        // designer should hear of it.
+        for w in model.warnings.iter().filter(|w| w.contains("base colour")) {
+            log::warn!("species {}: {w}", desc.name);
+        }
         let rig = SpeciesRig::bind(&desc, &model).map_err(|e| fail(e.to_string()))?;
         let species = Self {
             desc,

@@ -1,0 +1,204 @@
+//! `shoal asset species`: a species script suggested from a rigged model's shape, the last step
+//! of bringing your own fish (rig → species → scene).
+//!
+//! The body's slenderness (length over its largest cross-section extent, depth or width) picks
+//! where between the two built-in swimmers the motion parameters sit:
+//! - slender (ratio ≥ [`ANGUILLIFORM_RATIO`], an eel's ≈ 12): anguilliform like the built-in eel
+//!   — pivot near the head (p = 0.2), a short body wave (λ = 0.6 l), wider swings (maxAmp = l/8),
+//!   a slower cruise;
+//! - deep (ratio ≤ [`CARANGIFORM_RATIO`], a porgy's ≈ 2): carangiform like the black porgy
+//!   (Table 1 Ex1: p = 0.4, λ = l, maxAmp = l/5, cruising at a body length per second);
+//! - in between: linearly interpolated.
+//!
+//! The suggestion is a starting point for a designer, printed with the measured ratio.
+
+use std::path::Path;
+
+use crate::motion::MotionParams;
+use crate::skin::FishModel;
+use crate::species::{SpeciesDesc, SpeciesRig};
+
+/// Length / cross-section ratio at and above which the body is treated as eel-like.
+pub const ANGUILLIFORM_RATIO: f32 = 8.0;
+/// Length / cross-section ratio at and below which the body is treated as porgy-like.
+pub const CARANGIFORM_RATIO: f32 = 4.0;
+
+/// What `shoal asset species` suggests for a model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeciesSuggestion {
+    /// The species description (name, asset, joints, motion; senses from the nearer built-in).
+    pub desc: SpeciesDesc,
+    /// Which built-in species the file is based on (`"eel"` or `"black_porgy"`).
+    pub base: &'static str,
+    /// Body length over its largest cross-section extent, model units.
+    pub slenderness: f32,
+    /// 0 = carangiform (deep) … 1 = anguilliform (slender).
+    pub eel_likeness: f32,
+    /// "anguilliform-like", "carangiform" or "subcarangiform".
+    pub swimming_mode: &'static str,
+}
+
+/// Suggests a species for `model`. `asset` is the path the file will name (relative to the
+/// assets folder). Fails when the model has no `spine_*` joints (it was not rigged by
+/// `shoal asset rig`) or its rig cannot be bound.
+pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSuggestion, String> {
+    let mut spines: Vec<(u32, String)> = model
+        .skeleton
+        .names()
+        .iter()
+        .filter_map(|n| Some((n.strip_prefix("spine_")?.parse().ok()?, n.clone())))
+        .collect();
+    spines.sort();
+    if spines.is_empty() {
+        return Err(
+            "the model has no joints named spine_1, spine_2, …; rig it first with `shoal asset rig`"
+                .into(),
+        );
+    }
+    let mut desc = SpeciesDesc::black_porgy();
+    desc.name = name.to_string();
+    desc.asset = asset.to_string();
+    desc.vertebral_joints = spines.into_iter().map(|(_, n)| n).collect();
+    let rig = SpeciesRig::bind(&desc, model).map_err(|e| e.to_string())?;
+    // Cross-section: the largest extent across the body (up, and sideways).
+    let side = rig.model_forward.cross(rig.model_up).normalize_or_zero();
+    let extent = |axis: glam::Vec3| {
+        let (lo, hi) = model
+            .mesh
+            .positions
+            .iter()
+            .map(|p| p.dot(axis))
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), t| {
+                (a.min(t), b.max(t))
+            });
+        (hi - lo).max(0.0)
+    };
+    let across = extent(rig.model_up).max(extent(side)).max(1e-6);
+    let slenderness = rig.model_body_length / across;
+    let t = ((slenderness - CARANGIFORM_RATIO) / (ANGUILLIFORM_RATIO - CARANGIFORM_RATIO))
+        .clamp(0.0, 1.0);
+    let lerp = |a: f32, b: f32| a + (b - a) * t;
+    let porgy = MotionParams::BLACK_PORGY;
+    let eel = SpeciesDesc::eel();
+    // Body length in world units: a porgy is 50, an eel 70.
+    let l = lerp(porgy.l, eel.motion.l).round();
+    desc.motion = MotionParams {
+        p: lerp(porgy.p, eel.motion.p),
+        s: (lerp(porgy.s / porgy.l, eel.motion.s / eel.motion.l) * l).round(),
+        l,
+        max_amp: l / lerp(5.0, 8.0),
+        lambda: (lerp(1.0, 0.6) * l).round(),
+        omega: lerp(porgy.omega, eel.motion.omega),
+        tt: lerp(porgy.tt, eel.motion.tt),
+        f: 1.0,
+        turn_angle: porgy.turn_angle,
+    };
+    let base_desc = if t >= 0.5 {
+        eel.clone()
+    } else {
+        SpeciesDesc::black_porgy()
+    };
+    desc.view_range = base_desc.view_range;
+    desc.view_angle_deg = base_desc.view_angle_deg;
+    // Top speed per body length: the porgy's 120 / 50, the eel's 70 / 70.
+    let porgy_top = SpeciesDesc::black_porgy().max_speed / porgy.l;
+    desc.max_speed = (lerp(porgy_top, eel.max_speed / eel.motion.l) * l).round();
+    desc.drives = base_desc.drives;
+    let swimming_mode = if t >= 0.75 {
+        "anguilliform-like"
+    } else if t <= 0.25 {
+        "carangiform"
+    } else {
+        "subcarangiform"
+    };
+    Ok(SpeciesSuggestion {
+        desc,
+        base: if t >= 0.5 { "eel" } else { "black_porgy" },
+        slenderness,
+        eel_likeness: t,
+        swimming_mode,
+    })
+}
+
+impl SpeciesSuggestion {
+    /// The species script (Lua), commented for a designer.
+    pub fn to_lua(&self, model: &Path) -> String {
+        let d = &self.desc;
+        let m = &d.motion;
+        let joints: Vec<String> = d
+            .vertebral_joints
+            .iter()
+            .map(|j| format!("{j:?}"))
+            .collect();
+        format!(
+            "-- {name}: made by `shoal asset species` from {model}.\n\
+             -- Its body is {ratio:.1} times as long as it is deep or wide, so it swims {mode}\n\
+             -- (between the deep black porgy, ratio ≈ 2, and the slender eel, ≈ 12). Every value\n\
+             -- is a suggestion: edit and save, and live fish pick it up.\n\
+             return {{\n  \
+               base = {base:?},             -- senses and drives of the nearer built-in species\n  \
+               name = {name:?},\n  \
+               asset = {asset:?},   -- relative to assets/\n  \
+               vertebral_joints = {{ {joints} }},  -- driven joints, head to tail\n  \
+               motion = {{\n    \
+                 l = {l},                 -- body length, world units (the model is scaled to it)\n    \
+                 p = {p:.2},               -- motion centre, fraction of l from the head\n    \
+                 s = {s},                 -- cruising speed, units/s\n    \
+                 max_amp = {amp:.2},        -- amplitude scale of the body wave, units\n    \
+                 lambda = {lambda},            -- body wave length, units\n    \
+                 omega = {omega:.2},           -- base frequency of the body wave (docs/motion.md)\n    \
+                 tt = {tt:.2},              -- turning time, s\n  \
+               }},\n  \
+               max_speed = {max_speed},\n  \
+               decision_hz = 10,\n\
+             }}\n",
+            name = d.name,
+            model = model.display(),
+            ratio = self.slenderness,
+            mode = self.swimming_mode,
+            base = self.base,
+            asset = d.asset,
+            joints = joints.join(", "),
+            l = m.l,
+            p = m.p,
+            s = m.s,
+            amp = m.max_amp,
+            lambda = m.lambda,
+            omega = m.omega,
+            tt = m.tt,
+            max_speed = d.max_speed,
+        )
+    }
+
+    /// A scene snippet that puts a few of these fish in the default tank.
+    pub fn scene_snippet(&self) -> String {
+        format!(
+            "    {{ species = {:?}, count = 6, behavior = \"school\",\n      \
+             region = {{ min = {{ -200, 120, -120 }}, max = {{ 200, 260, 120 }} }} }},",
+            self.desc.name
+        )
+    }
+}
+
+/// `to` relative to the directory `from` (both made absolute), with `..` where needed; `/`
+/// separated so the script reads the same on every system.
+pub fn relative_path(from: &Path, to: &Path) -> String {
+    let abs = |p: &Path| {
+        std::fs::canonicalize(p).unwrap_or_else(|_| {
+            std::env::current_dir()
+                .map(|d| d.join(p))
+                .unwrap_or_else(|_| p.to_path_buf())
+        })
+    };
+    let (from, to) = (abs(from), abs(to));
+    let a: Vec<_> = from.components().collect();
+    let b: Vec<_> = to.components().collect();
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut parts: Vec<String> = vec!["..".to_string(); a.len() - common];
+    parts.extend(
+        b[common..]
+            .iter()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
+    );
+    parts.join("/")
+}

@@ -1,0 +1,496 @@
+//! glTF 2.0 materials for the runtime: what a species looks like beyond its per-vertex colours.
+//!
+//! [`read_materials`] records each material of a file when it is read (cheap: no image is
+//! decoded); [`SceneMaterial::resolve`] decodes the base-colour image of the one material a
+//! [`super::FishModel`] uses. A base-colour image that is missing or malformed is a warning
+//! naming the file and the image, and the fish keeps its base colour (factor × vertex colour):
+//! never an error, never a black fish.
+//!
+//! What is kept: the base-colour texture (its texCoord set, its sampler, `KHR_texture_transform`
+//! baked into the texture coordinates), `baseColorFactor` (already in the vertex colours),
+//! `alphaMode` / `alphaCutoff`, `doubleSided`, `emissiveFactor` and `KHR_materials_unlit`.
+//! Normal, metallic-roughness, occlusion and emissive *textures* are not drawn (the water's
+//! lighting is a stylised wrapped diffuse, see `shaders/fish.wgsl`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// How a material's alpha is used (glTF `alphaMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum AlphaMode {
+    /// Alpha ignored; fully opaque.
+    #[default]
+    Opaque,
+    /// Drawn where alpha ≥ `cutoff`, discarded elsewhere (`MASK`, default cutoff 0.5).
+    Mask {
+        /// `alphaCutoff`.
+        cutoff: f32,
+    },
+    /// Blended over what is behind (`BLEND`).
+    Blend,
+}
+
+/// Texture coordinate wrapping (glTF `wrapS` / `wrapT`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Wrap {
+    /// `REPEAT` (the default).
+    #[default]
+    Repeat,
+    /// `MIRRORED_REPEAT`.
+    Mirror,
+    /// `CLAMP_TO_EDGE`.
+    Clamp,
+}
+
+/// A texture's sampler: wrapping and filtering.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sampler {
+    /// Along u (`wrapS`).
+    pub wrap_u: Wrap,
+    /// Along v (`wrapT`).
+    pub wrap_v: Wrap,
+    /// Magnification is linear (else nearest). Default linear.
+    pub mag_linear: bool,
+    /// Minification within a level is linear (else nearest). Default linear.
+    pub min_linear: bool,
+    /// Blend between mip levels (else nearest level). Default linear.
+    pub mip_linear: bool,
+    /// Mipmaps are used at all (`NEAREST` / `LINEAR` min filters turn them off).
+    pub mipmaps: bool,
+}
+
+impl Default for Sampler {
+    fn default() -> Self {
+        Self {
+            wrap_u: Wrap::Repeat,
+            wrap_v: Wrap::Repeat,
+            mag_linear: true,
+            min_linear: true,
+            mip_linear: true,
+            mipmaps: true,
+        }
+    }
+}
+
+/// A decoded base-colour image: RGBA8, sRGB-encoded colour and linear alpha, rows top first.
+#[derive(Clone, PartialEq)]
+pub struct TextureImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width × height × 4` bytes.
+    pub rgba: Vec<u8>,
+    /// How it is sampled.
+    pub sampler: Sampler,
+    /// Where it came from (`image 0 (textures/body.png)`), for messages.
+    pub label: String,
+}
+
+impl std::fmt::Debug for TextureImage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TextureImage")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("sampler", &self.sampler)
+            .field("label", &self.label)
+            .finish_non_exhaustive()
+    }
+}
+
+impl TextureImage {
+    /// The texel at integer coordinates (wrapped as the sampler says), as linear RGBA.
+    pub fn texel_linear(&self, x: i64, y: i64) -> [f32; 4] {
+        let wrap = |i: i64, n: u32, mode: Wrap| -> usize {
+            let n = i64::from(n.max(1));
+            match mode {
+                Wrap::Repeat => i.rem_euclid(n) as usize,
+                Wrap::Clamp => i.clamp(0, n - 1) as usize,
+                Wrap::Mirror => {
+                    let m = i.rem_euclid(2 * n);
+                    (if m < n { m } else { 2 * n - 1 - m }) as usize
+                }
+            }
+        };
+        let x = wrap(x, self.width, self.sampler.wrap_u);
+        let y = wrap(y, self.height, self.sampler.wrap_v);
+        let at = (y * self.width as usize + x) * 4;
+        let p = &self.rgba[at..at + 4];
+        [
+            srgb_to_linear(p[0]),
+            srgb_to_linear(p[1]),
+            srgb_to_linear(p[2]),
+            f32::from(p[3]) / 255.0,
+        ]
+    }
+
+    /// Bilinear (or nearest, as the sampler's magnification says) sample of the full-size
+    /// image at texture coordinates `uv` (glTF convention: v down), linear RGBA.
+    pub fn sample_linear(&self, uv: [f32; 2]) -> [f32; 4] {
+        let x = uv[0] * self.width as f32 - 0.5;
+        let y = uv[1] * self.height as f32 - 0.5;
+        if !self.sampler.mag_linear {
+            return self.texel_linear(x.round() as i64, y.round() as i64);
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let mut out = [0.0f32; 4];
+        for (dx, dy, w) in [
+            (0, 0, (1.0 - fx) * (1.0 - fy)),
+            (1, 0, fx * (1.0 - fy)),
+            (0, 1, (1.0 - fx) * fy),
+            (1, 1, fx * fy),
+        ] {
+            let t = self.texel_linear(x0 + dx, y0 + dy);
+            for k in 0..4 {
+                out[k] += t[k] * w;
+            }
+        }
+        out
+    }
+}
+
+/// sRGB-encoded byte → linear value in [0, 1].
+pub fn srgb_to_linear(c: u8) -> f32 {
+    let s = f32::from(c) / 255.0;
+    if s <= 0.040_45 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The material a species is drawn with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// The material's name in the file, if any.
+    pub name: Option<String>,
+    /// `baseColorFactor` (informational: the vertex colours already include it).
+    pub base_color_factor: [f32; 4],
+    /// The decoded base-colour texture; `None` when the material has none or it could not be
+    /// read (then a warning says why).
+    pub base_color_texture: Option<Arc<TextureImage>>,
+    /// Alpha handling.
+    pub alpha_mode: AlphaMode,
+    /// Both faces are lit as front faces (`doubleSided`). Fish are always drawn without
+    /// back-face culling, since fins are single sheets; this only matters for lighting.
+    pub double_sided: bool,
+    /// `KHR_materials_unlit`: the base colour is shown as is, without lighting.
+    pub unlit: bool,
+    /// `emissiveFactor`, linear RGB added to the lit colour.
+    pub emissive: [f32; 3],
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: None,
+            base_color_factor: [1.0; 4],
+            base_color_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+            unlit: false,
+            emissive: [0.0; 3],
+        }
+    }
+}
+
+/// Where an image's bytes are.
+#[derive(Debug, Clone)]
+pub enum ImageSource {
+    /// An external file (the URI resolved against the glTF file's folder).
+    File(PathBuf),
+    /// Bytes inside the file (a buffer view or a data URI).
+    Bytes(Arc<[u8]>),
+    /// Not readable; why.
+    Unreadable(String),
+}
+
+/// A material as recorded when the file is read; images not yet decoded.
+#[derive(Debug, Clone, Default)]
+pub struct SceneMaterial {
+    /// The material with no texture decoded yet.
+    pub material: Material,
+    /// The base-colour texture, if the material has one.
+    pub base_color: Option<SceneTexture>,
+}
+
+/// A texture reference of a [`SceneMaterial`].
+#[derive(Debug, Clone)]
+pub struct SceneTexture {
+    /// The image index in the file.
+    pub image: usize,
+    /// The image's URI or name, for messages.
+    pub image_name: String,
+    /// Its bytes.
+    pub source: ImageSource,
+    /// How it is sampled.
+    pub sampler: Sampler,
+    /// Which TEXCOORD_n set it uses (`KHR_texture_transform`'s override applied).
+    pub tex_coord: u32,
+    /// `KHR_texture_transform` as a 2×3 affine matrix (rows), identity when absent.
+    pub transform: [[f32; 3]; 2],
+}
+
+/// The largest side a base-colour texture keeps; larger images are downsampled when decoded
+/// (a fish fills at most a few hundred pixels of the screen; 2048 keeps texel detail at a
+/// full-screen close-up while a 4096² image would cost 85 MB of GPU memory with mipmaps).
+pub const MAX_TEXTURE_SIDE: u32 = 2048;
+
+const IDENTITY_TRANSFORM: [[f32; 3]; 2] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+/// Records every material of `doc`. `buffers` are the file's buffers; `path` the file (image
+/// URIs resolve against its folder).
+pub fn read_materials(doc: &gltf::Document, buffers: &[&[u8]], path: &Path) -> Vec<SceneMaterial> {
+    doc.materials()
+        .map(|m| {
+            let pbr = m.pbr_metallic_roughness();
+            let material = Material {
+                name: m.name().map(str::to_string),
+                base_color_factor: pbr.base_color_factor(),
+                base_color_texture: None,
+                alpha_mode: match m.alpha_mode() {
+                    gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                    gltf::material::AlphaMode::Mask => AlphaMode::Mask {
+                        cutoff: m.alpha_cutoff().unwrap_or(0.5),
+                    },
+                    gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+                },
+                double_sided: m.double_sided(),
+                unlit: m.unlit(),
+                emissive: m.emissive_factor(),
+            };
+            let base_color = pbr
+                .base_color_texture()
+                .map(|info| scene_texture(&info, buffers, path));
+            SceneMaterial {
+                material,
+                base_color,
+            }
+        })
+        .collect()
+}
+
+fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> SceneTexture {
+    let tex = info.texture();
+    let image = tex.source();
+    let s = tex.sampler();
+    let wrap = |w: gltf::texture::WrappingMode| match w {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+    };
+    use gltf::texture::{MagFilter, MinFilter};
+    let (min_linear, mip_linear, mipmaps) = match s.min_filter() {
+        None | Some(MinFilter::LinearMipmapLinear) => (true, true, true),
+        Some(MinFilter::Nearest) => (false, false, false),
+        Some(MinFilter::Linear) => (true, false, false),
+        Some(MinFilter::NearestMipmapNearest) => (false, false, true),
+        Some(MinFilter::LinearMipmapNearest) => (true, false, true),
+        Some(MinFilter::NearestMipmapLinear) => (false, true, true),
+    };
+    let sampler = Sampler {
+        wrap_u: wrap(s.wrap_s()),
+        wrap_v: wrap(s.wrap_t()),
+        mag_linear: s.mag_filter() != Some(MagFilter::Nearest),
+        min_linear,
+        mip_linear,
+        mipmaps,
+    };
+    let mut tex_coord = info.tex_coord();
+    let mut transform = IDENTITY_TRANSFORM;
+    if let Some(t) = info.texture_transform() {
+        if let Some(set) = t.tex_coord() {
+            tex_coord = set;
+        }
+        let [ox, oy] = t.offset();
+        let [sx, sy] = t.scale();
+        let (sin, cos) = t.rotation().sin_cos();
+        // uv' = T · R · S · uv (KHR_texture_transform's definition).
+        transform = [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]];
+    }
+    let index = image.index();
+    let (image_name, source) = match image.source() {
+        gltf::image::Source::Uri { uri, .. } => {
+            if uri.starts_with("data:") {
+                let name = format!("image {index} (data URI)");
+                let src = match decode_data_uri(uri) {
+                    Some(bytes) => ImageSource::Bytes(bytes.into()),
+                    None => ImageSource::Unreadable("malformed base64 data URI".into()),
+                };
+                (name, src)
+            } else {
+                let base = path.parent().unwrap_or(Path::new("."));
+                let file = base.join(percent_decode(uri));
+                (format!("image {index} ({uri})"), ImageSource::File(file))
+            }
+        }
+        gltf::image::Source::View { view, .. } => {
+            let name = format!(
+                "image {index} ({})",
+                image.name().unwrap_or("in a buffer view")
+            );
+            let bytes = buffers.get(view.buffer().index()).and_then(|b| {
+                let end = view.offset().checked_add(view.length())?;
+                b.get(view.offset()..end)
+            });
+            let src = match bytes {
+                Some(b) => ImageSource::Bytes(b.into()),
+                None => ImageSource::Unreadable(format!(
+                    "buffer view {} lies outside its buffer",
+                    view.index()
+                )),
+            };
+            (name, src)
+        }
+    };
+    SceneTexture {
+        image: index,
+        image_name,
+        source,
+        sampler,
+        tex_coord,
+        transform,
+    }
+}
+
+impl SceneMaterial {
+    /// The material with its base-colour image decoded (downsampled to [`MAX_TEXTURE_SIDE`]).
+    /// `has_uvs` says whether every vertex has the texture's coordinate set. Anything that
+    /// stops the texture from being used adds a warning naming `path` and the image and returns
+    /// the material without it.
+    pub fn resolve(&self, path: &Path, has_uvs: bool, warnings: &mut Vec<String>) -> Material {
+        let mut material = self.material.clone();
+        let Some(tex) = &self.base_color else {
+            return material;
+        };
+        let file = path.display();
+        if !has_uvs {
+            warnings.push(format!(
+                "{file}: {}: the base colour texture needs TEXCOORD_{} on every vertex; drawn with the base colour only",
+                tex.image_name, tex.tex_coord
+            ));
+            return material;
+        }
+        match decode(tex) {
+            Ok(image) => material.base_color_texture = Some(Arc::new(image)),
+            Err(why) => warnings.push(format!(
+                "{file}: {}: {why}; drawn with the base colour only",
+                tex.image_name
+            )),
+        }
+        material
+    }
+}
+
+fn decode(tex: &SceneTexture) -> Result<TextureImage, String> {
+    let bytes: Arc<[u8]> = match &tex.source {
+        ImageSource::Bytes(b) => b.clone(),
+        ImageSource::File(f) => std::fs::read(f)
+            .map_err(|e| format!("cannot read {}: {e}", f.display()))?
+            .into(),
+        ImageSource::Unreadable(why) => return Err(why.clone()),
+    };
+    let img = image::load_from_memory(&bytes).map_err(|e| format!("cannot decode: {e}"))?;
+    let mut rgba = img.to_rgba8();
+    let (w, h) = rgba.dimensions();
+    if w == 0 || h == 0 {
+        return Err("the image is empty".into());
+    }
+    let largest = w.max(h);
+    if largest > MAX_TEXTURE_SIDE {
+        let scale = MAX_TEXTURE_SIDE as f32 / largest as f32;
+        let nw = ((w as f32 * scale).round() as u32).max(1);
+        let nh = ((h as f32 * scale).round() as u32).max(1);
+        rgba = image::imageops::resize(&rgba, nw, nh, image::imageops::FilterType::Triangle);
+    }
+    let (width, height) = rgba.dimensions();
+    Ok(TextureImage {
+        width,
+        height,
+        rgba: rgba.into_raw(),
+        sampler: tex.sampler,
+        label: tex.image_name.clone(),
+    })
+}
+
+/// Applies a 2×3 texture transform to coordinates.
+pub fn transform_uvs(uvs: &mut [[f32; 2]], t: &[[f32; 3]; 2]) {
+    if *t == IDENTITY_TRANSFORM {
+        return;
+    }
+    for uv in uvs {
+        let [u, v] = *uv;
+        *uv = [
+            t[0][0] * u + t[0][1] * v + t[0][2],
+            t[1][0] * u + t[1][1] * v + t[1][2],
+        ];
+    }
+}
+
+fn decode_data_uri(uri: &str) -> Option<Vec<u8>> {
+    let (_, data) = uri.split_once(";base64,")?;
+    base64::decode(data).ok()
+}
+
+/// `%XX` escapes in a URI path decoded.
+pub fn percent_decode(s: &str) -> String {
+    let hex = |b: u8| (b as char).to_digit(16);
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_uris_decode() {
+        assert_eq!(
+            decode_data_uri("data:image/png;base64,aGVsbG8=").unwrap(),
+            b"hello"
+        );
+        assert!(decode_data_uri("data:image/png;base64,a*b").is_none());
+    }
+
+    #[test]
+    fn wrap_modes_pick_the_right_texels() {
+        let rgba: Vec<u8> = (0..4u8).flat_map(|i| [i * 60, 0, 0, 255]).collect();
+        let mut t = TextureImage {
+            width: 4,
+            height: 1,
+            rgba,
+            sampler: Sampler::default(),
+            label: "t".into(),
+        };
+        let red = |t: &TextureImage, x| t.texel_linear(x, 0)[0];
+        assert_eq!(red(&t, 5), red(&t, 1));
+        t.sampler.wrap_u = Wrap::Clamp;
+        assert_eq!(red(&t, 9), red(&t, 3));
+        t.sampler.wrap_u = Wrap::Mirror;
+        assert_eq!(red(&t, 4), red(&t, 3));
+        assert_eq!(red(&t, -1), red(&t, 0));
+    }
+
+    #[test]
+    fn texture_transform_offsets_and_scales() {
+        let mut uv = [[1.0, 1.0]];
+        transform_uvs(&mut uv, &[[2.0, 0.0, 0.5], [0.0, 3.0, -1.0]]);
+        assert_eq!(uv[0], [2.5, 2.0]);
+    }
+}
