@@ -311,3 +311,31 @@ fn generated_faces_wind_outwards() {
         );
     }
 }
+
+/// `shoal asset preview --swim` without `--yaw` shows the fish swimming: its eight top views
+/// differ (with the old default of 0 rad they were eight identical straight fish).
+#[test]
+fn swim_preview_without_yaw_shows_a_moving_tail() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("swim.png");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["asset", "preview", "--model"])
+        .arg(repo("assets/black_porgy.glb"))
+        .args(["--swim", "--size", "96", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let sheet = image::open(&out).unwrap().to_rgb8();
+    let panel = |k: u32| {
+        image::imageops::crop_imm(&sheet, k % 4 * 96, k / 4 * 96, 96, 96)
+            .to_image()
+            .into_raw()
+    };
+    let first = panel(0);
+    let differing = (1..8).filter(|&k| panel(k) != first).count();
+    assert!(
+        differing >= 6,
+        "only {differing} of 7 views differ from the first"
+    );
+}

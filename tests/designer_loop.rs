@@ -328,3 +328,41 @@ fn spawning_with_an_unknown_behaviour_or_species_says_what_exists() {
         .to_string();
     assert!(e.contains("did you mean \"eel\"?"), "{e}");
 }
+
+#[test]
+fn reload_events_read_as_sentences_in_the_console() {
+    assert_eq!(
+        ReloadEvent::Behaviors(vec!["forage".into()]).to_string(),
+        "reloaded behaviour forage"
+    );
+    let failed = ReloadEvent::Failed("scripts/behaviors/forage.lua:3: 'end' expected".into());
+    assert_eq!(
+        failed.to_string(),
+        "scripts/behaviors/forage.lua: reload failed, the last good version keeps running"
+    );
+    assert!(
+        !ReloadEvent::SceneChanged
+            .to_string()
+            .contains("SceneChanged")
+    );
+}
+
+#[test]
+fn an_error_raised_in_every_lane_reaches_the_console_once() {
+    let (_d, root) = scratch(&[
+        (
+            "scripts/behaviors/broken.lua",
+            "return { tick = function(fish) error('no reef here') end }\n",
+        ),
+        (
+            "scripts/scenes/broken.lua",
+            &scene_of(r#"    { species = "black_porgy", count = 16, behavior = "broken" },"#),
+        ),
+    ]);
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/broken.lua"), 4).unwrap();
+    sim.set_lanes(4).unwrap();
+    sim.run(1.0);
+    let lines: Vec<String> = sim.drain_log().iter().map(|e| e.to_string()).collect();
+    let errors = lines.iter().filter(|l| l.contains("no reef here")).count();
+    assert_eq!(errors, 1, "{lines:#?}");
+}

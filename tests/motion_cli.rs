@@ -112,3 +112,14 @@ fn test_motion_bad_input_names_the_value() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn test_motion_angle_is_checked_in_degrees_as_typed() {
+    let out = shoal(&["motion", "--preset", "ex2", "--angle", "-90"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--angle -90") && stderr.contains("degrees") && !stderr.contains("radian"),
+        "{stderr}"
+    );
+}
