@@ -361,6 +361,8 @@ fn test_a_metered_call_leaves_the_next_one_unmetered() {
     let limits = Limits {
         instructions_per_call: 100_000,
         metered_after: Duration::from_millis(20),
+        // The slow call runs ~300 ms on purpose: no time limit here.
+        time_per_call: Duration::from_secs(600),
         ..Limits::default()
     };
     let mut h = ScriptHost::new(&root, limits).unwrap();
@@ -434,6 +436,9 @@ fn test_memory_bomb_is_an_error_not_a_crash() {
     let limits = Limits {
         memory_bytes: 32 << 20,
         instructions_per_call: u64::MAX / 2,
+        // The memory limit, not the time limit, must stop it (tests/script_hostile.rs has the
+        // bomb under the default limits).
+        time_per_call: Duration::from_secs(600),
         ..metered_from_start()
     };
     let mut h = ScriptHost::new(&root, limits).unwrap();
@@ -463,7 +468,8 @@ fn test_one_huge_allocation_is_an_error() {
     let mut h = ScriptHost::new(&root, limits).unwrap();
     assert_eq!(
         run_err(&mut h, "huge"),
-        "scripts/behaviors/huge.lua: not enough memory"
+        // string.rep is a host function now, so the error has its line too.
+        "scripts/behaviors/huge.lua:2: not enough memory"
     );
 }
 

@@ -13,6 +13,7 @@ use std::path::PathBuf;
 mod gltf_scene;
 mod lbs;
 mod model;
+mod validate;
 
 pub use gltf_scene::{
     GltfScene, PoseRotations, PosedPrimitive, SceneMesh, SceneNode, ScenePrimitive, SceneSkin,
