@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use gltf::json::Root;
+use gltf::json::validation::Checked;
 
 use super::SkinError;
 
@@ -29,6 +30,12 @@ pub fn check_glb_length(bytes: &[u8], path: &Path) -> Result<(), SkinError> {
         )));
     };
     let announced = u32::from_le_bytes([header[0], header[1], header[2], header[3]]) as usize;
+    if announced < 12 {
+        // The gltf crate subtracts the header's size from this length unchecked.
+        return Err(invalid(format!(
+            "invalid GLB header: it says the file is {announced} bytes, less than the header itself"
+        )));
+    }
     if announced > bytes.len() {
         return Err(invalid(format!(
             "truncated GLB file: the header says {announced} bytes, the file has {}",
@@ -59,7 +66,11 @@ pub fn check_indices(root: &Root, path: &Path) -> Result<(), SkinError> {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let at = |what: String| format!("meshes[{m}].primitives[{p}].{what}");
             for (semantic, index) in &prim.attributes {
-                check(index.value(), &|| at(format!("attributes.{semantic:?}")))?;
+                let name = match semantic {
+                    Checked::Valid(s) => s.to_string(),
+                    Checked::Invalid => "(unknown)".to_owned(),
+                };
+                check(index.value(), &|| at(format!("attributes.{name}")))?;
             }
             if let Some(index) = &prim.indices {
                 check(index.value(), &|| at("indices".to_owned()))?;
