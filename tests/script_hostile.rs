@@ -90,7 +90,8 @@ fn attack(src: &str, limits: Limits) -> (Result<(), String>, Duration, serde_jso
 fn assert_stopped_at(r: &Result<(), String>, file_line: &str, why: &str) {
     let err = r.as_ref().expect_err("the attack must fail");
     assert!(
-        err.starts_with(&format!("scripts/behaviors/attack.lua:{file_line}: ")) && err.contains(why),
+        err.starts_with(&format!("scripts/behaviors/attack.lua:{file_line}: "))
+            && err.contains(why),
         "{err}"
     );
 }
@@ -101,7 +102,10 @@ fn assert_stopped_at(r: &Result<(), String>, file_line: &str, why: &str) {
 fn test_library_and_api_writes_stay_in_their_module() {
     let poison = "math.sqrt = nil\nstring.format = function() return 'pwned' end\ntable.insert = nil\nshoal.wander = nil\ncoroutine.wrap = nil\nos.clock = nil\nutf8.char = nil\n_G.pairs = nil\nrawset(_G, 'ipairs', nil)\ntostring = nil\nreturn { tick = function(fish)\n  fish.memory.sqrt = type(math.sqrt)\n  string.rep = nil\nend }\n";
     let victim = "return { tick = function(fish)\n  local m = fish.memory\n  m.sqrt = math.sqrt(16)\n  m.format = string.format('%d-%s', 3, 'x')\n  m.method = ('ab'):rep(2)\n  m.rep = string.rep('c', 2)\n  m.wander = type(shoal.wander)\n  m.wrap = type(coroutine.wrap)\n  m.clock = type(os.clock)\n  m.char = utf8.char(72)\n  m.pairs = type(pairs)\n  m.ipairs = type(ipairs)\n  m.tostring = tostring(1)\n  local t = {}\n  table.insert(t, 5)\n  m.insert = t[1]\nend }\n";
-    let (_d, root) = scripts(&[("behaviors/poison.lua", poison), ("behaviors/victim.lua", victim)]);
+    let (_d, root) = scripts(&[
+        ("behaviors/poison.lua", poison),
+        ("behaviors/victim.lua", victim),
+    ]);
     let mut h = host(&root, Limits::default());
     let p = h.module("poison", 0.0).unwrap();
     let v = h.module("victim", 0.0).unwrap();
@@ -123,7 +127,10 @@ fn test_library_and_api_writes_stay_in_their_module() {
 fn test_required_libraries_are_per_module() {
     // A library table one module changes is not the table another module gets.
     let (_d, root) = scripts(&[
-        ("behaviors/lib/util.lua", "return { double = function(x) return 2 * x end }\n"),
+        (
+            "behaviors/lib/util.lua",
+            "return { double = function(x) return 2 * x end }\n",
+        ),
         (
             "behaviors/poison.lua",
             "local util = require('behaviors.lib.util')\nutil.double = nil\nreturn { tick = function(fish) end }\n",
@@ -195,7 +202,10 @@ fn test_environments_lead_nowhere_shared() {
 
 /// A simulation of the repository's scripts plus `files` (behaviours), with one black porgy per
 /// behaviour in `behaviours`.
-fn sim_with(files: &[(&str, &str)], behaviours: &[&str]) -> (tempfile::TempDir, Simulation, Vec<FishId>) {
+fn sim_with(
+    files: &[(&str, &str)],
+    behaviours: &[&str],
+) -> (tempfile::TempDir, Simulation, Vec<FishId>) {
     let (d, root) = common::scratch_repo();
     for (name, src) in files {
         std::fs::write(root.join("scripts").join(name), src).unwrap();
@@ -227,7 +237,10 @@ fn test_shared_api_tables_cannot_be_poisoned() {
     let poison = "return { tick = function(fish)\n  local m = fish.memory\n  m.body = pcall(setmetatable, shoal.body(), { __index = function() error('gotcha') end })\n  m.tank = pcall(setmetatable, shoal.tank(), {})\n  m.species = select(2, pcall(function() shoal.species().cruise_speed = 1e9 end))\n  m.see = pcall(setmetatable, shoal.see(), {})\nend }\n";
     let victim = "return { tick = function(fish)\n  fish.memory.cruise = shoal.species().cruise_speed\n  fish.memory.x = shoal.body().x ~= nil\n  fish.memory.ticks = (fish.memory.ticks or 0) + 1\nend }\n";
     let (_d, mut sim, ids) = sim_with(
-        &[("behaviors/poison.lua", poison), ("behaviors/victim.lua", victim)],
+        &[
+            ("behaviors/poison.lua", poison),
+            ("behaviors/victim.lua", victim),
+        ],
         &["poison", "victim", "victim"],
     );
     sim.run(0.5);
@@ -247,7 +260,11 @@ fn test_shared_api_tables_cannot_be_poisoned() {
         assert_eq!(v["x"], true, "{v}");
         assert!(v["ticks"].as_u64().unwrap() > 2, "{v}");
     }
-    assert!(sim.error_messages().is_empty(), "{:?}", sim.error_messages());
+    assert!(
+        sim.error_messages().is_empty(),
+        "{:?}",
+        sim.error_messages()
+    );
 }
 
 #[test]
@@ -278,7 +295,11 @@ fn test_finalizers_are_refused() {
         "return { tick = function(fish)\n  setmetatable({}, { __gc = function() while true do end end })\nend }\n",
         Limits::default(),
     );
-    assert_stopped_at(&r, "2", "setmetatable: __gc finalizers are not available to scripts");
+    assert_stopped_at(
+        &r,
+        "2",
+        "setmetatable: __gc finalizers are not available to scripts",
+    );
     // A placeholder field set first (Lua marks the object then) is refused too.
     let (r, _, _) = attack(
         "return { tick = function(fish)\n  local mt = { __gc = true }\n  setmetatable({}, mt)\n  mt.__gc = function() while true do end end\nend }\n",
@@ -316,7 +337,11 @@ fn test_patterns_lua_must_run_are_refused_when_costly() {
         "return { tick = function(fish)\n  local ok = ('(x)'):find('%b()')\n  assert(ok == 1)\n  string.rep('a', 2e5):find(string.rep('a-', 30) .. '%b()')\nend }\n",
         Limits::default(),
     );
-    assert_stopped_at(&r, "4", "string.find: pattern too complex for a subject of 200000 bytes");
+    assert_stopped_at(
+        &r,
+        "4",
+        "string.find: pattern too complex for a subject of 200000 bytes",
+    );
 }
 
 #[test]

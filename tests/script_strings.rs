@@ -22,12 +22,63 @@ const SUBJECTS: &[&str] = &[
 ];
 
 const PATTERNS: &[&str] = &[
-    "o", "l+", "l*", "l-", "l?", "^h", "d$", "^$", ".-", "(%w+)", "(%w+)=(%w+)",
-    "%s*(.-)%s*$", "^%s*(.-)%s*$", "()", "()ll()", "[aeiou]", "[^aeiou]+", "[%a_][%w_]*",
-    "[a-c]+", "[]]", "[^]]", "%d+", "%D+", "%p", "%x+", "%u", "%l+", "a*", "x*", "[%-]", ".",
-    "%.", "a-b", "[z-a]", "b*$", "%S+", "(a)(b)?", "^(%a+)", "[%s,]+", "%(", "(%()", "[.]",
-    "%w-%s", "q*$", "^.*$", "o(.)", "[0-9.]+", "%c", "%g+", "[%]]", "^^", "$$", "a$b", "[a-]",
-    "%%", "%z", "(h)(e)(l)(l)(o)",
+    "o",
+    "l+",
+    "l*",
+    "l-",
+    "l?",
+    "^h",
+    "d$",
+    "^$",
+    ".-",
+    "(%w+)",
+    "(%w+)=(%w+)",
+    "%s*(.-)%s*$",
+    "^%s*(.-)%s*$",
+    "()",
+    "()ll()",
+    "[aeiou]",
+    "[^aeiou]+",
+    "[%a_][%w_]*",
+    "[a-c]+",
+    "[]]",
+    "[^]]",
+    "%d+",
+    "%D+",
+    "%p",
+    "%x+",
+    "%u",
+    "%l+",
+    "a*",
+    "x*",
+    "[%-]",
+    ".",
+    "%.",
+    "a-b",
+    "[z-a]",
+    "b*$",
+    "%S+",
+    "(a)(b)?",
+    "^(%a+)",
+    "[%s,]+",
+    "%(",
+    "(%()",
+    "[.]",
+    "%w-%s",
+    "q*$",
+    "^.*$",
+    "o(.)",
+    "[0-9.]+",
+    "%c",
+    "%g+",
+    "[%]]",
+    "^^",
+    "$$",
+    "a$b",
+    "[a-]",
+    "%%",
+    "%z",
+    "(h)(e)(l)(l)(o)",
 ];
 
 /// Lua code comparing one call: its results as strings (errors only as "error").
@@ -51,7 +102,9 @@ fn exprs(s: &str, p: &str) -> Vec<String> {
         ),
         format!("string.gsub({s}, {p}, '<%0>')"),
         format!("string.gsub({s}, {p}, '[%1]', 2)"),
-        format!("string.gsub({s}, {p}, function(x) return type(x) == 'string' and x:upper() or nil end)"),
+        format!(
+            "string.gsub({s}, {p}, function(x) return type(x) == 'string' and x:upper() or nil end)"
+        ),
         format!("string.gsub({s}, {p}, {{ a = 'A', o = false, l = 7 }})"),
     ]
 }
@@ -101,7 +154,14 @@ fn test_balance_frontier_and_back_references_still_work() {
     // These run on Lua's matcher (cheap here).
     let (_d, pair) = Pair::new();
     for s in SUBJECTS {
-        for p in ["%b()", "%f[%w]%w+", "(l)%1", "(%a)%1", "%f[%a]", "(o)(.-)%1"] {
+        for p in [
+            "%b()",
+            "%f[%w]%w+",
+            "(l)%1",
+            "(%a)%1",
+            "%f[%a]",
+            "(o)(.-)%1",
+        ] {
             for e in exprs(s, p) {
                 pair.check(&e);
             }

@@ -819,12 +819,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
 
     // Tables are filled on the Lua side: a field store there is a VM instruction, while one
     // made from Rust is a protected call under the memory limit.
-    let (stage, readonly): (Function, Function) = lua.load(WRAPPERS).set_name("=shoal api").call((
-        &shoal,
-        body_raw,
-        nearest_raw,
-        outside_fn,
-    ))?;
+    let (stage, readonly): (Function, Function) = lua
+        .load(WRAPPERS)
+        .set_name("=shoal api")
+        .call((&shoal, body_raw, nearest_raw, outside_fn))?;
     lua.set_named_registry_value(STAGE_KEY, stage)?;
     lua.set_named_registry_value(READONLY_KEY, readonly)?;
     lua.globals().set("shoal", shoal)?;

@@ -4,7 +4,8 @@
 //! What scripts get: `table`, `string` (without `string.dump`), `math`, `utf8`, `coroutine`,
 //! `os.clock`, the safe base functions (`pairs`, `ipairs`, `select`, `type`, `tostring`,
 //! `tonumber`, `pcall`, `xpcall`, `error`, `assert`, `setmetatable`, `getmetatable`, `rawget`,
-//! `rawset`, `rawequal`, `rawlen`, `next`), `print` (into the script console),
+//! `rawset`, `rawequal`, `rawlen`, `next`; `setmetatable` without `__gc`), `print` (into the
+//! script console),
 //! `collectgarbage("count")`, `load` of text chunks and `require` of modules under `scripts/`.
 //! Everything else — `io`, the rest of `os`, `debug`, `package`, `dofile`, `loadfile`, binary
 //! chunks — is absent.
@@ -12,6 +13,11 @@
 //! The budget and the soft memory limit are checked by a count hook. Behaviour calls run without
 //! it until they have run [`Limits::metered_after`] (see [`super::watchdog`]): the hook is what
 //! makes the interpreter slow, and only a runaway call needs it.
+//!
+//! Modules are kept apart: each gets its own copy of the globals and of every library table
+//! ([`module_env`]), the string metatable is protected, `setmetatable` refuses finalizers, and
+//! every call has a time limit ([`Limits::time_per_call`]) that also holds inside the string
+//! library ([`super::strings`]). The threat model is `docs/sandbox.md`.
 
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicI64, AtomicU8, AtomicU64, AtomicUsize, Ordering};

@@ -53,6 +53,9 @@ enum Pattern {
     Lua { factors: i32 },
 }
 
+/// Compiled patterns by (pattern, whether a leading `^` anchors).
+type PatternCache = HashMap<(Vec<u8>, bool), Arc<Pattern>>;
+
 /// What the bounded functions share: the state's budget, the original C functions and the
 /// compiled patterns.
 struct Strings {
@@ -64,7 +67,7 @@ struct Strings {
     c_gmatch: Function,
     c_gsub: Function,
     c_rep: Function,
-    cache: Mutex<HashMap<(Vec<u8>, bool), Arc<Pattern>>>,
+    cache: Mutex<PatternCache>,
 }
 
 fn rt(msg: impl Into<String>) -> mlua::Error {
@@ -391,7 +394,9 @@ fn find_or_match(
     let s: LuaString = lua.unpack(it.next().unwrap_or(Value::Nil))?;
     let pat: LuaString = lua.unpack(it.next().unwrap_or(Value::Nil))?;
     let init: Option<i64> = lua.unpack(it.next().unwrap_or(Value::Nil))?;
-    let plain = it.next().is_some_and(|v| v.as_boolean() != Some(false) && !v.is_nil());
+    let plain = it
+        .next()
+        .is_some_and(|v| v.as_boolean() != Some(false) && !v.is_nil());
     let (sb, pb) = (s.as_bytes(), pat.as_bytes());
     let init = start_index(init, sb.len());
     if init > sb.len() {
@@ -452,7 +457,9 @@ fn gmatch(lua: &Lua, st: &Arc<Strings>, args: MultiValue) -> mlua::Result<Value>
             return Ok(MultiValue::new());
         };
         let sb = s.as_bytes();
-        let mut guard = state.lock().map_err(|_| rt("string.gmatch: iterator poisoned"))?;
+        let mut guard = state
+            .lock()
+            .map_err(|_| rt("string.gmatch: iterator poisoned"))?;
         let (pos, last) = &mut *guard;
         let mut looks = 0u32;
         while *pos <= sb.len() {
@@ -515,9 +522,8 @@ fn add_value(
                         out.extend_from_slice(whole);
                     } else if n <= positions.len() {
                         match caps.get(n) {
-                            Some(m) if positions[n - 1] => out.extend_from_slice(
-                                (offset + m.start() + 1).to_string().as_bytes(),
-                            ),
+                            Some(m) if positions[n - 1] => out
+                                .extend_from_slice((offset + m.start() + 1).to_string().as_bytes()),
                             Some(m) => out.extend_from_slice(m.as_bytes()),
                             None => {}
                         }
@@ -594,7 +600,11 @@ fn gsub(lua: &Lua, st: &Strings, args: MultiValue) -> mlua::Result<(LuaString, i
     };
     if !matches!(
         repl,
-        Value::String(_) | Value::Integer(_) | Value::Number(_) | Value::Table(_) | Value::Function(_)
+        Value::String(_)
+            | Value::Integer(_)
+            | Value::Number(_)
+            | Value::Table(_)
+            | Value::Function(_)
     ) {
         return Err(rt(format!(
             "bad argument #3 to 'gsub' (string/function/table expected, got {})",
@@ -643,7 +653,12 @@ fn gsub(lua: &Lua, st: &Strings, args: MultiValue) -> mlua::Result<(LuaString, i
 
 /// Replaces the long-running functions of the state's `string` table (which is also the
 /// `__index` of the string metatable) by bounded ones.
-pub fn install(lua: &Lua, string: &Table, budget: Arc<Budget>, memory_bytes: usize) -> mlua::Result<()> {
+pub fn install(
+    lua: &Lua,
+    string: &Table,
+    budget: Arc<Budget>,
+    memory_bytes: usize,
+) -> mlua::Result<()> {
     let st = Arc::new(Strings {
         budget,
         max_len: if memory_bytes == 0 {
@@ -694,7 +709,9 @@ pub fn install(lua: &Lua, string: &Table, budget: Arc<Budget>, memory_bytes: usi
             if empty {
                 // Lua would copy nothing once per repetition: possibly 2^63 times.
                 lua.unpack::<i64>(args.into_iter().nth(1).unwrap_or(Value::Nil))?;
-                return Ok(MultiValue::from_vec(vec![Value::String(lua.create_string("")?)]));
+                return Ok(MultiValue::from_vec(vec![Value::String(
+                    lua.create_string("")?,
+                )]));
             }
             s.c_rep.call::<MultiValue>(args)
         })?,

@@ -374,9 +374,7 @@ mod watch {
                     *seen = (call, now, thread_cpu_ns(tid));
                 }
                 let limit = s.limit_ns.load(Ordering::SeqCst);
-                if s.expired.load(Ordering::SeqCst) != call
-                    && now.saturating_sub(seen.1) >= limit
-                {
+                if s.expired.load(Ordering::SeqCst) != call && now.saturating_sub(seen.1) >= limit {
                     // Past the limit in wall time; stopped once its CPU time is too (a thread
                     // whose clock cannot be read is stopped on wall time).
                     let used = match (seen.2, thread_cpu_ns(tid)) {
