@@ -87,6 +87,19 @@ fn attack(src: &str, limits: Limits) -> (Result<(), String>, Duration, serde_jso
     out
 }
 
+trait OkOr {
+    fn is_ok_or_else_contains(&self, what: &str) -> bool;
+}
+
+impl OkOr for Result<&(), &String> {
+    fn is_ok_or_else_contains(&self, what: &str) -> bool {
+        match self {
+            Ok(_) => true,
+            Err(e) => e.contains(what),
+        }
+    }
+}
+
 fn assert_stopped_at(r: &Result<(), String>, file_line: &str, why: &str) {
     let err = r.as_ref().expect_err("the attack must fail");
     assert!(
@@ -421,6 +434,26 @@ fn test_huge_moves_and_chunks_are_refused() {
         Limits::default(),
     );
     assert_stopped_at(&r, "3", "load: chunk too large");
+    let (r, _, _) = attack(
+        "return { tick = function(fish)\n  string.pack('c268435456', '')\nend }\n",
+        Limits::default(),
+    );
+    assert_stopped_at(
+        &r,
+        "2",
+        "string.pack: fixed-size strings ('c<n>') of more than",
+    );
+    let (r, took, _) = attack(
+        "return { tick = function(fish)\n  fish.memory.n = #string.rep('x', 2e8)\nend }\n",
+        Limits::default(),
+    );
+    // One call of Lua's rep would copy a byte at a time (some 0.4 s); a doubling copy is quick,
+    // and whatever time it takes counts against the call's limit.
+    assert!(
+        r.as_ref().is_ok_or_else_contains("time limit exceeded"),
+        "{r:?}"
+    );
+    assert!(took < Duration::from_secs(10), "{took:?}");
     let (r, _, _) = attack(
         "return { tick = function(fish)\n  string.format('%99999999d', 1)\nend }\n",
         Limits::default(),

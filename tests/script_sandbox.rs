@@ -346,12 +346,13 @@ fn test_pcall_cannot_swallow_the_budget() {
 #[test]
 #[cfg(target_os = "linux")]
 fn test_a_metered_call_leaves_the_next_one_unmetered() {
-    // `slow` spends some 300 ms inside string.rep (few VM instructions), long enough for the
+    // `slow` spends some 300 ms inside string.rep (few VM instructions; the sandbox's rep
+    // copies 16 MiB in a few milliseconds), long enough for the
     // watchdog to turn the hook on; `loop` runs ~200,000 instructions in well under the delay.
     let (_d, root) = scripts(&[
         (
             "behaviors/slow.lua",
-            "return { tick = function(fish)\n  for i = 1, 8 do local s = string.rep('x', 1 << 24) end\n  if fish.memory.then_loop then\n    local n = 0\n    for i = 1, 100000 do n = n + i end\n  end\nend }\n",
+            "return { tick = function(fish)\n  for i = 1, 48 do local s = string.rep('x', 1 << 24) end\n  if fish.memory.then_loop then\n    local n = 0\n    for i = 1, 100000 do n = n + i end\n  end\nend }\n",
         ),
         (
             "behaviors/loop.lua",

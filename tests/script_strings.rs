@@ -187,3 +187,27 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn test_rep_and_pack_match_lua() {
+    let (_d, pair) = Pair::new();
+    for e in [
+        "string.rep('ab', 3)",
+        "string.rep('ab', 3, ',')",
+        "string.rep('ab', 0)",
+        "string.rep('ab', -1, ',')",
+        "string.rep('', 5, '-')",
+        "string.rep('x', 1, ',')",
+        "string.rep('', 5)",
+        "string.rep(12, 2)",
+        "string.rep('a', 2.0)",
+        "string.rep('a', 2.5)",
+        "string.rep()",
+        "('xy'):rep(4, '')",
+        "string.pack('c5', 'ab')",
+        "string.pack('i4c3z', 7, 'x', 'end')",
+        "string.unpack('c2', 'abc')",
+    ] {
+        pair.check(e);
+    }
+}

@@ -580,6 +580,11 @@ fn family_env(lua: &Lua, cache: &Table) -> mlua::Result<Table> {
     let env = lua.create_table_with_capacity(0, 40)?;
     for pair in globals.pairs::<Value, Value>() {
         let (k, v) = pair?;
+        if k.as_string()
+            .is_some_and(|k| k.as_bytes().as_ref() == b"_G")
+        {
+            continue;
+        }
         let v = match v {
             Value::Table(lib) => {
                 let copy = lua.create_table_with_capacity(0, 40)?;

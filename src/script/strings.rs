@@ -14,9 +14,12 @@
 //! (subject length + 1) to the power of (quantifiers + balances + back-references + 1) at most
 //! [`FALLBACK_STEPS`]; anything larger is refused with an error naming the line.
 //!
-//! `string.rep` of an empty string with an empty separator loops once per repetition in C
-//! (`("").rep("", 1e18)`): it returns the empty string at once. The other string functions do
-//! work proportional to the strings they make, which the memory limit bounds.
+//! `string.rep` copies once per repetition in C (a byte at a time for `("x"):rep(2e8)`, some
+//! 0.4 s, and forever for `(""):rep(1e18)`): it is done here by doubling, a few milliseconds per
+//! hundred megabytes, with strings longer than the memory limit refused before any work.
+//! `string.pack` pads `c<n>` items byte by byte: at most [`MAX_PACKED`] bytes of them. The other
+//! string functions do work proportional to the strings they make, which the memory limit
+//! bounds.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -28,6 +31,9 @@ use super::sandbox::{Abort, Budget, caller_location, time_message};
 
 /// Largest bound on the work of Lua's own matcher the sandbox lets it run (about 10 ms).
 pub const FALLBACK_STEPS: f64 = 1e7;
+
+/// Most bytes of fixed-size strings (`c<n>`) one `string.pack` may write.
+pub const MAX_PACKED: u64 = 1 << 24;
 
 /// Compiled patterns kept per state (cleared when full).
 const CACHE_SIZE: usize = 128;
@@ -66,7 +72,6 @@ struct Strings {
     c_match: Function,
     c_gmatch: Function,
     c_gsub: Function,
-    c_rep: Function,
     cache: Mutex<PatternCache>,
 }
 
@@ -651,6 +656,51 @@ fn gsub(lua: &Lua, st: &Strings, args: MultiValue) -> mlua::Result<(LuaString, i
     Ok((lua.create_string(&out)?, n))
 }
 
+/// The bytes the `c<n>` items of a `string.pack` format ask for, in all.
+fn fixed_string_bytes(fmt: &[u8]) -> u64 {
+    let mut total = 0u64;
+    let mut i = 0;
+    while i < fmt.len() {
+        if fmt[i] == b'c' {
+            let mut n = 0u64;
+            i += 1;
+            while let Some(d) = fmt.get(i).filter(|d| d.is_ascii_digit()) {
+                n = n.saturating_mul(10).saturating_add(u64::from(d - b'0'));
+                i += 1;
+            }
+            total = total.saturating_add(n);
+        } else {
+            i += 1;
+        }
+    }
+    total
+}
+
+/// `string.rep`: Lua's copies the string once per repetition in C (a byte at a time for a
+/// one-byte string, and forever for an empty one); this one doubles what it has built.
+fn rep(lua: &Lua, st: &Strings, s: &[u8], n: i64, sep: Option<&[u8]>) -> mlua::Result<LuaString> {
+    st.check_time(lua)?;
+    let sep = sep.unwrap_or_default();
+    if n <= 0 || (s.is_empty() && sep.is_empty()) {
+        return lua.create_string("");
+    }
+    let n = usize::try_from(n).map_err(|_| rt("resulting string too large"))?;
+    let unit = s.len() + sep.len();
+    let total = unit
+        .checked_mul(n)
+        .map(|t| t - sep.len())
+        .ok_or_else(|| rt("resulting string too large"))?;
+    if total > st.max_len {
+        return Err(mlua::Error::MemoryError("not enough memory".into()));
+    }
+    let mut one = Vec::with_capacity(unit);
+    one.extend_from_slice(s);
+    one.extend_from_slice(sep);
+    let mut out = one.repeat(n);
+    out.truncate(total);
+    lua.create_string(&out)
+}
+
 /// Replaces the long-running functions of the state's `string` table (which is also the
 /// `__index` of the string metatable) by bounded ones.
 pub fn install(
@@ -670,7 +720,6 @@ pub fn install(
         c_match: string.get("match")?,
         c_gmatch: string.get("gmatch")?,
         c_gsub: string.get("gsub")?,
-        c_rep: string.get("rep")?,
         cache: Mutex::new(HashMap::new()),
     });
     let s = st.clone();
@@ -693,27 +742,35 @@ pub fn install(
         "gsub",
         lua.create_function(move |lua, args: MultiValue| gsub(lua, &s, args))?,
     )?;
-    let s = st;
+    let s = st.clone();
     string.set(
         "rep",
-        lua.create_function(move |lua, args: MultiValue| {
-            let mut it = args.clone().into_iter();
-            let text: Option<LuaString> = lua.unpack(it.next().unwrap_or(Value::Nil)).ok();
-            let _n = it.next();
-            let sep = lua
-                .unpack::<Option<LuaString>>(it.next().unwrap_or(Value::Nil))
-                .ok()
-                .flatten();
-            let empty = text.is_some_and(|t| t.as_bytes().is_empty())
-                && sep.is_none_or(|s| s.as_bytes().is_empty());
-            if empty {
-                // Lua would copy nothing once per repetition: possibly 2^63 times.
-                lua.unpack::<i64>(args.into_iter().nth(1).unwrap_or(Value::Nil))?;
-                return Ok(MultiValue::from_vec(vec![Value::String(
-                    lua.create_string("")?,
-                )]));
+        lua.create_function(
+            move |lua, (text, n, sep): (LuaString, i64, Option<LuaString>)| {
+                rep(
+                    lua,
+                    &s,
+                    &text.as_bytes(),
+                    n,
+                    sep.as_ref().map(|s| s.as_bytes()).as_deref(),
+                )
+            },
+        )?,
+    )?;
+    let c_pack: Function = string.get("pack")?;
+    string.set(
+        "pack",
+        lua.create_function(move |_, args: MultiValue| {
+            // `c<n>` pads a fixed-size string byte by byte in C: bound the sizes.
+            if let Some(Value::String(fmt)) = args.front() {
+                let total = fixed_string_bytes(&fmt.as_bytes());
+                if total > MAX_PACKED {
+                    return Err(rt(format!(
+                        "string.pack: fixed-size strings ('c<n>') of more than {MAX_PACKED} bytes in all"
+                    )));
+                }
             }
-            s.c_rep.call::<MultiValue>(args)
+            c_pack.call::<MultiValue>(args)
         })?,
     )?;
     Ok(())
