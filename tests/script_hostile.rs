@@ -466,3 +466,13 @@ fn test_time_limit_holds_when_metered_from_the_start() {
     assert_stopped_at(&r, "3", "time limit exceeded");
     assert!(took < Duration::from_secs(10), "{took:?}");
 }
+
+#[test]
+fn test_error_values_with_looping_tostring_are_stopped() {
+    // The host turns an error value into text with its __tostring, still inside the call.
+    let (r, _, _) = attack(
+        "return { tick = function(fish)\n  error(setmetatable({}, { __tostring = function() while true do end end }))\nend }\n",
+        Limits::default(),
+    );
+    assert_stopped_at(&r, "2", "instruction budget exceeded");
+}
