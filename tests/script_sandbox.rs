@@ -346,12 +346,13 @@ fn test_pcall_cannot_swallow_the_budget() {
 #[test]
 #[cfg(target_os = "linux")]
 fn test_a_metered_call_leaves_the_next_one_unmetered() {
-    // `slow` spends some 300 ms inside string.rep (few VM instructions), long enough for the
+    // `slow` spends some 300 ms inside string.rep (few VM instructions; the sandbox's rep
+    // copies 16 MiB in a few milliseconds), long enough for the
     // watchdog to turn the hook on; `loop` runs ~200,000 instructions in well under the delay.
     let (_d, root) = scripts(&[
         (
             "behaviors/slow.lua",
-            "return { tick = function(fish)\n  for i = 1, 8 do local s = string.rep('x', 1 << 24) end\n  if fish.memory.then_loop then\n    local n = 0\n    for i = 1, 100000 do n = n + i end\n  end\nend }\n",
+            "return { tick = function(fish)\n  for i = 1, 48 do local s = string.rep('x', 1 << 24) end\n  if fish.memory.then_loop then\n    local n = 0\n    for i = 1, 100000 do n = n + i end\n  end\nend }\n",
         ),
         (
             "behaviors/loop.lua",
@@ -361,6 +362,8 @@ fn test_a_metered_call_leaves_the_next_one_unmetered() {
     let limits = Limits {
         instructions_per_call: 100_000,
         metered_after: Duration::from_millis(20),
+        // The slow call runs ~300 ms on purpose: no time limit here.
+        time_per_call: Duration::from_secs(600),
         ..Limits::default()
     };
     let mut h = ScriptHost::new(&root, limits).unwrap();
@@ -434,6 +437,9 @@ fn test_memory_bomb_is_an_error_not_a_crash() {
     let limits = Limits {
         memory_bytes: 32 << 20,
         instructions_per_call: u64::MAX / 2,
+        // The memory limit, not the time limit, must stop it (tests/script_hostile.rs has the
+        // bomb under the default limits).
+        time_per_call: Duration::from_secs(600),
         ..metered_from_start()
     };
     let mut h = ScriptHost::new(&root, limits).unwrap();
@@ -463,7 +469,8 @@ fn test_one_huge_allocation_is_an_error() {
     let mut h = ScriptHost::new(&root, limits).unwrap();
     assert_eq!(
         run_err(&mut h, "huge"),
-        "scripts/behaviors/huge.lua: not enough memory"
+        // string.rep is a host function now, so the error has its line too.
+        "scripts/behaviors/huge.lua:2: not enough memory"
     );
 }
 

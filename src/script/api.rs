@@ -71,6 +71,9 @@ pub struct Ctx {
     species_tables: Vec<Option<Table>>,
     see_out: Table,
     see_pool: Vec<Table>,
+    /// `{ __metatable = false }`: the metatable of the tables the API reuses for every caller
+    /// of the lane, so no script can hang metamethods on them.
+    locked: Table,
 }
 
 impl Ctx {
@@ -380,6 +383,10 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         kind_obstacle: key("obstacle")?,
         kind_predator: key("predator")?,
     };
+    let locked = lua.create_table()?;
+    locked.raw_set("__metatable", false)?;
+    let see_out = lua.create_table()?;
+    see_out.set_metatable(Some(locked.clone()))?;
     lua.set_app_data(Ctx {
         fish: None,
         world: None,
@@ -392,8 +399,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
         keys,
         species_names: Vec::new(),
         species_tables: Vec::new(),
-        see_out: lua.create_table()?,
+        see_out,
         see_pool: Vec::new(),
+        locked,
     });
 
     let shoal = lua.create_table()?;
@@ -424,7 +432,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                     .take(max)
                 {
                     if ctx.see_pool.len() <= n {
-                        ctx.see_pool.push(lua.create_table_with_capacity(0, 11)?);
+                        let t = lua.create_table_with_capacity(0, 11)?;
+                        t.set_metatable(Some(ctx.locked.clone()))?;
+                        ctx.see_pool.push(t);
                     }
                     let t = ctx.see_pool[n].clone();
                     fill_percept(lua, ctx, w, &t, p)?;
@@ -527,6 +537,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
                 t.raw_set("satiation_per_food", d.drives.satiation_per_food)?;
                 t.raw_set("fear_decay_per_s", d.drives.fear_decay_per_s)?;
                 t.raw_set("sociability", d.drives.sociability)?;
+                // Shared by every fish of the species in the lane: read-only.
+                let readonly: Function = lua.named_registry_value(READONLY_KEY)?;
+                let t: Table = readonly.call((t, "shoal.species()"))?;
                 ctx.species_tables[i] = Some(t.clone());
                 Ok(t)
             })
@@ -806,13 +819,12 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
 
     // Tables are filled on the Lua side: a field store there is a VM instruction, while one
     // made from Rust is a protected call under the memory limit.
-    let stage: Function = lua.load(WRAPPERS).set_name("=shoal api").call((
-        &shoal,
-        body_raw,
-        nearest_raw,
-        outside_fn,
-    ))?;
+    let (stage, readonly): (Function, Function) = lua
+        .load(WRAPPERS)
+        .set_name("=shoal api")
+        .call((&shoal, body_raw, nearest_raw, outside_fn))?;
     lua.set_named_registry_value(STAGE_KEY, stage)?;
+    lua.set_named_registry_value(READONLY_KEY, readonly)?;
     lua.globals().set("shoal", shoal)?;
     Ok(())
 }
@@ -821,6 +833,9 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
 /// behaviour stage on the Lua side: `shoal.time` and `shoal.tank` answer from what it was given,
 /// without a call into Rust per decision.
 const STAGE_KEY: &str = "shoal.stage";
+
+/// Registry key of `readonly(t, what)`: a read-only view of `t` (see [`WRAPPERS`]).
+const READONLY_KEY: &str = "shoal.readonly";
 
 /// Tells the Lua side of the API that a behaviour stage starts at `time` in `world`'s tank
 /// (`Some`) or has ended (`None`).
@@ -837,10 +852,24 @@ pub fn set_stage(lua: &Lua, stage: Option<(f64, &World)>) -> mlua::Result<()> {
 
 /// `shoal.body`, `shoal.nearest` and `shoal.tank`: Rust returns plain values, these fill one
 /// reused table each; `shoal.time` and `shoal.tank` answer from the stage's values. Returns the
-/// stage function (see [`set_stage`]).
+/// stage function (see [`set_stage`]) and `readonly`. The reused tables are shared by every module
+/// of the lane: their metatables are locked.
 const WRAPPERS: &str = r#"
 local shoal, body_raw, nearest_raw, outside = ...
-local body, near, tank = {}, {}, {}
+local setmetatable, error, next = setmetatable, error, next
+local locked = { __metatable = false }
+local body = setmetatable({}, locked)
+local near = setmetatable({}, locked)
+local tank = setmetatable({}, locked)
+local function readonly(t, what)
+  return setmetatable({}, {
+    __index = t,
+    __newindex = function() error(what .. " is read-only", 2) end,
+    __pairs = function() return next, t, nil end,
+    __len = function() return #t end,
+    __metatable = false,
+  })
+end
 local now, x0, y0, z0, x1, y1, z1
 local function stage(time, ...)
   now = time
@@ -871,7 +900,7 @@ function shoal.time()
   if now == nil then outside("time") end
   return now
 end
-return stage
+return stage, readonly
 "#;
 
 /// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).

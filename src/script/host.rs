@@ -334,10 +334,10 @@ impl ScriptHost {
             .named_registry_value::<Table>(LOADED_KEY)
             .ok()
             .filter(|t| t.contains_key(key.as_str()).unwrap_or(false));
-        let Some(loaded) = required else {
+        if required.is_none() {
             return Reloaded::NotAModule;
-        };
-        // Check the library compiles before dropping the cached version.
+        }
+        // Check the library compiles before reloading its users.
         let display = self.root.display_of(&real);
         if let Err(e) = sandbox::load_file(&self.lua, &real) {
             let msg = e.to_string();
@@ -345,9 +345,9 @@ impl ScriptHost {
             self.load_errors.insert(display, msg.clone());
             return Reloaded::Failed(msg);
         }
-        let old: Value = loaded.raw_get(key.as_str()).unwrap_or(Value::Nil);
-        let _ = loaded.raw_set(key.as_str(), Value::Nil);
         self.load_errors.remove(&display);
+        // Every module requires its libraries afresh (each has a `require` cache of its own); a
+        // module that fails to load keeps running its old version, built on the old library.
         let mut names = Vec::new();
         let mut failed = None;
         for i in 0..self.modules.len() {
@@ -359,14 +359,6 @@ impl ScriptHost {
             }
         }
         if let Some(msg) = failed {
-            // Keep the library the old modules were built against.
-            if loaded
-                .raw_get::<Value>(key.as_str())
-                .map(|v| v.is_nil())
-                .unwrap_or(true)
-            {
-                let _ = loaded.raw_set(key.as_str(), old);
-            }
             return Reloaded::Failed(msg);
         }
         Reloaded::Modules(names)
@@ -515,13 +507,15 @@ impl ScriptHost {
         };
         self.budget
             .arm_after(self.limits.instructions_per_call, unmetered);
-        self.meter.call(unmetered)
+        self.budget.limit_time(self.limits.time_per_call);
+        self.meter.call(unmetered, self.limits.time_per_call)
     }
 
     /// Arms the per-load budget, counted from the first instruction, while the guard lives.
     fn begin_load(&self) -> Metered<'_> {
         self.budget.arm(self.limits.instructions_per_load);
-        self.meter.call(Duration::ZERO)
+        self.budget.limit_time(self.limits.time_per_load);
+        self.meter.call(Duration::ZERO, self.limits.time_per_load)
     }
 
     /// Runs a decision under the per-call budget; `None` if the module never loaded.

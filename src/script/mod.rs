@@ -8,6 +8,7 @@
 //!
 //! - [`sandbox`]: the Lua state — trimmed standard library, `require` confined to `scripts/`,
 //!   text-only chunks, an instruction budget per call and a memory limit.
+//! - [`strings`]: bounded replacements for the string functions that can run long in C.
 //! - [`host`]: one Lua state (a script lane) — modules loaded once per file, per-fish tables with
 //!   their `memory`, one protected call per decision, error formatting and deduplication
 //!   ([`log`]). [`Simulation`] runs several lanes in parallel.
@@ -25,6 +26,7 @@ pub mod reload;
 pub mod sandbox;
 pub mod scene;
 pub mod sim;
+pub mod strings;
 pub mod watchdog;
 
 pub use error::ScriptError;

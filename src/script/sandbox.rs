@@ -4,7 +4,8 @@
 //! What scripts get: `table`, `string` (without `string.dump`), `math`, `utf8`, `coroutine`,
 //! `os.clock`, the safe base functions (`pairs`, `ipairs`, `select`, `type`, `tostring`,
 //! `tonumber`, `pcall`, `xpcall`, `error`, `assert`, `setmetatable`, `getmetatable`, `rawget`,
-//! `rawset`, `rawequal`, `rawlen`, `next`), `print` (into the script console),
+//! `rawset`, `rawequal`, `rawlen`, `next`; `setmetatable` without `__gc`), `print` (into the
+//! script console),
 //! `collectgarbage("count")`, `load` of text chunks and `require` of modules under `scripts/`.
 //! Everything else — `io`, the rest of `os`, `debug`, `package`, `dofile`, `loadfile`, binary
 //! chunks — is absent.
@@ -12,11 +13,16 @@
 //! The budget and the soft memory limit are checked by a count hook. Behaviour calls run without
 //! it until they have run [`Limits::metered_after`] (see [`super::watchdog`]): the hook is what
 //! makes the interpreter slow, and only a runaway call needs it.
+//!
+//! Modules are kept apart: each gets its own copy of the globals and of every library table
+//! ([`module_env`]), the string metatable is protected, `setmetatable` refuses finalizers, and
+//! every call has a time limit ([`Limits::time_per_call`]) that also holds inside the string
+//! library ([`super::strings`]). The threat model is `docs/sandbox.md`.
 
 use std::path::{Component, Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicI64, AtomicU8, AtomicU64, Ordering};
-use std::time::Duration;
+use std::sync::atomic::{AtomicI64, AtomicU8, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
 
 use mlua::chunk::ChunkMode;
 use mlua::{Function, HookTriggers, Lua, LuaOptions, StdLib, Table, Value, VmState};
@@ -24,6 +30,12 @@ use mlua::{Function, HookTriggers, Lua, LuaOptions, StdLib, Table, Value, VmStat
 use super::error::{ScriptError, describe};
 use super::log::{LogLevel, ScriptLog};
 use super::watchdog::Meter;
+
+/// Most elements one `table.move` may copy.
+pub const MAX_MOVE: u64 = 1 << 20;
+
+/// Longest chunk `load` compiles, bytes: compiling runs in C, in time proportional to the chunk.
+pub const MAX_CHUNK: usize = 1 << 20;
 
 /// Instructions between two runs of the budget hook (once a call is metered). Small enough that
 /// a runaway loop is caught within a few microseconds.
@@ -47,6 +59,13 @@ pub struct Limits {
     /// 15/16 of it is stopped with an error naming its line; the hard limit is a backstop.
     /// 0 disables both (for measurements only: a script could then exhaust the process).
     pub memory_bytes: usize,
+    /// CPU time one behaviour call may use before it is stopped (default 50 ms, some ten
+    /// thousand times what a shipped behaviour takes), whatever it is doing: VM instructions,
+    /// the string library, allocation. Measured on the call's thread by the watchdog, so a call
+    /// that merely waits for a busy processor is not stopped (see [`super::watchdog`]).
+    pub time_per_call: Duration,
+    /// CPU time loading one file may use (default 2 s).
+    pub time_per_load: Duration,
 }
 
 impl Default for Limits {
@@ -56,6 +75,8 @@ impl Default for Limits {
             metered_after: Duration::from_millis(1),
             instructions_per_load: 5_000_000,
             memory_bytes: 256 << 20,
+            time_per_call: Duration::from_millis(50),
+            time_per_load: Duration::from_secs(2),
         }
     }
 }
@@ -67,6 +88,8 @@ pub enum Abort {
     Budget,
     /// The state grew past the soft memory limit.
     Memory,
+    /// The call ran past its time limit.
+    Time,
 }
 
 /// Budget state shared between the host and the hook.
@@ -84,6 +107,25 @@ pub struct Budget {
     abort: AtomicU8,
     /// Soft memory limit, bytes.
     soft_memory: usize,
+    /// The state's watch slot (`usize::MAX`: none; then the time limit is read from the clock).
+    slot: AtomicUsize,
+    /// The current call's time limit, nanoseconds.
+    time_limit_ns: AtomicU64,
+    /// When the current call started (nanoseconds since [`epoch`]; states without a watch slot).
+    started_ns: AtomicU64,
+    /// The message the call was stopped with: raised again wherever the script is when the hook
+    /// runs next (say, inside `pcall`), so the error keeps naming where it was stopped.
+    message: Mutex<String>,
+}
+
+/// The clock origin of [`Budget::started_ns`].
+fn epoch() -> Instant {
+    static EPOCH: OnceLock<Instant> = OnceLock::new();
+    *EPOCH.get_or_init(Instant::now)
+}
+
+fn since_epoch_ns() -> u64 {
+    u64::try_from(epoch().elapsed().as_nanos()).unwrap_or(u64::MAX)
 }
 
 impl Budget {
@@ -108,21 +150,64 @@ impl Budget {
         self.abort.store(0, Ordering::Relaxed);
     }
 
+    /// Sets the current call's time limit. A state the watchdog watches has it enforced there;
+    /// any other reads the clock now and the hook compares.
+    pub fn limit_time(&self, limit: Duration) {
+        self.time_limit_ns.store(
+            u64::try_from(limit.as_nanos()).unwrap_or(u64::MAX),
+            Ordering::Relaxed,
+        );
+        if self.slot.load(Ordering::Relaxed) == usize::MAX {
+            self.started_ns.store(since_epoch_ns(), Ordering::Relaxed);
+        }
+    }
+
+    /// Whether the current call has run past its time limit. Cheap (an atomic load) for a state
+    /// the watchdog watches; host functions that can run long poll it.
+    pub fn time_expired(&self) -> bool {
+        let slot = self.slot.load(Ordering::Relaxed);
+        if slot != usize::MAX {
+            return super::watchdog::expired(slot);
+        }
+        let limit = self.time_limit_ns.load(Ordering::Relaxed);
+        since_epoch_ns().saturating_sub(self.started_ns.load(Ordering::Relaxed)) >= limit
+    }
+
+    /// The current call's time limit.
+    pub fn time_limit(&self) -> Duration {
+        Duration::from_nanos(self.time_limit_ns.load(Ordering::Relaxed))
+    }
+
     /// Why the last call was stopped, if it was.
     pub fn aborted(&self) -> Option<Abort> {
         match self.abort.load(Ordering::Relaxed) {
             1 => Some(Abort::Budget),
             2 => Some(Abort::Memory),
+            3 => Some(Abort::Time),
             _ => None,
         }
     }
 
-    fn set_aborted(&self, why: Abort) {
+    /// Stops the current call: `message` is its error, raised again wherever the script is
+    /// next checked (so `pcall` cannot swallow it).
+    pub fn stop(&self, why: Abort, message: String) -> mlua::Error {
         let v = match why {
             Abort::Budget => 1,
             Abort::Memory => 2,
+            Abort::Time => 3,
         };
+        if let Ok(mut m) = self.message.lock() {
+            m.clone_from(&message);
+        }
         self.abort.store(v, Ordering::Relaxed);
+        mlua::Error::RuntimeError(message)
+    }
+
+    /// The error the current call was stopped with, if it was.
+    fn stopped(&self) -> Option<mlua::Error> {
+        self.aborted()?;
+        let m = self.message.lock().ok()?.clone();
+        Some(mlua::Error::RuntimeError(m))
     }
 }
 
@@ -212,8 +297,11 @@ impl ScriptRoot {
     }
 }
 
-/// Registry key of the table of modules loaded through `require` (name → value).
+/// Registry key of the set of files loaded through `require` (path → true), by any module.
 pub const LOADED_KEY: &str = "shoal.loaded";
+
+/// Registry key of Lua's own `load`.
+const RAW_LOAD_KEY: &str = "shoal.raw_load";
 
 /// Creates the sandboxed state. The returned [`Budget`] must be armed before every call into
 /// Lua ([`Budget::arm`]) and the call made while a [`Meter::call`] guard lives.
@@ -237,10 +325,17 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter
         } else {
             limits.memory_bytes / 16 * 15
         },
+        slot: AtomicUsize::new(usize::MAX),
+        time_limit_ns: AtomicU64::new(u64::MAX),
+        started_ns: AtomicU64::new(0),
+        message: Mutex::new(String::new()),
     });
-    install(&lua, &root, &budget).map_err(|e| ScriptError::Lua(describe(&e)))?;
+    install(&lua, &root, &budget, limits).map_err(|e| ScriptError::Lua(describe(&e)))?;
     let meter =
         Meter::take_over(&lua, HOOK_INTERVAL).map_err(|e| ScriptError::Lua(describe(&e)))?;
+    if let Some(slot) = meter.slot() {
+        budget.slot.store(slot, Ordering::Relaxed);
+    }
     lua.set_memory_limit(limits.memory_bytes)
         .map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_app_data(root);
@@ -248,7 +343,7 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter
     Ok((lua, budget, meter))
 }
 
-fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<()> {
+fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -> mlua::Result<()> {
     let g = lua.globals();
 
     // os: only the clock.
@@ -260,6 +355,32 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
     // string.dump produces binary chunks: scripts have no use for it.
     let string: Table = g.get("string")?;
     string.set("dump", Value::Nil)?;
+    // find, match, gmatch, gsub and rep: bounded (see `strings.rs`).
+    super::strings::install(lua, &string, budget.clone(), limits.memory_bytes)?;
+
+    // table.move copies element by element in C, however many there are (`table.move({}, 1,
+    // math.maxinteger, 1)` never returns): a bound on the count.
+    let table_lib: Table = g.get("table")?;
+    let raw_move: Function = table_lib.get("move")?;
+    table_lib.set(
+        "move",
+        lua.create_function(move |_, args: mlua::MultiValue| {
+            let num = |v: Option<&Value>| match v {
+                Some(Value::Integer(i)) => Some(*i as f64),
+                Some(Value::Number(n)) => Some(*n),
+                _ => None,
+            };
+            if let (Some(f), Some(e)) = (num(args.get(1)), num(args.get(2)))
+                && e - f >= MAX_MOVE as f64
+            {
+                return Err(mlua::Error::RuntimeError(format!(
+                    "table.move: too many elements to move ({} at most)",
+                    MAX_MOVE
+                )));
+            }
+            raw_move.call::<mlua::MultiValue>(args)
+        })?,
+    )?;
 
     for name in ["dofile", "loadfile", "io", "debug", "package", "require"] {
         g.set(name, Value::Nil)?;
@@ -282,20 +403,42 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
         })?,
     )?;
 
-    // load: text chunks only, in the caller's sandbox unless an environment is given.
+    // load: text chunks only (the per-module `load` of `module_env` calls this one).
     let raw_load: Function = g.get("load")?;
+    lua.set_named_registry_value(RAW_LOAD_KEY, raw_load)?;
+    g.set("load", Value::Nil)?;
+
+    // setmetatable: no finalizers. A `__gc` runs whenever the collector gets to the object, in
+    // whatever call (or none) is running then, outside the budget of the script that made it.
+    // Lua marks an object for finalization only if its metatable has a `__gc` field when it is
+    // set, so refusing that field here is enough (adding one later has no effect).
+    let raw_setmetatable: Function = g.get("setmetatable")?;
     g.set(
-        "load",
-        lua.create_function(
-            move |lua, (chunk, name, _mode, env): (Value, Option<String>, Value, Option<Table>)| {
-                let env = match env {
-                    Some(e) => e,
-                    None => module_env(lua)?,
-                };
-                raw_load.call::<mlua::MultiValue>((chunk, name, "t", env))
-            },
-        )?,
+        "setmetatable",
+        lua.create_function(move |_, (t, mt): (Value, Value)| {
+            if !t.is_table() {
+                return Err(mlua::Error::RuntimeError(format!(
+                    "bad argument #1 to 'setmetatable' (table expected, got {})",
+                    t.type_name()
+                )));
+            }
+            if let Value::Table(m) = &mt
+                && !m.raw_get::<Value>("__gc")?.is_nil()
+            {
+                return Err(mlua::Error::RuntimeError(
+                    "setmetatable: __gc finalizers are not available to scripts".into(),
+                ));
+            }
+            raw_setmetatable.call::<Value>((t, mt))
+        })?,
     )?;
+
+    // The string metatable is shared by every string of the state: scripts may not reach it
+    // (its `__index` is the host's own `string` table, which no module sees). `getmetatable`
+    // of a string returns false; string methods keep working.
+    lua.load("getmetatable('').__metatable = false")
+        .set_name("=shoal host")
+        .exec()?;
 
     // print: into the script console, with the caller's file:line.
     g.set(
@@ -322,31 +465,9 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
         })?,
     )?;
 
-    // require: modules under scripts/ only.
+    // require: per module (see `module_env`); the set of every file loaded through it.
     lua.set_named_registry_value(LOADED_KEY, lua.create_table()?)?;
-    g.set(
-        "require",
-        lua.create_function(|lua, name: String| {
-            let loaded: Table = lua.named_registry_value(LOADED_KEY)?;
-            let path = {
-                let root = lua
-                    .app_data_ref::<ScriptRoot>()
-                    .ok_or_else(|| mlua::Error::RuntimeError("no script root".into()))?;
-                root.resolve_module(&name)
-                    .map_err(|why| mlua::Error::RuntimeError(format!("require: {why}")))?
-            };
-            let key = path.to_string_lossy().into_owned();
-            let cached: Value = loaded.raw_get(key.as_str())?;
-            if !cached.is_nil() {
-                return Ok(cached);
-            }
-            let f = load_file(lua, &path).map_err(|e| mlua::Error::RuntimeError(e.to_string()))?;
-            let v: Value = f.call(())?;
-            let v = if v.is_nil() { Value::Boolean(true) } else { v };
-            loaded.raw_set(key.as_str(), v.clone())?;
-            Ok(v)
-        })?,
-    )?;
+    g.set("require", Value::Nil)?;
 
     // pcall / xpcall / coroutine.resume must not swallow the host's stop: rethrow while set.
     // Coroutines are created by mlua, which gives each the budget hook for good (the watchdog
@@ -403,14 +524,20 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
         move |lua, debug| {
             let left = b.remaining.load(Ordering::Relaxed) - i64::from(HOOK_INTERVAL);
             b.remaining.store(left, Ordering::Relaxed);
+            if let Some(e) = b.stopped() {
+                return Err(e);
+            }
             let over_memory = lua.used_memory() > b.soft_memory;
-            if left >= 0 && !over_memory && b.aborted().is_none() {
+            let over_time = b.time_expired();
+            if left >= 0 && !over_memory && !over_time {
                 return Ok(VmState::Continue);
             }
             let src = debug.source();
             let file = src.short_src.as_deref().unwrap_or("?").to_owned();
             let line = debug.current_line().unwrap_or(0);
-            let (kind, what) = if over_memory {
+            let (kind, what) = if over_time {
+                (Abort::Time, time_message(b.time_limit()))
+            } else if over_memory {
                 (
                     Abort::Memory,
                     format!(
@@ -431,25 +558,145 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>) -> mlua::Result<(
                 };
                 (Abort::Budget, what)
             };
-            b.set_aborted(kind);
-            Err(mlua::Error::RuntimeError(format!("{file}:{line}: {what}")))
+            Err(b.stop(kind, format!("{file}:{line}: {what}")))
         },
     )?;
     Ok(())
 }
 
-/// A fresh environment for one module: its own globals, reading through to the shared ones.
+/// The message of a call stopped by its time limit.
+pub fn time_message(limit: Duration) -> String {
+    format!(
+        "time limit exceeded ({} ms of CPU time per call)",
+        limit.as_millis()
+    )
+}
+
+/// A fresh environment for one module, with a `require` cache of its own.
+///
+/// Every module gets its own copy of the globals and of each library table (`math`, `string`,
+/// `table`, `utf8`, `coroutine`, `os`, `shoal`): nothing a module writes — `math.sqrt = nil`,
+/// `shoal.wander = nil`, a global — is seen by another. The copies are made once, when the
+/// module loads, and are plain tables: a lookup costs what it costs in an unsandboxed state.
 pub fn module_env(lua: &Lua) -> mlua::Result<Table> {
-    let env = lua.create_table()?;
-    let meta = lua.create_table()?;
-    meta.raw_set("__index", lua.globals())?;
-    env.set_metatable(Some(meta))?;
+    family_env(lua, &lua.create_table()?)
+}
+
+/// An environment whose `require` shares `cache` (name → value): the behaviour module and the
+/// libraries it requires, and their `load`ed chunks.
+fn family_env(lua: &Lua, cache: &Table) -> mlua::Result<Table> {
+    let globals = lua.globals();
+    let env = lua.create_table_with_capacity(0, 40)?;
+    for pair in globals.pairs::<Value, Value>() {
+        let (k, v) = pair?;
+        if k.as_string()
+            .is_some_and(|k| k.as_bytes().as_ref() == b"_G")
+        {
+            continue;
+        }
+        let v = match v {
+            Value::Table(lib) => {
+                let copy = lua.create_table_with_capacity(0, 40)?;
+                for pair in lib.pairs::<Value, Value>() {
+                    let (name, f) = pair?;
+                    copy.raw_set(name, f)?;
+                }
+                Value::Table(copy)
+            }
+            other => other,
+        };
+        env.raw_set(k, v)?;
+    }
+    env.raw_set("_G", &env)?;
+
+    // load: text chunks only, in this module's family unless an environment is given.
+    let raw_load: Function = lua.named_registry_value(RAW_LOAD_KEY)?;
+    let family = cache.clone();
+    env.raw_set(
+        "load",
+        lua.create_function(
+            move |lua, (chunk, name, _mode, env): (Value, Option<String>, Value, Option<Table>)| {
+                let env = match env {
+                    Some(e) => e,
+                    None => family_env(lua, &family)?,
+                };
+                let chunk = match chunk {
+                    // A reader function is read here, so the compiler gets one bounded string.
+                    Value::Function(read) => {
+                        let mut text = Vec::new();
+                        loop {
+                            match read.call::<Value>(())? {
+                                Value::Nil => break,
+                                Value::String(s) if s.as_bytes().is_empty() => break,
+                                Value::String(s) => text.extend_from_slice(&s.as_bytes()),
+                                _ => {
+                                    return Err(mlua::Error::RuntimeError(
+                                        "load: reader function must return a string".into(),
+                                    ));
+                                }
+                            }
+                            if text.len() > MAX_CHUNK {
+                                break;
+                            }
+                        }
+                        Value::String(lua.create_string(&text)?)
+                    }
+                    other => other,
+                };
+                if let Value::String(s) = &chunk
+                    && s.as_bytes().len() > MAX_CHUNK
+                {
+                    return Err(mlua::Error::RuntimeError(format!(
+                        "load: chunk too large ({} bytes at most)",
+                        MAX_CHUNK
+                    )));
+                }
+                raw_load.call::<mlua::MultiValue>((chunk, name, "t", env))
+            },
+        )?,
+    )?;
+
+    // require: modules under scripts/ only, loaded once per module family.
+    let family = cache.clone();
+    env.raw_set(
+        "require",
+        lua.create_function(move |lua, name: String| {
+            let path = {
+                let root = lua
+                    .app_data_ref::<ScriptRoot>()
+                    .ok_or_else(|| mlua::Error::RuntimeError("no script root".into()))?;
+                root.resolve_module(&name)
+                    .map_err(|why| mlua::Error::RuntimeError(format!("require: {why}")))?
+            };
+            let key = path.to_string_lossy().into_owned();
+            let cached: Value = family.raw_get(key.as_str())?;
+            if !cached.is_nil() {
+                return Ok(cached);
+            }
+            let f = load_in_family(lua, &path, &family)
+                .map_err(|e| mlua::Error::RuntimeError(e.to_string()))?;
+            let v: Value = f.call(())?;
+            let v = if v.is_nil() { Value::Boolean(true) } else { v };
+            family.raw_set(key.as_str(), v.clone())?;
+            let loaded: Table = lua.named_registry_value(LOADED_KEY)?;
+            loaded.raw_set(key.as_str(), true)?;
+            Ok(v)
+        })?,
+    )?;
     Ok(env)
 }
 
 /// Compiles `path` (a file under the script root) as a text chunk named after the file, in a
 /// fresh module environment. Syntax errors read `scripts/…/file.lua:LINE: message`.
 pub fn load_file(lua: &Lua, path: &Path) -> Result<Function, ScriptError> {
+    let cache = lua
+        .create_table()
+        .map_err(|e| ScriptError::Lua(describe(&e)))?;
+    load_in_family(lua, path, &cache)
+}
+
+/// [`load_file`] in the family of `cache` (see `family_env`).
+fn load_in_family(lua: &Lua, path: &Path, cache: &Table) -> Result<Function, ScriptError> {
     let display = lua
         .app_data_ref::<ScriptRoot>()
         .map(|r| r.display_of(path))
@@ -458,7 +705,7 @@ pub fn load_file(lua: &Lua, path: &Path) -> Result<Function, ScriptError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let env = module_env(lua).map_err(|e| ScriptError::Lua(describe(&e)))?;
+    let env = family_env(lua, cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.load(source)
         .set_name(format!("@{display}"))
         .set_mode(ChunkMode::Text)

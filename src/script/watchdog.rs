@@ -15,7 +15,14 @@
 //!
 //! A call with a zero delay (loads, evaluations, tests that need determinism) is metered from its
 //! first instruction, as is every call on other systems or when more than [`SLOTS`] Lua states
-//! exist at once. Coroutines are Lua threads with hooks of their own: the sandbox creates them
+//! exist at once.
+//!
+//! The watchdog also enforces each call's time limit: once a call has used its limit of CPU time
+//! (its thread's CPU clock, read by the watchdog: a call that is merely waiting for a busy
+//! machine's processor is not stopped) it marks the call expired ([`expired`]) and signals the
+//! thread again; the handler sets the hook to run before *every* instruction, and the hook stops
+//! the call at the next one. Host functions that can run long (the sandbox's string functions)
+//! poll [`expired`] themselves. Coroutines are Lua threads with hooks of their own: the sandbox creates them
 //! through mlua, which gives them the budget hook for good (they are rare in behaviours).
 //!
 //! The unsafe code is the raw `lua_gethook`/`lua_sethook` calls (mlua cannot arm a hook from a
@@ -50,6 +57,11 @@ pub struct Meter {
     interval: i32,
     /// This state's watch slot, if it has one.
     slot: Option<usize>,
+}
+
+/// Whether the call in flight in watch slot `slot` has run past its time limit.
+pub fn expired(slot: usize) -> bool {
+    watch::expired(slot)
 }
 
 // SAFETY: `state` is only used on the thread that owns the `Meter`'s `ScriptHost` at the time
@@ -98,25 +110,27 @@ impl Meter {
         self.slot.is_some()
     }
 
+    /// This state's watch slot (for [`expired`]), if it has one.
+    pub fn slot(&self) -> Option<usize> {
+        self.slot
+    }
+
     /// Starts a call into Lua: metered from its first instruction if `metered_after` is zero or
-    /// the state has no watch slot, else only once it has run that long. The call ends when the
-    /// guard drops (the hook is off again then).
-    pub fn call(&self, metered_after: Duration) -> Metered<'_> {
-        match self.slot {
-            Some(slot) if !metered_after.is_zero() => {
-                watch::begin(slot, metered_after);
-                Metered {
-                    meter: self,
-                    slot: Some(slot),
-                }
-            }
-            _ => {
-                self.hook_on();
-                Metered {
-                    meter: self,
-                    slot: None,
-                }
-            }
+    /// the state has no watch slot, else only once it has run that long; stopped once it has
+    /// used `time_limit` of CPU time (where the state has a watch slot: see [`expired`]). The
+    /// call ends when the guard drops (the hook is off again then).
+    pub fn call(&self, metered_after: Duration, time_limit: Duration) -> Metered<'_> {
+        let from_start = metered_after.is_zero() || self.slot.is_none();
+        if from_start {
+            self.hook_on();
+        }
+        if let Some(slot) = self.slot {
+            watch::begin(slot, metered_after, time_limit, from_start);
+        }
+        Metered {
+            meter: self,
+            slot: self.slot,
+            from_start,
         }
     }
 
@@ -153,17 +167,15 @@ impl Drop for Meter {
 pub struct Metered<'a> {
     meter: &'a Meter,
     slot: Option<usize>,
+    /// The hook was on from the call's first instruction.
+    from_start: bool,
 }
 
 impl Drop for Metered<'_> {
     fn drop(&mut self) {
-        match self.slot {
-            Some(slot) => {
-                if watch::end(slot) {
-                    self.meter.unhook();
-                }
-            }
-            None => self.meter.unhook(),
+        let hooked = self.slot.is_some_and(watch::end);
+        if hooked || self.from_start {
+            self.meter.unhook();
         }
     }
 }
@@ -200,6 +212,10 @@ mod watch {
         meter_gen: AtomicU64,
         /// The signal handler set the hook for the call in flight.
         hooked: AtomicBool,
+        /// CPU time the call in flight may use, nanoseconds.
+        limit_ns: AtomicU64,
+        /// The call the watchdog found past its time limit.
+        expired: AtomicU64,
     }
 
     impl Slot {
@@ -214,6 +230,8 @@ mod watch {
                 after_ns: AtomicU64::new(0),
                 meter_gen: AtomicU64::new(0),
                 hooked: AtomicBool::new(false),
+                limit_ns: AtomicU64::new(u64::MAX),
+                expired: AtomicU64::new(0),
             }
         }
     }
@@ -262,7 +280,9 @@ mod watch {
         s.taken.store(false, Ordering::Release);
     }
 
-    pub(super) fn begin(slot: usize, after: Duration) {
+    /// Starts call of `slot`: metered after `after` (unless `hooked`, the hook already on),
+    /// expired after `limit` of CPU time.
+    pub(super) fn begin(slot: usize, after: Duration, limit: Duration, hooked: bool) {
         let s = &TABLE[slot];
         let call = s.calls.load(Ordering::Relaxed).wrapping_add(1).max(1);
         s.calls.store(call, Ordering::Relaxed);
@@ -272,10 +292,42 @@ mod watch {
             u64::try_from(after.as_nanos()).unwrap_or(u64::MAX),
             Ordering::SeqCst,
         );
+        s.limit_ns.store(
+            u64::try_from(limit.as_nanos()).unwrap_or(u64::MAX),
+            Ordering::SeqCst,
+        );
+        if hooked {
+            // Nothing to meter: the watchdog only watches the time limit.
+            s.meter_gen.store(call, Ordering::SeqCst);
+        }
         s.busy.store(call, Ordering::SeqCst);
         if ASLEEP.load(Ordering::SeqCst) || WATCHDOG.get().is_none() {
             wake_watchdog();
         }
+    }
+
+    /// Whether the call in flight ran past its time limit.
+    pub(super) fn expired(slot: usize) -> bool {
+        let s = &TABLE[slot];
+        let call = s.busy.load(Ordering::SeqCst);
+        call != 0 && s.expired.load(Ordering::SeqCst) == call
+    }
+
+    /// CPU time thread `tid` of this process has used, nanoseconds.
+    fn thread_cpu_ns(tid: i32) -> Option<u64> {
+        // The clock of a thread by its kernel id, as Linux encodes it (the encoding glibc's
+        // pthread_getcpuclockid uses): per-thread (4) scheduler clock (2) of `tid`.
+        let clock = ((!tid) << 3) | 6;
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid timespec to write; an unknown clock only returns an error.
+        let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
+        (rc == 0).then(|| {
+            u64::try_from(ts.tv_sec).unwrap_or(0) * 1_000_000_000
+                + u64::try_from(ts.tv_nsec).unwrap_or(0)
+        })
     }
 
     /// Ends the call in flight; true if the handler set the hook (the caller turns it off).
@@ -304,8 +356,9 @@ mod watch {
     /// running for its delay, which is between that delay and one period more after it began.
     fn watchdog() {
         let start = Instant::now();
-        // Per slot: the call last seen in flight and when it was first seen (ns since `start`).
-        let mut seen = [(0u64, 0u64); SLOTS];
+        // Per slot: the call last seen in flight, when it was first seen (ns since `start`) and
+        // its thread's CPU time then.
+        let mut seen = [(0u64, 0u64, None::<u64>); SLOTS];
         let mut idle = 0u32;
         loop {
             let now = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
@@ -316,8 +369,26 @@ mod watch {
                     continue;
                 }
                 any = true;
+                let tid = s.tid.load(Ordering::SeqCst);
                 if seen.0 != call {
-                    *seen = (call, now);
+                    *seen = (call, now, thread_cpu_ns(tid));
+                }
+                let limit = s.limit_ns.load(Ordering::SeqCst);
+                if s.expired.load(Ordering::SeqCst) != call && now.saturating_sub(seen.1) >= limit {
+                    // Past the limit in wall time; stopped once its CPU time is too (a thread
+                    // whose clock cannot be read is stopped on wall time).
+                    let used = match (seen.2, thread_cpu_ns(tid)) {
+                        (Some(then), Some(cpu)) => cpu.saturating_sub(then),
+                        _ => u64::MAX,
+                    };
+                    if used >= limit {
+                        s.expired.store(call, Ordering::SeqCst);
+                        // SAFETY: as below.
+                        unsafe {
+                            libc::syscall(libc::SYS_tgkill, libc::getpid(), tid, libc::SIGURG);
+                        }
+                        continue;
+                    }
                 }
                 if s.meter_gen.load(Ordering::SeqCst) == call {
                     continue;
@@ -329,7 +400,6 @@ mod watch {
                     continue;
                 }
                 s.meter_gen.store(call, Ordering::SeqCst);
-                let tid = s.tid.load(Ordering::SeqCst);
                 // SAFETY: tgkill only sends a signal. Should the thread have finished the call
                 // (or even exited and its id been reused) meanwhile, the handler finds no call
                 // of that thread to meter and does nothing; SIGURG is otherwise ignored.
@@ -369,15 +439,22 @@ mod watch {
         let me = unsafe { libc::gettid() };
         for s in &TABLE {
             let call = s.busy.load(Ordering::SeqCst);
-            if call == 0
-                || s.tid.load(Ordering::SeqCst) != me
-                || s.meter_gen.load(Ordering::SeqCst) != call
-                || s.hooked.load(Ordering::SeqCst)
+            if call == 0 || s.tid.load(Ordering::SeqCst) != me {
+                continue;
+            }
+            // Past its time limit: the hook runs before every instruction, and stops the call.
+            let expired = s.expired.load(Ordering::SeqCst) == call;
+            if !expired
+                && (s.meter_gen.load(Ordering::SeqCst) != call || s.hooked.load(Ordering::SeqCst))
             {
                 continue;
             }
             let state = s.state.load(Ordering::SeqCst) as *mut ffi::lua_State;
-            let interval = i32::try_from(s.interval.load(Ordering::SeqCst)).unwrap_or(i32::MAX);
+            let interval = if expired {
+                1
+            } else {
+                i32::try_from(s.interval.load(Ordering::SeqCst)).unwrap_or(i32::MAX)
+            };
             s.hooked.store(true, Ordering::SeqCst);
             // SAFETY: this thread is running a call of `state` (its slot is busy with this
             // thread's id), so the state is alive; we interrupted that call on its own thread,
@@ -399,7 +476,10 @@ mod watch {
         None
     }
     pub(super) fn release(_: usize) {}
-    pub(super) fn begin(_: usize, _: Duration) {}
+    pub(super) fn begin(_: usize, _: Duration, _: Duration, _: bool) {}
+    pub(super) fn expired(_: usize) -> bool {
+        false
+    }
     pub(super) fn end(_: usize) -> bool {
         false
     }

@@ -148,7 +148,10 @@ impl GltfScene {
             path: path.to_path_buf(),
             source: Box::new(source),
         };
+        super::validate::check_glb_length(bytes, path)?;
         let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
+        // Indices the gltf crate's validation would index with unchecked (it panics).
+        super::validate::check_indices(gltf.document.as_json(), path)?;
         for ext in gltf.document.extensions_required() {
             if COMPRESSION_EXTENSIONS.contains(&ext)
                 || !gltf::json::extensions::ENABLED_EXTENSIONS.contains(&ext)

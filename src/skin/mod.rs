@@ -14,6 +14,7 @@ mod gltf_scene;
 mod lbs;
 pub mod material;
 mod model;
+mod validate;
 
 pub use gltf_scene::{
     GltfScene, PoseRotations, PosedPrimitive, SceneMesh, SceneNode, ScenePrimitive, SceneSkin,
