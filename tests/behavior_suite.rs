@@ -349,18 +349,37 @@ fn test_script_line_format_names_time_and_fish() {
         wall: std::time::Duration::ZERO,
         num_checks: 1,
         trace_files: Vec::new(),
-        output: vec![testing::ScriptLine {
-            world: 0,
-            time_s: 1.25,
-            fish: Some(3),
-            message: "scripts/behaviors/a.lua:7: hello".into(),
-            error: false,
-        }],
+        output: vec![
+            testing::ScriptLine {
+                world: 0,
+                time_s: 1.25,
+                fish: Some(3),
+                message: "scripts/behaviors/a.lua:7: hello".into(),
+                error: false,
+                repeats: 0,
+                warning: false,
+            },
+            testing::ScriptLine {
+                world: 0,
+                time_s: 1.5,
+                fish: Some(4),
+                message: "scripts/behaviors/a.lua:7: hello".into(),
+                error: false,
+                repeats: 4,
+                warning: false,
+            },
+        ],
     };
     let text = testing::format_outcome(&outcome);
     assert_eq!(
         text.lines().nth(1),
         Some("    print [t = 1.25 s] fish 3: scripts/behaviors/a.lua:7: hello"),
+        "{text}"
+    );
+    // A line the same fish printed five times in a row is counted, not dropped.
+    assert_eq!(
+        text.lines().nth(2),
+        Some("    print [t = 1.50 s] fish 4: scripts/behaviors/a.lua:7: hello (×5)"),
         "{text}"
     );
 }

@@ -1029,6 +1029,8 @@ fn script_report(
             fish: entry.fish.map(|f| f.index),
             message: entry.message.clone(),
             error: is_error,
+            repeats: entry.repeats,
+            warning: entry.level == LogLevel::Warning,
         });
     }
     if unreported > 0 {

@@ -68,6 +68,11 @@ pub struct ScriptLine {
     pub message: String,
     /// A script error (shown only where the world allows errors; otherwise it is a failure).
     pub error: bool,
+    /// The same line written again by the same fish right after, folded into this one.
+    pub repeats: u64,
+    /// A notice of the host's rather than a print (a behaviour switched off after repeated
+    /// errors).
+    pub warning: bool,
 }
 
 impl ScriptLine {
@@ -84,6 +89,9 @@ impl ScriptLine {
         }
         s.push_str(": ");
         s.push_str(&self.message);
+        if self.repeats > 0 {
+            s.push_str(&format!(" (×{})", self.repeats + 1));
+        }
         s
     }
 }
@@ -290,6 +298,8 @@ pub fn format_outcome(outcome: &TestOutcome) -> String {
     for out in &outcome.output {
         let label = if out.error {
             "error (allowed)"
+        } else if out.warning {
+            "warning"
         } else {
             "print"
         };
