@@ -88,6 +88,10 @@ pub struct SpeciesDesc {
     /// Optional linear RGB multiplier on the asset's colours.
     #[serde(default)]
     pub color_tint: Option<[f32; 3]>,
+    /// Draw the model's alpha as a mask cut at this value in (0, 1], instead of the file's
+    /// `alphaMode`/`alphaCutoff` (for a model whose fins a cutoff of 1.0 cuts to ribbons).
+    #[serde(default)]
+    pub alpha_cutoff: Option<f32>,
     /// Hunger and other drives.
     #[serde(default)]
     pub drives: Drives,
@@ -169,6 +173,7 @@ impl SpeciesDesc {
             max_speed: 120.0,
             predator: false,
             color_tint: None,
+            alpha_cutoff: None,
             drives: Drives::default(),
         }
     }
@@ -204,6 +209,7 @@ impl SpeciesDesc {
             max_speed: 70.0,
             predator: false,
             color_tint: None,
+            alpha_cutoff: None,
             drives: Drives {
                 sociability: 0.1,
                 ..Drives::default()
@@ -261,6 +267,11 @@ impl SpeciesDesc {
                 self.max_speed,
                 "must be a non-negative number",
             ));
+        }
+        if let Some(c) = self.alpha_cutoff
+            && !(c > 0.0 && c <= 1.0)
+        {
+            return Err(bad("alpha_cutoff", c, "must lie in (0, 1]"));
         }
         if let Some(t) = self.color_tint {
             for c in t {

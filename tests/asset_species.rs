@@ -83,6 +83,8 @@ fn species_command_writes_a_loadable_species_and_refuses_to_overwrite() {
     let text = std::fs::read_to_string(&file).unwrap();
     assert!(text.contains("asset = \"red_finned_fish.glb\""), "{text}");
     assert!(text.contains("\"spine_1\", \"spine_2\""), "{text}");
+    // The file's alphaCutoff of 1.0 would leave the filtered fins in ribbons: 0.5 is suggested.
+    assert!(text.contains("alpha_cutoff = 0.5"), "{text}");
 
     // A scene with the printed snippet loads the species and its fish swim.
     let snippet = stdout

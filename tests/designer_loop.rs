@@ -366,3 +366,31 @@ fn an_error_raised_in_every_lane_reaches_the_console_once() {
     let errors = lines.iter().filter(|l| l.contains("no reef here")).count();
     assert_eq!(errors, 1, "{lines:#?}");
 }
+
+#[test]
+fn a_species_can_cut_its_models_alpha_at_its_own_cutoff() {
+    let (_d, root) = scratch(&[
+        (
+            "scripts/species/masked.lua",
+            "return { base = \"black_porgy\", name = \"masked\", alpha_cutoff = 0.5 }\n",
+        ),
+        (
+            "scripts/species/bad_cut.lua",
+            "return { base = \"black_porgy\", name = \"bad_cut\", alpha_cutoff = 2 }\n",
+        ),
+    ]);
+    let mut sim = Simulation::empty(&root, 1).unwrap();
+    let id = sim.species_id("masked").unwrap();
+    assert_eq!(
+        sim.world().species(id).model.mesh.material.alpha_mode,
+        shoal::skin::AlphaMode::Mask { cutoff: 0.5 }
+    );
+    let porgy = sim.species_id("black_porgy").unwrap();
+    assert_eq!(
+        sim.world().species(porgy).model.mesh.material.alpha_mode,
+        shoal::skin::AlphaMode::Opaque,
+        "without the field the file's alpha mode stands"
+    );
+    let e = sim.species_id("bad_cut").unwrap_err().to_string();
+    assert!(e.contains("alpha_cutoff") && e.contains("(0, 1]"), "{e}");
+}

@@ -152,6 +152,7 @@
 ---@field max_speed? number     # units/s
 ---@field predator? boolean
 ---@field color_tint? number[]  # {r, g, b} linear multiplier
+---@field alpha_cutoff? number  # draw the model's alpha as a mask cut here, in (0, 1]
 ---@field drives? shoal.Drives
 ---@field decision_hz? number   # decisions per second, (0, 60]
 

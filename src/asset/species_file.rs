@@ -104,6 +104,13 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
     let porgy_top = SpeciesDesc::black_porgy().max_speed / porgy.l;
     desc.max_speed = (lerp(porgy_top, eel.max_speed / eel.motion.l) * l).round();
     desc.drives = base_desc.drives;
+    // A mask cut at (nearly) 1.0 keeps only texels whose filtered alpha is exactly opaque: fins
+    // drawn with filtering come out in ribbons and body edges speckle. Suggest glTF's default.
+    if let crate::skin::AlphaMode::Mask { cutoff } = model.mesh.material.alpha_mode
+        && cutoff > 0.99
+    {
+        desc.alpha_cutoff = Some(0.5);
+    }
     let swimming_mode = if t >= 0.75 {
         "anguilliform-like"
     } else if t <= 0.25 {
@@ -149,7 +156,8 @@ impl SpeciesSuggestion {
                  omega = {omega:.2},           -- base frequency of the body wave (docs/motion.md)\n    \
                  tt = {tt:.2},              -- turning time, s\n  \
                }},\n  \
-               max_speed = {max_speed},\n  \
+               max_speed = {max_speed},\n\
+             {cutoff}  \
                decision_hz = 10,\n\
              }}\n",
             name = d.name,
@@ -167,6 +175,9 @@ impl SpeciesSuggestion {
             omega = m.omega,
             tt = m.tt,
             max_speed = d.max_speed,
+            cutoff = d.alpha_cutoff.map_or(String::new(), |c| format!(
+                "  alpha_cutoff = {c},      -- the model's own alphaCutoff (1.0) leaves filtered fins in ribbons\n"
+            )),
         )
     }
 

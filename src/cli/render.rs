@@ -43,7 +43,7 @@ pub struct Args {
     /// Camera: `default` (the window's start view), `top` (the tank from above), `orbit` (once
     /// around the tank over the clip), `follow` (close on the `--select`ed fish) or a fixed
     /// `EX,EY,EZ:TX,TY,TZ` (eye and target, world units).
-    #[arg(long, default_value = "default", value_parser = parse_camera)]
+    #[arg(long, default_value = "default", value_parser = parse_camera, allow_hyphen_values = true)]
     pub camera: CameraSpec,
     /// Highlight this fish (0-based, as in the window's panel); `--camera follow` follows it.
     #[arg(long)]

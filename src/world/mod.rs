@@ -201,7 +201,10 @@ impl Species {
             path: path.display().to_string(),
             reason,
         };
-        let model = FishModel::load(&path).map_err(|e| fail(e.to_string()))?;
+        let mut model = FishModel::load(&path).map_err(|e| fail(e.to_string()))?;
+        if let Some(cutoff) = desc.alpha_cutoff {
+            model.mesh.material.alpha_mode = crate::skin::AlphaMode::Mask { cutoff };
+        }
         // A texture that cannot be used is not fatal (the fish keeps its base colour), but a
         // designer should hear of it.
         for w in model.warnings.iter().filter(|w| w.contains("base colour")) {
