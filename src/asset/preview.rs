@@ -138,7 +138,11 @@ pub fn render_views_material(
                             img.put_pixel(
                                 x,
                                 py,
-                                Rgb([to_srgb8(out.x), to_srgb8(out.y), to_srgb8(out.z)]),
+                                Rgb([
+                                    crate::skin::material::linear_to_srgb8(out.x),
+                                    crate::skin::material::linear_to_srgb8(out.y),
+                                    crate::skin::material::linear_to_srgb8(out.z),
+                                ]),
                             );
                             continue;
                         }
@@ -147,21 +151,15 @@ pub fn render_views_material(
                     img.put_pixel(
                         x,
                         py,
-                        Rgb([to_srgb8(lit.x), to_srgb8(lit.y), to_srgb8(lit.z)]),
+                        Rgb([
+                            crate::skin::material::linear_to_srgb8(lit.x),
+                            crate::skin::material::linear_to_srgb8(lit.y),
+                            crate::skin::material::linear_to_srgb8(lit.z),
+                        ]),
                     );
                 }
             }
         }
     }
     img
-}
-
-fn to_srgb8(linear: f32) -> u8 {
-    let c = linear.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0).round() as u8
 }

@@ -38,10 +38,9 @@ pub struct SpeciesSuggestion {
     pub swimming_mode: &'static str,
 }
 
-/// Suggests a species for `model`. `asset` is the path the file will name (relative to the
-/// assets folder). Fails when the model has no `spine_*` joints (it was not rigged by
-/// `shoal asset rig`) or its rig cannot be bound.
-pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSuggestion, String> {
+/// The model's `spine_<n>` joints (as `shoal asset rig` names them), in order of `n`: the
+/// driven joints, head to tail.
+pub fn spine_joints(model: &FishModel) -> Vec<String> {
     let mut spines: Vec<(u32, String)> = model
         .skeleton
         .names()
@@ -49,6 +48,14 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
         .filter_map(|n| Some((n.strip_prefix("spine_")?.parse().ok()?, n.clone())))
         .collect();
     spines.sort();
+    spines.into_iter().map(|(_, n)| n).collect()
+}
+
+/// Suggests a species for `model`. `asset` is the path the file will name (relative to the
+/// assets folder). Fails when the model has no `spine_*` joints (it was not rigged by
+/// `shoal asset rig`) or its rig cannot be bound.
+pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSuggestion, String> {
+    let spines = spine_joints(model);
     if spines.is_empty() {
         return Err(
             "the model has no joints named spine_1, spine_2, …; rig it first with `shoal asset rig`"
@@ -58,7 +65,7 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
     let mut desc = SpeciesDesc::black_porgy();
     desc.name = name.to_string();
     desc.asset = asset.to_string();
-    desc.vertebral_joints = spines.into_iter().map(|(_, n)| n).collect();
+    desc.vertebral_joints = spines;
     let rig = SpeciesRig::bind(&desc, model).map_err(|e| e.to_string())?;
     // Cross-section: the largest extent across the body (up, and sideways).
     let side = rig.model_forward.cross(rig.model_up).normalize_or_zero();

@@ -285,20 +285,14 @@ fn preview_rig(
     model: &std::path::Path,
     fish: &crate::skin::FishModel,
 ) -> anyhow::Result<(crate::species::SpeciesRig, ())> {
-    let mut spines: Vec<(u32, String)> = fish
-        .skeleton
-        .names()
-        .iter()
-        .filter_map(|n| Some((n.strip_prefix("spine_")?.parse().ok()?, n.clone())))
-        .collect();
-    spines.sort();
+    let spines = crate::asset::species_file::spine_joints(fish);
     anyhow::ensure!(
         !spines.is_empty(),
         "{}: no joints named spine_1, spine_2, …; rig it with `shoal asset rig`",
         model.display()
     );
     let mut desc = crate::species::SpeciesDesc::black_porgy();
-    desc.vertebral_joints = spines.into_iter().map(|(_, n)| n).collect();
+    desc.vertebral_joints = spines;
     Ok((crate::species::SpeciesRig::bind(&desc, fish)?, ()))
 }
 

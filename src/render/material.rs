@@ -137,9 +137,9 @@ pub fn mip_chain(
             .chunks_exact(4)
             .flat_map(|p| {
                 [
-                    linear_to_srgb8(p[0]),
-                    linear_to_srgb8(p[1]),
-                    linear_to_srgb8(p[2]),
+                    crate::skin::material::linear_to_srgb8(p[0]),
+                    crate::skin::material::linear_to_srgb8(p[1]),
+                    crate::skin::material::linear_to_srgb8(p[2]),
                     (p[3].clamp(0.0, 1.0) * 255.0).round() as u8,
                 ]
             })
@@ -149,16 +149,6 @@ pub fn mip_chain(
         (w, h) = (nw, nh);
     }
     levels
-}
-
-fn linear_to_srgb8(linear: f32) -> u8 {
-    let c = linear.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0).round() as u8
 }
 
 fn address(w: Wrap) -> wgpu::AddressMode {

@@ -151,6 +151,18 @@ impl TextureImage {
     }
 }
 
+/// A linear colour channel as an 8-bit sRGB value (the inverse of [`srgb_to_linear`]), clamped
+/// to [0, 1] first.
+pub fn linear_to_srgb8(linear: f32) -> u8 {
+    let c = linear.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
 /// sRGB-encoded byte → linear value in [0, 1].
 pub fn srgb_to_linear(c: u8) -> f32 {
     let s = f32::from(c) / 255.0;
