@@ -394,3 +394,33 @@ fn a_species_can_cut_its_models_alpha_at_its_own_cutoff() {
     let e = sim.species_id("bad_cut").unwrap_err().to_string();
     assert!(e.contains("alpha_cutoff") && e.contains("(0, 1]"), "{e}");
 }
+
+/// Every lane loads the module, so a print at its top level (no fish) and the "runs again"
+/// notice after a save used to reach the console once per lane.
+#[test]
+fn what_no_fish_said_reaches_the_console_once_whatever_the_lanes() {
+    let (_d, root) = scratch(&[
+        (
+            "scripts/behaviors/loud.lua",
+            "print('loud loaded')\nreturn { tick = function(fish) print('tick') end }\n",
+        ),
+        (
+            "scripts/scenes/loud.lua",
+            &scene_of(r#"    { species = "black_porgy", count = 16, behavior = "loud" },"#),
+        ),
+    ]);
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/loud.lua"), 4).unwrap();
+    sim.set_lanes(4).unwrap();
+    sim.run(1.0);
+    let lines: Vec<String> = sim.drain_log().iter().map(|e| e.to_string()).collect();
+    assert_eq!(
+        lines.iter().filter(|l| l.contains("loud loaded")).count(),
+        1,
+        "{lines:#?}"
+    );
+    // Each fish's own prints all stay (one line per fish at least, repeats counted on it).
+    assert!(
+        lines.iter().filter(|l| l.contains(": tick")).count() >= 16,
+        "{lines:#?}"
+    );
+}

@@ -66,7 +66,8 @@ struct Module {
     table: Option<Table>,
     /// Failed calls since the last call that succeeded.
     failures_in_a_row: u32,
-    /// Calls stopped by the instruction budget or the memory limit since the module loaded.
+    /// Calls stopped by the instruction budget, the time limit or the memory limit since the
+    /// module loaded.
     limit_hits: u32,
     /// Why the module is switched off, once it is; cleared when its file loads again.
     quarantined: Option<String>,
@@ -75,8 +76,8 @@ struct Module {
 /// Failed calls in a row (no call of the module succeeding in between) after which a behaviour
 /// is switched off until its file is saved.
 pub const QUARANTINE_AFTER_FAILURES: u32 = 5;
-/// Calls stopped by the instruction budget or the memory limit after which a behaviour is
-/// switched off until its file is saved: each such call costs the tick a whole budget.
+/// Calls stopped by the instruction budget, the time limit or the memory limit after which a
+/// behaviour is switched off until its file is saved: each such call costs the tick a whole budget.
 pub const QUARANTINE_AFTER_LIMIT_HITS: u32 = 3;
 
 impl Module {
@@ -124,7 +125,8 @@ pub struct ScriptHost {
     fish_errors: HashMap<u32, String>,
     /// Every distinct error message, in order, for tests and `shoal test`.
     error_history: Vec<String>,
-    /// Whether the last failed decision was stopped by the instruction budget or memory limit.
+    /// Whether the last failed decision was stopped by the instruction budget, the time limit or
+    /// the memory limit.
     last_call_hit_limit: bool,
     /// The scene's `params` of each fish that has some, by slot index with the generation they
     /// belong to; copied into the fish's table as `fish.params` when the table is made.
@@ -578,7 +580,7 @@ impl ScriptHost {
         m.limit_hits += u32::from(limit_hit);
         let why = if m.limit_hits >= QUARANTINE_AFTER_LIMIT_HITS {
             format!(
-                "{} calls stopped by its instruction budget or memory limit",
+                "{} calls stopped by its instruction budget, time limit or memory limit",
                 m.limit_hits
             )
         } else if m.failures_in_a_row >= QUARANTINE_AFTER_FAILURES {

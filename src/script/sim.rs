@@ -888,16 +888,21 @@ impl Simulation {
     }
 
     /// Console entries logged since the last call, from every lane, oldest first: each distinct
-    /// error once (an error every lane logged — a file failing to load, a runaway behaviour that
-    /// fish of two lanes run — appears once, with the first fish), and every print.
+    /// error or warning once (an error every lane logged — a file failing to load, a runaway
+    /// behaviour that fish of two lanes run — appears once, with the first fish), each notice no
+    /// fish gave once, and every print of a fish.
     pub fn drain_log(&mut self) -> Vec<LogEntry> {
         let mut all: Vec<LogEntry> = Vec::new();
         for lane in &mut self.lanes {
             for e in lane.host.drain_log() {
-                let seen = e.level != LogLevel::Info
-                    && all
-                        .iter()
-                        .any(|a| a.level == e.level && a.message == e.message);
+                // Every lane loads the same files, so what no fish said (a host notice, a print
+                // at a module's top level) comes once per lane: keep one. Errors and warnings are
+                // kept once whichever fish hit them; a fish's prints all stay.
+                let seen = all.iter().any(|a| {
+                    a.level == e.level
+                        && a.message == e.message
+                        && (e.level != LogLevel::Info || (a.fish.is_none() && e.fish.is_none()))
+                });
                 if !seen {
                     all.push(e);
                 }
