@@ -11,7 +11,7 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use shoal::world::bench::{bench_positions, bench_world};
+use shoal::world::bench::{RustSim, bench_positions, bench_world};
 use shoal::world::driver::WanderDriver;
 use shoal::world::sense::{forward, in_view_cone};
 use shoal::world::{FishId, PerceptKind, SpawnParams, Species, SpeciesDesc, TICK_HZ, World};
@@ -21,13 +21,13 @@ const COUNTS: [usize; 2] = [1_000, 10_000];
 fn world(fish: usize) -> World {
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("default species");
-    let mut world = bench_world(species, fish, 7).expect("bench scene");
+    let world = bench_world(species, fish, 7).expect("bench scene");
     // One second of driven ticks so players, palettes and the grid are warm.
-    let mut driver = WanderDriver::default();
+    let mut sim = RustSim::new(world, WanderDriver::default());
     for _ in 0..TICK_HZ as usize {
-        driver.tick(&mut world);
+        sim.tick();
     }
-    world
+    sim.into_world()
 }
 
 /// The bench world plus one predator (the porgy marked a predator) per 100 fish, grid rebuilt.
@@ -185,10 +185,8 @@ fn stages(c: &mut Criterion) {
 
         let mut g = c.benchmark_group("tick_rust_driver");
         g.throughput(Throughput::Elements(fish as u64));
-        let mut driver = WanderDriver::default();
-        g.bench_function(BenchmarkId::from_parameter(fish), |b| {
-            b.iter(|| driver.tick(&mut w))
-        });
+        let mut sim = RustSim::new(w, WanderDriver::default());
+        g.bench_function(BenchmarkId::from_parameter(fish), |b| b.iter(|| sim.tick()));
         g.finish();
     }
 }

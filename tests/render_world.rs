@@ -13,10 +13,7 @@ fn porgy_scene(fish: usize) -> WorldScene<RustSim> {
     let assets = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("porgy loads");
     let world = bench_world(species, fish, 3).unwrap();
-    WorldScene::new(RustSim {
-        world,
-        driver: WanderDriver::default(),
-    })
+    WorldScene::new(RustSim::new(world, WanderDriver::default()))
 }
 
 #[test]
@@ -24,7 +21,7 @@ fn instances_point_at_the_worlds_palettes_and_ticks_follow_time() {
     let mut scene = porgy_scene(12);
     {
         let input = scene.frame_input();
-        let w = &scene.sim().world;
+        let w = scene.sim().world();
         assert_eq!(input.instances.len(), 12);
         assert_eq!(input.palettes.len(), w.palettes().len());
         for (inst, off) in input.instances.iter().zip(w.palette_offsets()) {
@@ -34,19 +31,19 @@ fn instances_point_at_the_worlds_palettes_and_ticks_follow_time() {
         // Meshes: the porgy, then the rock and pellet props.
         assert_eq!(scene.meshes().len(), 3);
     }
-    let before = scene.sim().world.tick_count();
+    let before = scene.sim().world().tick_count();
     scene.step(0.1); // 6 ticks at 60 Hz
-    assert_eq!(scene.sim().world.tick_count() - before, 6);
+    assert_eq!(scene.sim().world().tick_count() - before, 6);
     scene.step(1.0 / 120.0); // half a tick: accumulates, no tick yet
-    assert_eq!(scene.sim().world.tick_count() - before, 6);
+    assert_eq!(scene.sim().world().tick_count() - before, 6);
     scene.step(1.0 / 120.0);
-    assert_eq!(scene.sim().world.tick_count() - before, 7);
+    assert_eq!(scene.sim().world().tick_count() - before, 7);
     // A long step runs every tick it covers (`shoal render --fps 4` simulates 15 ticks a frame;
     // it used to stop at 8 and drop the rest). The window bounds its frames' real time instead.
     scene.step(2.0);
-    assert_eq!(scene.sim().world.tick_count() - before, 127);
+    assert_eq!(scene.sim().world().tick_count() - before, 127);
     scene.step(1.0 / 60.0);
-    assert_eq!(scene.sim().world.tick_count() - before, 128);
+    assert_eq!(scene.sim().world().tick_count() - before, 128);
 }
 
 #[test]

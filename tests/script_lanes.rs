@@ -26,7 +26,10 @@ fn fingerprint(sim: &Simulation) -> Vec<String> {
             sim.memory_json(id),
         ));
     }
-    for (id, f) in w.foods() {
+    // Every pellet, in the water or eaten (eaten pellets leave the world's food list).
+    let mut pellets: Vec<_> = w.foods().chain(w.eaten_foods()).collect();
+    pellets.sort_by_key(|(id, _)| *id);
+    for (id, f) in pellets {
         out.push(format!("{id:?} {:?} {:?}", f.eaten_by, f.eaten_at));
     }
     out

@@ -13,12 +13,15 @@ fn test_default_scene_runs_without_script_errors() {
     let mut sim =
         Simulation::from_scene(common::repo(), Path::new("scenes/default.lua"), 1).unwrap();
     assert_eq!(sim.world().num_fish(), 37);
-    let foods_at_start = sim.world().foods().count();
+    // Pellets given out: in the water, or eaten (an eaten pellet leaves the food list).
+    let pellets =
+        |sim: &Simulation| sim.world().foods().count() + sim.world().eaten_foods().count();
+    let foods_at_start = pellets(&sim);
     sim.run(20.0);
     common::assert_no_script_errors(&sim);
     assert!(sim.load_errors().is_empty(), "{:?}", sim.load_errors());
     // Food drops every 5 s from t = 3: at 3, 8, 13, 18 → 4 drops of 3 pellets.
-    assert_eq!(sim.world().foods().count(), foods_at_start + 12);
+    assert_eq!(pellets(&sim), foods_at_start + 12);
     let tank = *sim.world().tank();
     for id in sim.world().fish_ids() {
         let p = sim.world().root(id).unwrap().pos;

@@ -5,7 +5,7 @@
 //! second, then times each 60 Hz tick and reports the median and p99 milliseconds, fish-ticks per
 //! second and the split by stage. `--driver lua` (default) runs the shipped behaviour scripts
 //! through `script::Simulation`; `--driver rust` runs the built-in Rust wander/school driver, to
-//! measure the Rust stages alone. Both go through the [`Ticker`] trait (`world::bench`).
+//! measure the Rust stages alone. Both tick through `world::step` as a `world::Sim`.
 //!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
 //! demo aquarium offscreen per fish count, waits for the GPU every frame, and reports the median
@@ -24,10 +24,10 @@ use rand_pcg::Pcg32;
 use crate::render::{DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver};
 use crate::script::Simulation;
 use crate::world::bench::{
-    RustSim, SimBenchResult, Ticker, bench_positions, bench_tank, bench_world, measure,
+    RustSim, SimBenchResult, bench_positions, bench_tank, bench_world, measure,
 };
 use crate::world::driver::WanderDriver;
-use crate::world::{Species, SpeciesDesc, TICK_HZ, World};
+use crate::world::{Species, SpeciesDesc, TICK_HZ};
 
 /// Arguments of `shoal bench`.
 #[derive(Debug, Default, clap::Args)]
@@ -95,21 +95,14 @@ pub enum Driver {
     Rust,
 }
 
-/// The Lua simulation as a bench [`Ticker`].
-struct LuaSim(Simulation);
-
-impl Ticker for LuaSim {
-    fn tick(&mut self) {
-        self.0.step();
-    }
-    fn world(&self) -> &World {
-        self.0.world()
-    }
-}
-
 /// The constant-density bench tank populated through the Lua simulation with the shipped
 /// behaviours (see [`Driver::Lua`]).
-fn lua_sim(root: &Path, fish: usize, seed: u64, lanes: Option<usize>) -> anyhow::Result<LuaSim> {
+fn lua_sim(
+    root: &Path,
+    fish: usize,
+    seed: u64,
+    lanes: Option<usize>,
+) -> anyhow::Result<Simulation> {
     let mut sim = Simulation::empty(root, seed)
         .with_context(|| format!("loading the scripts under {}", root.display()))?;
     if let Some(n) = lanes {
@@ -136,7 +129,7 @@ fn lua_sim(root: &Path, fish: usize, seed: u64, lanes: Option<usize>) -> anyhow:
         sim.spawn(species, pos, heading, 0.0, None, Some(behavior))?;
     }
     sim.world_mut().rebuild_grid();
-    Ok(LuaSim(sim))
+    Ok(sim)
 }
 
 /// Runs `shoal bench`.
@@ -174,19 +167,16 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         let result = match &species {
             Some(species) => {
                 let world = bench_world(species.clone(), fish, args.seed)?;
-                let mut sim = RustSim {
-                    world,
-                    driver: WanderDriver::default(),
-                };
+                let mut sim = RustSim::new(world, WanderDriver::default());
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
                 let mut sim = lua_sim(&args.root, fish, args.seed, args.lanes)?;
                 if results.is_empty() && !args.json {
-                    println!("script lanes: {}", sim.0.num_lanes());
+                    println!("script lanes: {}", sim.num_lanes());
                 }
-                let result = measure(&mut sim, TICK_HZ as usize, ticks);
-                if let Some(e) = sim.0.error_messages().first() {
+                let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+                if let Some(e) = sim.error_messages().first() {
                     eprintln!("script error during the bench: {e}");
                 }
                 result
@@ -251,10 +241,9 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         }
         sim.set_lanes(n)?;
     }
-    let mut sim = LuaSim(sim);
-    let result = measure(&mut sim, TICK_HZ as usize, ticks);
-    let errors = sim.0.error_messages();
-    let switched_off = sim.0.switched_off();
+    let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+    let errors = sim.error_messages();
+    let switched_off = sim.switched_off();
     if args.json {
         println!(
             "{}",
@@ -270,7 +259,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         println!(
             "scene {}, script lanes: {}",
             scene.display(),
-            sim.0.num_lanes()
+            sim.num_lanes()
         );
         print_row(&result, true, Driver::Lua);
         if !errors.is_empty() {

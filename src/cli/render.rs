@@ -181,10 +181,7 @@ pub fn porgy_scene(root: &Path, fish: usize, seed: u64) -> anyhow::Result<Box<dy
     let species = Species::load(SpeciesDesc::black_porgy(), &assets)
         .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
     let world = bench_world(species, fish, seed)?;
-    let sim = RustSim {
-        world,
-        driver: WanderDriver::default(),
-    };
+    let sim = RustSim::new(world, WanderDriver::default());
     Ok(Box::new(WorldScene::new(sim)))
 }
 

@@ -480,7 +480,7 @@ fn wrap_angle(a: f32) -> f32 {
 /// is queued. When a motion completes with nothing queued, the fish keeps swimming at the speed
 /// the motion ended with (after `Stop`, it rests). Every change of motion cross-fades the body
 /// shape over [`SHAPE_BLEND_S`] and ramps the speed smoothly; the wave's phase only ever advances.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct MotionPlayer {
     queue: VecDeque<MotionRequest>,
     current: Active,

@@ -102,13 +102,13 @@ impl WorldSim for Simulation {
 
 impl WorldSim for RustSim {
     fn tick(&mut self) {
-        crate::world::bench::Ticker::tick(self);
+        RustSim::tick(self);
     }
     fn world(&self) -> &World {
-        &self.world
+        RustSim::world(self)
     }
     fn world_mut(&mut self) -> &mut World {
-        &mut self.world
+        RustSim::world_mut(self)
     }
 }
 

@@ -1,9 +1,9 @@
 //! Measuring the tick (issue 7): a scene that scales with the fish count, a timing loop, and the
 //! figures `shoal bench sim` prints.
 //!
-//! The loop drives anything that implements [`Ticker`]: the built-in
-//! [`super::driver::WanderDriver`] ([`RustSim`]) and the Lua `script::Simulation` with the shipped
-//! behaviours (wrapped in `cli::bench`).
+//! The loop ticks a [`Sim`] of either [`Behavior`]: the built-in
+//! [`super::driver::WanderDriver`] ([`RustSim`]) or the Lua scripts with the shipped behaviours
+//! (`script::Simulation`'s, in `cli::bench`).
 
 use std::time::Instant;
 
@@ -12,32 +12,10 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 use super::driver::WanderDriver;
-use super::{SpawnParams, Species, StageCounters, Tank, World, WorldError};
+use super::{Behavior, Sim, SpawnParams, Species, StageCounters, Tank, World, WorldError};
 
-/// Something that runs whole 60 Hz ticks of a world.
-pub trait Ticker {
-    /// Runs one tick, filling the world's [`StageCounters`].
-    fn tick(&mut self);
-    /// The world ticked.
-    fn world(&self) -> &World;
-}
-
-/// The built-in Rust driver with its world.
-pub struct RustSim {
-    /// The world.
-    pub world: World,
-    /// The driver deciding for every fish.
-    pub driver: WanderDriver,
-}
-
-impl Ticker for RustSim {
-    fn tick(&mut self) {
-        self.driver.tick(&mut self.world);
-    }
-    fn world(&self) -> &World {
-        &self.world
-    }
-}
+/// A world whose fish the built-in Rust driver decides for.
+pub type RustSim = Sim<WanderDriver>;
 
 /// Body lengths³ of water per fish in [`bench_world`]: the density stays the same at every fish
 /// count, so cost per fish is comparable across counts.
@@ -166,7 +144,7 @@ fn median_of(mut values: Vec<f64>) -> f64 {
 }
 
 /// Runs `warmup` ticks, then times `ticks` ticks of `sim`.
-pub fn measure(sim: &mut impl Ticker, warmup: usize, ticks: usize) -> SimBenchResult {
+pub fn measure<B: Behavior>(sim: &mut Sim<B>, warmup: usize, ticks: usize) -> SimBenchResult {
     for _ in 0..warmup {
         sim.tick();
     }

@@ -119,7 +119,7 @@ impl World {
         cohesion_radius: f32,
         speed: f32,
     ) -> Option<Crowd> {
-        let agent = self.agent(id)?;
+        let agent = self.fish(id)?.agent();
         let sums = self.crowd_sums(
             id,
             agent.pos,
@@ -134,7 +134,7 @@ impl World {
 
     /// [`steer::separation`] from every fish (any species) within `radius`, found on the grid.
     pub fn steer_separation(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
+        let agent = self.fish(id)?.agent();
         let off = f32::NAN;
         self.crowd_sums(id, agent.pos, [radius, off, off])?
             .separation(&agent, speed)
@@ -142,7 +142,7 @@ impl World {
 
     /// [`steer::alignment`] with the fish's own species within `radius`, found on the grid.
     pub fn steer_alignment(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
+        let agent = self.fish(id)?.agent();
         let off = f32::NAN;
         self.crowd_sums(id, agent.pos, [off, radius, off])?
             .alignment(&agent, speed)
@@ -150,7 +150,7 @@ impl World {
 
     /// [`steer::cohesion`] with the fish's own species within `radius`, found on the grid.
     pub fn steer_cohesion(&self, id: FishId, radius: f32, speed: f32) -> Option<Steer> {
-        let agent = self.agent(id)?;
+        let agent = self.fish(id)?.agent();
         let off = f32::NAN;
         self.crowd_sums(id, agent.pos, [off, off, radius])?
             .cohesion(&agent, speed)
@@ -159,8 +159,8 @@ impl World {
     /// The crowding sums of fish `id` at `centre` (its root) for the rules' `radii`
     /// (separation, alignment, cohesion), from one grid scan at the largest valid radius.
     fn crowd_sums(&self, id: FishId, centre: Vec3, radii: [f32; 3]) -> Option<CrowdSums> {
-        let me = self.fish.dense(id)?;
-        let species = self.fish.species[me];
+        let me = self.state.fish.dense(id)?;
+        let species = self.state.fish.species[me];
         let r2 = radii.map(squared);
         let mut sums = CrowdSums::default();
         // The widest valid radius (f32::max skips NaN; negative radii are off).
@@ -242,7 +242,7 @@ impl World {
                         pos,
                         d2,
                         [d2 <= r2[0], same && d2 <= r2[1], same && d2 <= r2[2]],
-                        || heading_vector(self.fish.roots[keys[slot] as usize].heading),
+                        || heading_vector(self.state.fish.roots[keys[slot] as usize].heading),
                     );
                 }
                 true
@@ -257,23 +257,23 @@ impl World {
             if o == me {
                 return;
             }
-            let pos = self.fish.roots[o].pos;
+            let pos = self.state.fish.roots[o].pos;
             let d2 = pos.distance_squared(centre);
             let within = |r2: f32| grid_d2 <= r2 && d2 <= r2;
-            let same = self.fish.species[o] == species;
+            let same = self.state.fish.species[o] == species;
             sums.add(
                 centre,
                 pos,
                 d2,
                 [within(r2[0]), same && within(r2[1]), same && within(r2[2])],
-                || heading_vector(self.fish.roots[o].heading),
+                || heading_vector(self.state.fish.roots[o].heading),
             );
         };
         self.grid.for_each_within(centre, reach, |key, _, grid_d2| {
             let dense = if self.grid_exact {
                 Some(key as usize)
             } else {
-                self.fish.dense(self.grid_ids[key as usize])
+                self.state.fish.dense(self.grid_ids[key as usize])
             };
             if let Some(o) = dense {
                 visit(o, grid_d2);
@@ -282,7 +282,7 @@ impl World {
         });
         if !self.grid_exact {
             for &spawned in &self.spawned_since_grid {
-                if let Some(o) = self.fish.dense(spawned) {
+                if let Some(o) = self.state.fish.dense(spawned) {
                     // Not in the grid: only the current position counts.
                     visit(o, f32::NEG_INFINITY);
                 }
@@ -299,9 +299,9 @@ mod tests {
 
     /// The three rules as they were written before the one-pass scan: one neighbour query each.
     fn reference(w: &World, id: FishId, radii: [f32; 3], speed: f32) -> Crowd {
-        let agent = w.agent(id).unwrap();
-        let me = w.fish.dense(id).unwrap();
-        let species = w.fish.species[me];
+        let agent = w.fish(id).unwrap().agent();
+        let me = w.state.fish.dense(id).unwrap();
+        let species = w.state.fish.species[me];
         let mut push = Vec3::ZERO;
         w.for_each_fish_near(agent.pos, radii[0], |o, pos, d2| {
             if o != me && d2 > 0.0 {
@@ -310,14 +310,14 @@ mod tests {
         });
         let mut sum = Vec2::ZERO;
         w.for_each_fish_near(agent.pos, radii[1], |o, _, _| {
-            if o != me && w.fish.species[o] == species {
-                let h = w.fish.roots[o].heading;
+            if o != me && w.state.fish.species[o] == species {
+                let h = w.state.fish.roots[o].heading;
                 sum += Vec2::new(h.cos(), h.sin());
             }
         });
         let (mut centre, mut n) = (Vec3::ZERO, 0u32);
         w.for_each_fish_near(agent.pos, radii[2], |o, pos, _| {
-            if o != me && w.fish.species[o] == species {
+            if o != me && w.state.fish.species[o] == species {
                 centre += pos;
                 n += 1;
             }

@@ -1,17 +1,20 @@
-//! A built-in Rust behaviour driver: wander + schooling + wall, rock and predator avoidance,
-//! decided at a per-fish rate staggered across fish, then the world's Rust stages.
+//! A built-in Rust [`Behavior`]: wander + schooling + wall, rock and predator avoidance, decided
+//! at a per-fish rate staggered across fish.
 //!
-//! It exists so the Rust stages can be measured (and exercised in tests) without the Lua host:
-//! `shoal bench sim` runs it until the Lua `script::Simulation` drives the same tick with the
-//! shipped behaviour scripts. Its decisions use only the public sensor and steering API the Lua
-//! API exposes, so its perception cost is representative of the scripts'.
+//! It lets the Rust stages be measured (`shoal bench sim --driver rust`) and exercised in tests
+//! without the Lua host; the Lua scripts (`script::Simulation`) are the other implementation of
+//! the same trait, ticked by the same [`super::tick::step`]. Its decisions use only the public
+//! sensor and steering API the Lua API exposes, so its perception cost is representative of the
+//! scripts'.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use rand::Rng;
 
 use super::steer::{self, Steer};
-use super::{FishId, PerceptKind, TICK_HZ, VisionBatch, World};
+use super::tick::{Behavior, exclusive};
+use super::{FishControls, FishId, FishRef, PerceptKind, TICK_HZ, VisionBatch, World};
 
 /// Parameters of [`WanderDriver`], in body lengths and seconds. `Copy`, see [`Default`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,13 +49,15 @@ impl Default for WanderParams {
     }
 }
 
-/// Drives a [`World`] tick by tick with Rust-decided behaviour (see the module docs).
-#[derive(Debug, Default)]
+/// Decides for every fish of a [`World`] in Rust (see the module docs).
+#[derive(Default)]
 pub struct WanderDriver {
     /// The behaviour parameters.
     pub params: WanderParams,
     batch: VisionBatch,
     ids: Vec<FishId>,
+    /// The deciding fish's controls, checked out of the world for its decision.
+    controls: FishControls,
     decisions_last_tick: usize,
 }
 
@@ -70,12 +75,11 @@ impl WanderDriver {
         self.decisions_last_tick
     }
 
-    /// One fixed tick of `1 / TICK_HZ` seconds: the decisions due this tick (fish `i` decides on
-    /// ticks where `(tick + i) % period == 0`, `period = TICK_HZ / decision_hz`) — their vision
-    /// sensed in one parallel batch, then decided one after another, as a Lua host would — then
-    /// `step_motion`, `update_pose`, `rebuild_grid`. Sensor time goes to `perception_ns`, the
+    /// The decisions due this tick: fish `i` decides on ticks where `(tick + i) % period == 0`,
+    /// `period = TICK_HZ / decision_hz`; their vision is sensed in one parallel batch, then they
+    /// decide one after another, as a Lua host would. Sensor time goes to `perception_ns`, the
     /// decisions themselves to `lua_ns` (the behaviour stage; no Lua runs here).
-    pub fn tick(&mut self, world: &mut World) {
+    fn decide_due(&mut self, world: &mut World) {
         let period = (TICK_HZ / self.params.decision_hz.max(1e-3))
             .round()
             .max(1.0) as u64;
@@ -93,18 +97,23 @@ impl WanderDriver {
         let t0 = Instant::now();
         world.vision_batch(&due, self.params.max_percepts, &mut self.batch);
         let t1 = Instant::now();
+        let mut controls = std::mem::take(&mut self.controls);
         for (k, &id) in due.iter().enumerate() {
-            if let Some(want) = self.decide(world, id, k) {
-                // A refused request leaves the fish doing what it did; nothing to recover.
-                let _ = world.steer_to(id, want.heading, want.depth, want.speed);
+            if !world.check_out(id, &mut controls) {
+                continue;
             }
+            if let Some(fish) = world.fish(id)
+                && let Some(want) = self.decide_one(fish, &mut controls, k)
+            {
+                // A refused request leaves the fish doing what it did; nothing to recover.
+                let _ = fish.steer_to(&mut controls, want.heading, want.depth, want.speed);
+            }
+            world.check_in(id, &mut controls);
         }
+        self.controls = controls;
         let t2 = Instant::now();
         self.decisions_last_tick = due.len();
         self.ids = due;
-        world.step_motion((1.0 / TICK_HZ) as f32);
-        world.update_pose();
-        world.rebuild_grid();
         let counters = world.counters_mut();
         counters.perception_ns = (t1 - t0).as_nanos() as u64;
         counters.lua_ns = (t2 - t1).as_nanos() as u64;
@@ -114,10 +123,15 @@ impl WanderDriver {
         counters.sense_cpu_ns = 0;
     }
 
-    fn decide(&self, world: &mut World, id: FishId, k: usize) -> Option<Steer> {
+    fn decide_one(
+        &self,
+        fish: FishRef<'_>,
+        controls: &mut FishControls,
+        k: usize,
+    ) -> Option<Steer> {
         let percepts = self.batch.get(k);
-        let agent = world.agent(id)?;
-        let species = world.species(world.species_of(id)?);
+        let agent = fish.agent();
+        let species = fish.species();
         let l = species.body_length();
         let cruise = species.desc.motion.s;
         let max_speed = species.desc.max_speed.max(cruise);
@@ -126,12 +140,10 @@ impl WanderDriver {
         if let Some(threat) = percepts.iter().find(|s| s.kind == PerceptKind::Predator) {
             return Some(steer::flee(&agent, threat.pos, max_speed));
         }
-        if let Some(s) = world.steer_avoid_walls(id, p.wall_margin_lengths * l, cruise) {
+        if let Some(s) = fish.avoid_walls(p.wall_margin_lengths * l, cruise) {
             return Some(s);
         }
-        if let Some(s) =
-            world.steer_avoid_obstacles(id, p.obstacle_lookahead_lengths * l, 0.5 * l, cruise)
-        {
+        if let Some(s) = fish.avoid_obstacles(p.obstacle_lookahead_lengths * l, 0.5 * l, cruise) {
             return Some(s);
         }
         let mates = || percepts.iter().filter(|s| s.kind == PerceptKind::Fish);
@@ -150,7 +162,7 @@ impl WanderDriver {
         if let Some(s) = steer::cohesion(&agent, mates().map(|s| s.pos), cruise) {
             parts[2] = (s, 0.5);
         }
-        let rng = world.rng_mut(id)?;
+        let rng = controls.rng();
         let speed = cruise * rng.random_range(0.8..1.2);
         parts[3] = (
             steer::wander(
@@ -163,5 +175,11 @@ impl WanderDriver {
             1.0,
         );
         steer::blend(&parts)
+    }
+}
+
+impl Behavior for WanderDriver {
+    fn decide(&mut self, world: &mut Arc<World>) {
+        self.decide_due(exclusive(world));
     }
 }

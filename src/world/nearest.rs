@@ -9,7 +9,8 @@
 
 use glam::Vec3;
 
-use super::{FishId, Percept, PerceptKind, Seen, SpeciesId, World};
+use super::perception::Seen;
+use super::{FishId, Percept, PerceptKind, SpeciesId, World};
 
 /// Where [`World::nearest_seen`] looks for predators.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,9 +40,9 @@ impl World {
         kind: PerceptKind,
         species: Option<SpeciesId>,
     ) -> Option<Percept> {
-        let d = self.fish.dense(id)?;
+        let d = self.state.fish.dense(id)?;
         let seen = self.nearest_seen(d, kind, species, Route::Auto)?;
-        Some(self.percept_of(&self.fish.roots[d], seen))
+        Some(self.percept_of(&self.state.fish.roots[d], seen))
     }
 
     /// Fish of predator species now alive, in no particular order.
@@ -66,7 +67,7 @@ impl World {
         };
         match kind {
             PerceptKind::Fish | PerceptKind::Predator => {
-                let of_species = |o: usize| species.is_none_or(|s| self.fish.species[o] == s);
+                let of_species = |o: usize| species.is_none_or(|s| self.state.fish.species[o] == s);
                 let use_list = match route {
                     Route::Auto => {
                         kind == PerceptKind::Predator && self.predator_list_pays(view.range)
@@ -80,16 +81,16 @@ impl World {
                     // current, so its positions are the roots').
                     let r2 = view.range * view.range;
                     for &p in &self.predators {
-                        let Some(o) = self.fish.dense(p) else {
+                        let Some(o) = self.state.fish.dense(p) else {
                             continue;
                         };
                         if o == d
-                            || self.fish_kind(view.species, self.fish.species[o]) != kind
+                            || self.fish_kind(view.species, self.state.fish.species[o]) != kind
                             || !of_species(o)
                         {
                             continue;
                         }
-                        let pos = self.fish.roots[o].pos;
+                        let pos = self.state.fish.roots[o].pos;
                         let d2 = pos.distance_squared(view.pos);
                         if d2 <= r2 && view.cone.contains(pos) {
                             keep(Seen::new(d2.sqrt(), kind, p.index, o as u32));
@@ -115,17 +116,17 @@ impl World {
         if !(self.grid_exact && self.grid_positions_current && valid_range) {
             return false;
         }
-        let extent = self.tank.extent().max(Vec3::splat(1e-6));
+        let extent = self.state.tank.extent().max(Vec3::splat(1e-6));
         let side = 2.0 * range + self.grid.cell_size();
-        let scanned =
-            (Vec3::splat(side).min(extent) / extent).element_product() * self.fish.len() as f32;
+        let scanned = (Vec3::splat(side).min(extent) / extent).element_product()
+            * self.state.fish.len() as f32;
         2.0 * self.predators.len() as f32 <= scanned
     }
 
     /// Rebuilds the list of predator fish from the species' `predator` flags.
     pub(super) fn refresh_predators(&mut self) {
         self.predators.clear();
-        for (&id, &s) in self.fish.ids.iter().zip(&self.fish.species) {
+        for (&id, &s) in self.state.fish.ids.iter().zip(&self.state.fish.species) {
             if self.species[usize::from(s.0)].desc.predator {
                 self.predators.push(id);
             }
@@ -158,7 +159,7 @@ mod tests {
             .collect();
         for id in w.fish_ids() {
             w.vision(id, &mut vision);
-            let d = w.fish.dense(id).unwrap();
+            let d = w.state.fish.dense(id).unwrap();
             for kind in KINDS {
                 for &want in &filters {
                     let expected = vision
@@ -173,7 +174,7 @@ mod tests {
                     for &route in routes {
                         let got = w
                             .nearest_seen(d, kind, want, route)
-                            .map(|s| w.percept_of(&w.fish.roots[d], s));
+                            .map(|s| w.percept_of(&w.state.fish.roots[d], s));
                         assert_eq!(
                             format!("{got:?}"),
                             format!("{expected:?}"),

@@ -25,7 +25,7 @@ pub(crate) struct NewFish {
 }
 
 /// The fish arrays. Fields are dense and parallel: entry `i` of each belongs to the same fish.
-#[derive(Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct FishStore {
     generation: Vec<u32>,
     dense_of: Vec<u32>,

@@ -85,7 +85,7 @@ pub fn random_scene(seed: u64, fish: usize) -> Scene {
             rng.random_range(tank.min.z..tank.max.z),
         ));
         if k % 5 == 0 {
-            world.foods[f.0 as usize].eaten = true;
+            world.take_food(f, None);
         }
     }
     for _ in 0..3 {

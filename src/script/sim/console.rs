@@ -1,0 +1,204 @@
+//! What a simulation reports: inspector lines of a fish, its script table as JSON, the console
+//! log of every lane, and the errors so far.
+
+use mlua::{Table, Value};
+
+use super::Simulation;
+use crate::script::log::{LogEntry, LogLevel};
+use crate::world::FishId;
+
+impl Simulation {
+    /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,
+    /// root state, the intention and percepts its behaviour produced last, its memory and its
+    /// last script error.
+    pub fn inspect(&self, id: FishId) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let w = self.sim.world();
+        let Some(root) = w.root(id) else {
+            out.push(("fish".into(), format!("{id:?} does not exist")));
+            return out;
+        };
+        let sid = w.species_of(id);
+        out.push((
+            "fish".into(),
+            format!("#{} (gen {})", id.index, id.generation),
+        ));
+        if let Some(s) = sid {
+            out.push(("species".into(), w.species(s).desc.name.clone()));
+        }
+        let host = &self.lane_of(id).host;
+        let behavior = match w.behavior_of(id) {
+            Some(name) => match host.quarantine_of(name) {
+                Some(why) => format!("{name} — switched off after {why}; save the file to retry"),
+                None => name.to_owned(),
+            },
+            None => "(none)".to_owned(),
+        };
+        out.push(("behavior".into(), behavior));
+        out.push((
+            "motion".into(),
+            format!(
+                "{} (+{} queued)",
+                w.current_motion(id).unwrap_or("idle"),
+                w.queue_len(id).unwrap_or(0)
+            ),
+        ));
+        out.push((
+            "pos".into(),
+            format!("{:.1}, {:.1}, {:.1}", root.pos.x, root.pos.y, root.pos.z),
+        ));
+        out.push((
+            "heading".into(),
+            format!("{:.1}°", root.heading.to_degrees()),
+        ));
+        out.push(("speed".into(), format!("{:.1}", root.speed)));
+        out.push((
+            "depth".into(),
+            format!("{:.1}", w.tank().depth_of(root.pos.y)),
+        ));
+        if let Some(t) = host.existing_fish_table(id) {
+            let intention: Value = t.raw_get("intention").unwrap_or(Value::Nil);
+            out.push(("intention".into(), short(&intention)));
+            if let Ok(Value::Table(p)) = t.raw_get::<Value>("percepts") {
+                for (k, v) in sorted_pairs(&p) {
+                    out.push((format!("percept.{k}"), short(&v)));
+                }
+            }
+            if let Ok(Value::Table(m)) = t.raw_get::<Value>("memory") {
+                for (k, v) in sorted_pairs(&m) {
+                    out.push((format!("memory.{k}"), short(&v)));
+                }
+            }
+        }
+        if let Some(e) = host.fish_error(id) {
+            out.push(("error".into(), e.to_owned()));
+        }
+        out
+    }
+
+    /// Behaviours switched off after repeated failures (see [`ScriptHost::quarantine_of`]), with
+    /// why, in any lane.
+    pub fn switched_off(&self) -> Vec<(String, String)> {
+        let mut out: Vec<(String, String)> = Vec::new();
+        for lane in &self.sim.behavior.lanes {
+            for (name, _) in &lane.module_of {
+                if let Some(why) = lane.host.quarantine_of(name)
+                    && !out.iter().any(|(n, _)| n == name)
+                {
+                    out.push((name.clone(), why.to_owned()));
+                }
+            }
+        }
+        out
+    }
+
+    /// A fish's memory table as JSON.
+    pub fn memory_json(&self, id: FishId) -> serde_json::Value {
+        self.lane_of(id).host.memory_json(id)
+    }
+
+    /// A field of a fish's script table as JSON — `intention` and `percepts` are what its
+    /// behaviour produced at its last decision (as [`Simulation::inspect`] shows them); null when
+    /// unset or before the fish's first decision.
+    pub fn script_field_json(&self, id: FishId, key: &str) -> serde_json::Value {
+        self.lane_of(id)
+            .host
+            .existing_fish_table(id)
+            .and_then(|t| t.raw_get::<Value>(key).ok())
+            .map_or(serde_json::Value::Null, |v| {
+                crate::script::host::value_to_json(&v, 0)
+            })
+    }
+
+    /// Console entries logged since the last call, from every lane, oldest first: each distinct
+    /// error or warning once (an error every lane logged — a file failing to load, a runaway
+    /// behaviour that fish of two lanes run — appears once, with the first fish), each notice no
+    /// fish gave once, and every print of a fish.
+    pub fn drain_log(&mut self) -> Vec<LogEntry> {
+        let mut all: Vec<LogEntry> = Vec::new();
+        for lane in &mut self.sim.behavior.lanes {
+            for e in lane.host.drain_log() {
+                // Every lane loads the same files, so what no fish said (a host notice, a print
+                // at a module's top level) comes once per lane: keep one. Errors and warnings are
+                // kept once whichever fish hit them; a fish's prints all stay.
+                let seen = all.iter().any(|a| {
+                    a.level == e.level
+                        && a.message == e.message
+                        && (e.level != LogLevel::Info || (a.fish.is_none() && e.fish.is_none()))
+                });
+                if !seen {
+                    all.push(e);
+                }
+            }
+        }
+        // Stable: a lane's entries of one tick keep their order.
+        all.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        all
+    }
+
+    /// Every distinct script error so far (`file:line: message`), lane by lane, oldest first.
+    pub fn error_messages(&self) -> Vec<String> {
+        let mut all: Vec<String> = Vec::new();
+        for lane in &self.sim.behavior.lanes {
+            for m in lane.host.error_messages() {
+                if !all.contains(m) {
+                    all.push(m.clone());
+                }
+            }
+        }
+        all
+    }
+
+    /// Script files that currently fail to load, with their errors (shown until fixed).
+    pub fn load_errors(&self) -> Vec<(String, String)> {
+        let mut all = std::collections::BTreeMap::new();
+        for lane in &self.sim.behavior.lanes {
+            for (k, v) in lane.host.load_errors() {
+                all.entry(k.clone()).or_insert_with(|| v.clone());
+            }
+        }
+        all.into_iter().collect()
+    }
+}
+
+fn sorted_pairs(t: &Table) -> Vec<(String, Value)> {
+    let mut v: Vec<(String, Value)> = t
+        .pairs::<Value, Value>()
+        .flatten()
+        .map(|(k, v)| (short(&k), v))
+        .collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v.truncate(32);
+    v
+}
+
+/// A value in a few characters: numbers to 2 decimals, tables shallowly.
+fn short(v: &Value) -> String {
+    match v {
+        Value::Nil => "nil".into(),
+        Value::Boolean(b) => b.to_string(),
+        Value::Integer(i) => i.to_string(),
+        Value::Number(n) => format!("{n:.2}"),
+        Value::String(s) => s.to_string_lossy(),
+        Value::Table(t) => {
+            let mut parts: Vec<String> = t
+                .pairs::<Value, Value>()
+                .flatten()
+                .take(8)
+                .map(|(k, v)| {
+                    let v = match &v {
+                        Value::Table(_) => "{…}".to_owned(),
+                        other => short(other),
+                    };
+                    match k {
+                        Value::Integer(_) => v,
+                        k => format!("{}={v}", short(&k)),
+                    }
+                })
+                .collect();
+            parts.sort();
+            format!("{{{}}}", parts.join(", "))
+        }
+        other => other.type_name().to_owned(),
+    }
+}

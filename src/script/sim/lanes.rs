@@ -1,0 +1,270 @@
+//! The behaviour stage of a Lua simulation: [`Scripts`], script lanes running the decisions due
+//! this tick in parallel against the shared world.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::SpeciesSlot;
+use crate::script::api::{self, Ctx};
+use crate::script::error::{ScriptError, describe};
+use crate::script::host::{ModuleIndex, ScriptHost};
+use crate::script::log::LogLevel;
+use crate::script::sandbox::Limits;
+use crate::world::tick::exclusive;
+use crate::world::{Behavior, FishControls, FishId, FoodId, World};
+
+/// A decision due this tick, in the lane of its fish.
+struct Due {
+    id: FishId,
+    /// Position in this tick's decision order (all lanes).
+    order: u32,
+    /// The fish's controls while it decides (checked out of the world).
+    controls: FishControls,
+}
+
+/// The lane's module for `behavior`, loading it on first use.
+fn module_for(
+    module_of: &mut Vec<(String, Option<ModuleIndex>)>,
+    host: &mut ScriptHost,
+    behavior: &str,
+    time_s: f64,
+) -> Option<ModuleIndex> {
+    if let Some((_, m)) = module_of.iter().find(|(name, _)| name == behavior) {
+        return *m;
+    }
+    let m = host.module(behavior, time_s);
+    module_of.push((behavior.to_owned(), m));
+    m
+}
+
+/// One script lane: a Lua state with its own copy of the behaviour modules, running the decisions
+/// of the fish whose slot index ≡ the lane's number (mod the number of lanes).
+pub(super) struct Lane {
+    pub(super) host: ScriptHost,
+    /// Behaviour name → the lane's module (`None`: it failed to load). A handful of entries,
+    /// searched linearly.
+    pub(super) module_of: Vec<(String, Option<ModuleIndex>)>,
+    due: Vec<Due>,
+    /// `due.len()` entries are live; the rest keep their buffers for later ticks.
+    num_due: usize,
+    /// Pellets bitten this stage: (decision order, fish, pellet).
+    claims: Vec<(u32, FishId, FoodId)>,
+    /// Sensor nanoseconds and total nanoseconds of the lane's last stage.
+    perception_ns: u64,
+    total_ns: u64,
+    /// Decisions the lane's last stage ran.
+    decided: u64,
+}
+
+impl Lane {
+    pub(super) fn new(scripts_dir: &Path, limits: Limits) -> Result<Self, ScriptError> {
+        Self::with_host(ScriptHost::new(scripts_dir, limits)?)
+    }
+
+    /// A lane around `host`, with the `shoal` API registered in it.
+    pub(super) fn with_host(host: ScriptHost) -> Result<Self, ScriptError> {
+        api::register(host.lua()).map_err(|e| ScriptError::Lua(describe(&e)))?;
+        Ok(Self {
+            host,
+            module_of: Vec::new(),
+            due: Vec::new(),
+            num_due: 0,
+            claims: Vec::new(),
+            perception_ns: 0,
+            total_ns: 0,
+            decided: 0,
+        })
+    }
+
+    /// Queues a decision (reusing a buffer of an earlier tick).
+    fn push(&mut self, id: FishId, order: u32) {
+        if let Some(d) = self.due.get_mut(self.num_due) {
+            d.id = id;
+            d.order = order;
+        } else {
+            self.due.push(Due {
+                id,
+                order,
+                controls: FishControls::default(),
+            });
+        }
+        self.num_due += 1;
+    }
+
+    /// Runs the queued decisions against the shared world, one after another.
+    fn run(&mut self, world: &Arc<World>, time_s: f64) {
+        let start = Instant::now();
+        let lua = self.host.lua().clone();
+        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+            c.perception_ns = 0;
+            c.claims.clear();
+        }
+        self.claims.clear();
+        let host = &mut self.host;
+        let module_of = &mut self.module_of;
+        let decided = &mut self.decided;
+        *decided = 0;
+        let due = &mut self.due[..self.num_due];
+        let claims = &mut self.claims;
+        let result = (|| {
+            host.set_stage(Some((time_s, world)))?;
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.world = Some(Arc::clone(world));
+            }
+            for d in due.iter_mut() {
+                // The fish's module and table are found here, in the lane's thread.
+                let (Some(behavior), Some(sid)) = (world.behavior_of(d.id), world.species_of(d.id))
+                else {
+                    continue;
+                };
+                let Some(module) = module_for(module_of, host, behavior, time_s) else {
+                    continue;
+                };
+                if host.is_switched_off(module) {
+                    // Quarantined: the fish keeps its last motion, at no cost.
+                    continue;
+                }
+                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                    c.fish = Some(d.id);
+                    c.percepts_of = None;
+                    std::mem::swap(&mut c.controls, &mut d.controls);
+                }
+                let species = &world.species(sid).desc.name;
+                let failed = host
+                    .run_fish(module, d.id, species, behavior, time_s)
+                    .is_err();
+                host.count_outcome(module, failed, time_s);
+                *decided += 1;
+                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                    std::mem::swap(&mut c.controls, &mut d.controls);
+                    let order = d.order;
+                    claims.extend(c.claims.drain(..).map(|(f, food)| (order, f, food)));
+                }
+            }
+            if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+                c.fish = None;
+                c.percepts_of = None;
+                c.world = None;
+            }
+            host.set_stage(None)
+        })();
+        if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+            // Let go of the world even if the stage stopped half-way.
+            c.world = None;
+            c.fish = None;
+        }
+        if let Err(e) = result {
+            self.host.log(
+                LogLevel::Error,
+                &format!("script host: {}", describe(&e)),
+                None,
+                time_s,
+            );
+        }
+        self.perception_ns = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+        self.total_ns = start.elapsed().as_nanos() as u64;
+    }
+}
+
+/// The lane fish `id` decides in, of `lanes`: a hash of its slot index, not the index itself —
+/// the fish due on one tick share their index modulo the decision period (fish `i` decides when
+/// `(tick + i) % period == 0`), so `i % lanes` would put a whole tick's decisions in one lane.
+pub fn lane_index(id: FishId, lanes: usize) -> usize {
+    let h = id.index.wrapping_mul(0x9E37_79B9) >> 16;
+    h as usize % lanes.max(1)
+}
+
+/// Default number of script lanes: one per rayon thread (at most 16).
+pub fn default_lanes() -> usize {
+    rayon::current_num_threads().clamp(1, 16)
+}
+
+/// The scripts of a simulation as the tick's behaviour stage: the script lanes, and each
+/// species' decision period.
+pub struct Scripts {
+    /// Script lanes; lane 0 also reads data files and reports load errors.
+    pub(super) lanes: Vec<Lane>,
+    /// Per species: its file and decision period.
+    pub(super) species: Vec<SpeciesSlot>,
+}
+
+impl Behavior for Scripts {
+    /// Runs the behaviour scripts of the fish whose staggered slot is due this tick, in the
+    /// script lanes (see the module docs of `script::sim`).
+    fn decide(&mut self, world: &mut Arc<World>) {
+        use rayon::prelude::*;
+        let start = Instant::now();
+        let tick = world.tick_count();
+        let time_s = world.time();
+        let num_lanes = self.lanes.len();
+        for lane in &mut self.lanes {
+            lane.num_due = 0;
+        }
+        // Only picking the fish is sequential; each lane finds their modules and tables.
+        let mut order = 0u32;
+        for id in world.fish_ids() {
+            let Some(sid) = world.species_of(id) else {
+                continue;
+            };
+            let period = self
+                .species
+                .get(usize::from(sid.0))
+                .map_or(6, |s| s.period_ticks);
+            if !(tick + u64::from(id.index)).is_multiple_of(period)
+                || world.behavior_of(id).is_none()
+            {
+                continue;
+            }
+            self.lanes[lane_index(id, num_lanes)].push(id, order);
+            order += 1;
+        }
+        for lane in &mut self.lanes {
+            for d in &mut lane.due[..lane.num_due] {
+                exclusive(world).check_out(d.id, &mut d.controls);
+            }
+        }
+        let shared: &Arc<World> = world;
+        let busy = self.lanes.iter().filter(|l| l.num_due > 0).count();
+        if busy > 1 {
+            self.lanes
+                .par_iter_mut()
+                .with_max_len(1)
+                .for_each(|lane| lane.run(shared, time_s));
+        } else {
+            for lane in &mut self.lanes {
+                lane.run(shared, time_s);
+            }
+        }
+        let mut claims = Vec::new();
+        let (mut perception, mut lanes_total, mut decisions) = (0u64, 0u64, 0u64);
+        for lane in &mut self.lanes {
+            for d in &mut lane.due[..lane.num_due] {
+                exclusive(world).check_in(d.id, &mut d.controls);
+            }
+            claims.append(&mut lane.claims);
+            perception += lane.perception_ns;
+            lanes_total += lane.total_ns;
+            decisions += lane.decided;
+        }
+        // Bites in decision order: the first fish to bite a pellet this tick eats it.
+        claims.sort_by_key(|c| c.0);
+        for (_, fish, food) in claims {
+            exclusive(world).try_eat(fish, food);
+        }
+        // The stage's wall time, split between sensing and Lua as the lanes' CPU time was.
+        let total = start.elapsed().as_nanos() as u64;
+        let perception_wall = if lanes_total > 0 {
+            (u128::from(total) * u128::from(perception) / u128::from(lanes_total)) as u64
+        } else {
+            0
+        };
+        let c = exclusive(world).counters_mut();
+        c.perception_ns = perception_wall.min(total);
+        c.lua_ns = total.saturating_sub(c.perception_ns);
+        // Each lane runs on one thread, so its time is (all but preemption) CPU time.
+        c.decisions = decisions;
+        c.sense_cpu_ns = perception;
+        c.decide_cpu_ns = lanes_total.saturating_sub(perception);
+    }
+}

@@ -1,0 +1,296 @@
+//! Who is in the tank: spawning and despawning fish, dropping and eating food, rocks and
+//! current zones, and the per-fish arrays read back in dense order.
+
+use std::f32::consts::TAU;
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+use super::sense::wrap_angle;
+use super::state::EATEN_HISTORY;
+use super::store::NewFish;
+use super::types::{finite, finite3};
+use super::{
+    Current, EAT_REACH_LENGTHS, FishId, Food, FoodId, Obstacle, ObstacleId, SpawnParams, SpeciesId,
+    World, WorldError,
+};
+use crate::motion::{MotionPlayer, MotionRequest, RootState};
+
+impl World {
+    // ---- fish -------------------------------------------------------------------------------
+
+    /// Spawns a fish. Fails on an unknown or invalid species, a NaN or infinite value (naming
+    /// it), a negative speed, or a position outside the tank.
+    pub fn spawn(&mut self, p: SpawnParams) -> Result<FishId, WorldError> {
+        let species = self
+            .species
+            .get(usize::from(p.species.0))
+            .ok_or(WorldError::UnknownSpecies(p.species))?;
+        species.validate()?;
+        finite3(["spawn pos.x", "spawn pos.y", "spawn pos.z"], p.pos)?;
+        finite("spawn heading", p.heading)?;
+        finite("spawn pitch", p.pitch)?;
+        finite("spawn speed", p.speed)?;
+        if p.speed < 0.0 {
+            return Err(WorldError::OutOfRange {
+                what: "spawn speed",
+                value: p.speed,
+                why: "must not be negative",
+            });
+        }
+        if !self.state.tank.contains(p.pos) {
+            return Err(WorldError::OutsideTank {
+                what: "spawn pos",
+                pos: p.pos,
+                min: self.state.tank.min,
+                max: self.state.tank.max,
+            });
+        }
+        // Each fish's wave starts at its own phase (from its seed) so a shoal does not beat in
+        // lockstep.
+        let phase = Pcg32::seed_from_u64(p.seed ^ 0x005E_ED0F_F15E_u64).random::<f32>() * TAU;
+        let mut player = MotionPlayer::with_phase(phase);
+        if p.speed > 0.0 {
+            player.push(MotionRequest::Swim { speed: p.speed })?;
+        }
+        let joints = species.model.skeleton.num_joints() as u32;
+        let predator = species.desc.predator;
+        let id = self.state.fish.insert(NewFish {
+            root: RootState {
+                pos: p.pos,
+                heading: wrap_angle(p.heading),
+                pitch: p.pitch,
+                speed: p.speed,
+            },
+            species: p.species,
+            player,
+            behavior: p.behavior,
+            seed: p.seed,
+        });
+        let last = *self.palette_offsets.last().unwrap_or(&0);
+        self.palette_offsets.push(last + joints);
+        if predator {
+            self.predators.push(id);
+        }
+        self.spawned_since_grid.push(id);
+        self.grid_exact = false;
+        Ok(id)
+    }
+
+    /// Removes a fish. Returns false if `id` was already gone.
+    pub fn despawn(&mut self, id: FishId) -> bool {
+        if self.state.fish.remove(id).is_none() {
+            return false;
+        }
+        if let Some(k) = self.predators.iter().position(|&p| p == id) {
+            self.predators.swap_remove(k);
+        }
+        self.grid_exact = false;
+        self.spawned_since_grid.retain(|&f| f != id);
+        self.relayout_palettes();
+        true
+    }
+
+    pub(super) fn relayout_palettes(&mut self) {
+        self.palette_offsets.clear();
+        self.palette_offsets.push(0);
+        let mut total = 0u32;
+        for &s in &self.state.fish.species {
+            total += self.species[usize::from(s.0)].model.skeleton.num_joints() as u32;
+            self.palette_offsets.push(total);
+        }
+    }
+
+    /// Whether `id` names a live fish.
+    pub fn is_alive(&self, id: FishId) -> bool {
+        self.state.fish.dense(id).is_some()
+    }
+
+    /// Number of live fish.
+    pub fn num_fish(&self) -> usize {
+        self.state.fish.len()
+    }
+
+    /// Live fish in dense order (deterministic: spawn order, with a despawned fish's place taken
+    /// by the last one).
+    pub fn fish_ids(&self) -> impl Iterator<Item = FishId> + '_ {
+        self.state.fish.ids.iter().copied()
+    }
+
+    /// Live fish handles, dense order.
+    pub fn fish_id_slice(&self) -> &[FishId] {
+        &self.state.fish.ids
+    }
+
+    /// Root states of all live fish, dense order (same order as [`World::fish_ids`]).
+    pub fn roots(&self) -> &[RootState] {
+        &self.state.fish.roots
+    }
+
+    /// Species of all live fish, dense order.
+    pub fn fish_species(&self) -> &[SpeciesId] {
+        &self.state.fish.species
+    }
+
+    /// A fish's root state.
+    pub fn root(&self, id: FishId) -> Option<&RootState> {
+        self.state.fish.dense(id).map(|d| &self.state.fish.roots[d])
+    }
+
+    /// A fish's species.
+    pub fn species_of(&self, id: FishId) -> Option<SpeciesId> {
+        self.state
+            .fish
+            .dense(id)
+            .map(|d| self.state.fish.species[d])
+    }
+
+    /// The behaviour script a fish runs.
+    pub fn behavior_of(&self, id: FishId) -> Option<&str> {
+        self.state
+            .fish
+            .dense(id)
+            .and_then(|d| self.state.fish.behaviors[d].as_deref())
+    }
+
+    /// Sets (or clears) the behaviour a fish runs. False if `id` is stale.
+    pub fn set_behavior(&mut self, id: FishId, behavior: Option<String>) -> bool {
+        let Some(d) = self.state.fish.dense(id) else {
+            return false;
+        };
+        self.state.fish.behaviors[d] = behavior;
+        true
+    }
+
+    // ---- food, obstacles, currents ----------------------------------------------------------
+
+    /// Drops a food pellet at `pos` (clamped into the tank; a non-finite coordinate becomes the
+    /// tank's centre on that axis).
+    pub fn add_food(&mut self, pos: Vec3) -> FoodId {
+        let tank = self.state.tank;
+        let centre = (tank.min + tank.max) * 0.5;
+        let pos = Vec3::select(pos.is_finite_mask(), pos, centre).clamp(tank.min, tank.max);
+        let id = FoodId(self.state.next_food);
+        self.state.next_food += 1;
+        self.state.foods.push((
+            id,
+            Food {
+                pos,
+                eaten: false,
+                eaten_by: None,
+                eaten_at: None,
+            },
+        ));
+        id
+    }
+
+    /// Where pellet `id` is in the water, if it is.
+    pub(super) fn food_index(&self, id: FoodId) -> Option<usize> {
+        self.state.foods.binary_search_by_key(&id, |(i, _)| *i).ok()
+    }
+
+    /// A food pellet: one in the water, or one of the last [`EATEN_HISTORY`] eaten (with who ate
+    /// it and when). `None` for an id never given, or a pellet eaten longer ago than that (see
+    /// [`World::was_eaten`]).
+    pub fn food(&self, id: FoodId) -> Option<&Food> {
+        if let Some(i) = self.food_index(id) {
+            return Some(&self.state.foods[i].1);
+        }
+        self.state
+            .eaten
+            .binary_search_by_key(&id, |(i, _)| *i)
+            .ok()
+            .map(|i| &self.state.eaten[i].1)
+    }
+
+    /// Whether pellet `id` was given out and has been eaten (however long ago).
+    pub fn was_eaten(&self, id: FoodId) -> bool {
+        id.0 < self.state.next_food && self.food_index(id).is_none()
+    }
+
+    /// The pellets in the water, in the order they were dropped.
+    pub fn foods(&self) -> impl Iterator<Item = (FoodId, &Food)> {
+        self.state.foods.iter().map(|(id, f)| (*id, f))
+    }
+
+    /// The last [`EATEN_HISTORY`] pellets eaten, in the order they were dropped.
+    pub fn eaten_foods(&self) -> impl Iterator<Item = (FoodId, &Food)> {
+        self.state.eaten.iter().map(|(id, f)| (*id, f))
+    }
+
+    /// Whether the fish could eat the pellet now: it is in the water and lies within
+    /// [`EAT_REACH_LENGTHS`] body lengths of the fish's mouth (its root).
+    pub fn can_eat(&self, fish: FishId, food: FoodId) -> bool {
+        let Some(d) = self.state.fish.dense(fish) else {
+            return false;
+        };
+        let reach = EAT_REACH_LENGTHS
+            * self.species[usize::from(self.state.fish.species[d].0)].body_length();
+        let mouth = self.state.fish.roots[d].pos;
+        self.food_index(food)
+            .is_some_and(|i| self.state.foods[i].1.pos.distance(mouth) <= reach)
+    }
+
+    /// The fish eats the pellet if [`World::can_eat`]: the pellet leaves the water (and the
+    /// food grid, which is searched linearly until the next [`World::rebuild_grid`]) and joins
+    /// the eaten history. Returns whether it ate.
+    pub fn try_eat(&mut self, fish: FishId, food: FoodId) -> bool {
+        if !self.can_eat(fish, food) {
+            return false;
+        }
+        self.take_food(food, Some(fish))
+    }
+
+    /// Takes pellet `food` out of the water into the eaten history (eaten by `by`, now).
+    /// False if it is not in the water.
+    pub(super) fn take_food(&mut self, food: FoodId, by: Option<FishId>) -> bool {
+        let Some(i) = self.food_index(food) else {
+            return false;
+        };
+        let (id, mut f) = self.state.foods.remove(i);
+        f.eaten = true;
+        f.eaten_by = by;
+        f.eaten_at = Some(self.state.time);
+        if self.state.eaten.len() == EATEN_HISTORY {
+            self.state.eaten.pop_front();
+        }
+        self.state.eaten.push_back((id, f));
+        // The grid's keys are positions in the list, which just shifted.
+        self.food_in_grid = 0;
+        true
+    }
+
+    /// Adds a spherical obstacle (non-finite or negative values are clamped to the tank centre
+    /// and radius 0).
+    pub fn add_obstacle(&mut self, pos: Vec3, radius: f32) -> ObstacleId {
+        let centre = (self.state.tank.min + self.state.tank.max) * 0.5;
+        let pos = Vec3::select(pos.is_finite_mask(), pos, centre);
+        let radius = if radius.is_finite() {
+            radius.max(0.0)
+        } else {
+            0.0
+        };
+        self.state.obstacles.push(Obstacle { pos, radius });
+        ObstacleId((self.state.obstacles.len() - 1) as u32)
+    }
+
+    /// All obstacles, by [`ObstacleId`].
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.state.obstacles
+    }
+
+    /// Adds a current zone (ignored if any value is not finite).
+    pub fn add_current(&mut self, c: Current) {
+        if c.pos.is_finite() && c.velocity.is_finite() && c.radius.is_finite() && c.radius > 0.0 {
+            self.state.currents.push(c);
+        } else {
+            log::warn!("ignoring current with non-finite or non-positive values: {c:?}");
+        }
+    }
+
+    /// All current zones.
+    pub fn currents(&self) -> &[Current] {
+        &self.state.currents
+    }
+}

@@ -1,0 +1,242 @@
+//! The Rust stages of a tick ([`super::tick::step`] runs them in order): motion, pose, grid.
+
+use std::ops::Range;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use glam::Mat4;
+
+use super::contact::{drift, resolve_contact};
+use super::sense::wrap_angle;
+use super::{FishId, MAX_DRIVEN_JOINTS, StageCounters, World, crowd, pose};
+use crate::motion::RootState;
+
+impl World {
+    // ---- the Rust stages of a tick ----------------------------------------------------------
+
+    /// Advances every fish by `dt` seconds (ignored unless finite and positive): motion players
+    /// (locomotion and the body wave), drift in current zones, then hard contact — each fish's
+    /// body (head, middle and tail along its heading) is pushed out of obstacles and back inside
+    /// the tank, with `contact` set — so no script can take a fish out of the tank or through a
+    /// rock. A motion step that yields a non-finite root is discarded (the fish keeps its last
+    /// root and stops). Timed into `motion_ns`.
+    pub fn step_motion(&mut self, dt: f32) {
+        if !(dt.is_finite() && dt > 0.0) {
+            return;
+        }
+        let start = Instant::now();
+        let species = &self.species;
+        let wave_tables = &self.wave_tables;
+        let tank = self.state.tank;
+        let obstacles = &self.state.obstacles;
+        let currents = &self.state.currents;
+        let fish = &mut self.state.fish;
+        use rayon::prelude::*;
+        let rejected: u64 = fish
+            .players
+            .par_iter_mut()
+            .zip(fish.roots.par_iter_mut())
+            .zip(fish.lateral.par_iter_mut())
+            .zip(fish.yaw.par_iter_mut())
+            .zip(fish.contact.par_iter_mut())
+            .zip(fish.species.par_iter())
+            .with_min_len(256)
+            .map(|(((((player, root), lateral), yaw), contact), sid)| {
+                let sp = &species[usize::from(sid.0)];
+                let body = &sp.rig.body;
+                let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
+                let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
+                let before = *root;
+                // The table was built from this species' params and body when it was added or
+                // replaced (species change no other way), so it matches without a check.
+                let table = &wave_tables[usize::from(sid.0)];
+                debug_assert!(table.matches(&sp.desc.motion, body));
+                player.step_tabled(
+                    dt,
+                    &sp.desc.motion,
+                    body,
+                    table,
+                    root,
+                    &mut lateral[..samples],
+                    &mut yaw[..driven],
+                );
+                let mut rejected = 0;
+                if !(root.pos.is_finite()
+                    && root.heading.is_finite()
+                    && root.pitch.is_finite()
+                    && root.speed.is_finite())
+                {
+                    *root = RootState {
+                        speed: 0.0,
+                        ..before
+                    };
+                    rejected = 1;
+                }
+                if lateral[..samples]
+                    .iter()
+                    .chain(&yaw[..driven])
+                    .any(|v| !v.is_finite())
+                {
+                    lateral.fill(0.0);
+                    yaw.fill(0.0);
+                    rejected = 1;
+                }
+                root.heading = wrap_angle(root.heading);
+                root.pos += drift(currents, root.pos) * dt;
+                *contact = resolve_contact(root, sp.desc.motion.l, &tank, obstacles);
+                rejected
+            })
+            .sum();
+        if rejected > 0 {
+            if self.rejected_motion_steps == 0 {
+                log::warn!("{rejected} motion steps produced non-finite values and were discarded");
+            }
+            self.rejected_motion_steps += rejected;
+        }
+        self.grid_positions_current = false;
+        self.state.time += f64::from(dt);
+        self.state.tick += 1;
+        self.counters.motion_ns = start.elapsed().as_nanos() as u64;
+    }
+
+    /// Motion steps discarded because they produced NaN or infinity (a motion-layer bug).
+    pub fn rejected_motion_steps(&self) -> u64 {
+        self.rejected_motion_steps
+    }
+
+    /// Poses every fish: species rig → local transforms → forward kinematics from the fish's
+    /// placement (head at its root position, facing its heading and pitch) → skinning palette
+    /// (model × inverse bind pose), into [`World::palettes`]. Runs over both cores with rayon;
+    /// the result does not depend on the thread count. Timed into `skeleton_ns` and `palette_ns`
+    /// (the stage's wall time split in proportion to the threads' time in each half).
+    pub fn update_pose(&mut self) {
+        let start = Instant::now();
+        let total = *self.palette_offsets.last().unwrap_or(&0) as usize;
+        if self.palettes.len() != total {
+            self.palettes.resize(total, Mat4::IDENTITY);
+        }
+        let inputs = pose::PoseInputs {
+            plans: &self.pose_plans,
+            fish_species: &self.state.fish.species,
+            roots: &self.state.fish.roots,
+            yaw: &self.state.fish.yaw,
+            offsets: &self.palette_offsets,
+        };
+        let timing = pose::PoseTiming::default();
+        pose::run(
+            &inputs,
+            0,
+            self.state.fish.len(),
+            &mut self.palettes,
+            &timing,
+        );
+        let wall = start.elapsed().as_nanos() as u64;
+        let skel = timing.skeleton_ns.load(Ordering::Relaxed);
+        let pal = timing.palette_ns.load(Ordering::Relaxed);
+        let share = if skel + pal > 0 {
+            skel as f64 / (skel + pal) as f64
+        } else {
+            0.5
+        };
+        self.counters.skeleton_ns = (wall as f64 * share) as u64;
+        self.counters.palette_ns = wall - self.counters.skeleton_ns;
+    }
+
+    /// Rebuilds the spatial grid from the fish's current positions (and the food grid), with
+    /// cells of half the longest view range. Timed into `grid_ns`.
+    pub fn rebuild_grid(&mut self) {
+        let start = Instant::now();
+        let extent = self.state.tank.extent().max_element();
+        let view = self
+            .species
+            .iter()
+            .map(|s| s.desc.view_range)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .fold(0.0f32, f32::max);
+        // Half-range cells: a query visits ~2.5x its sphere's volume (full-range cells visit
+        // ~5x, and ~10x for the 300-unit crowd queries when a predator's 500-unit view sets the
+        // size). No smaller than 1/64 of the tank, so a tiny view range cannot explode the count.
+        let cell = if view > 0.0 {
+            (0.5 * view).max(extent / 64.0)
+        } else {
+            extent / 16.0
+        };
+        if (cell - self.grid.cell_size()).abs() > 1e-6 * cell {
+            self.grid
+                .configure(self.state.tank.min, self.state.tank.max, cell);
+            self.food_grid
+                .configure(self.state.tank.min, self.state.tank.max, cell);
+            self.food_in_grid = 0;
+        }
+        self.grid.rebuild(
+            self.state
+                .fish
+                .roots
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (i as u32, r.pos)),
+        );
+        self.grid_ids.clone_from(&self.state.fish.ids);
+        // What the crowding rules read per neighbour, copied into the grid's cell order so
+        // their scans read contiguous memory (see `crowd.rs`); the headings' cosines and sines
+        // (over both cores) only if crowd queries were made since the last rebuild.
+        let (roots, species) = (&self.state.fish.roots, &self.state.fish.species);
+        let keys = self.grid.keys();
+        self.grid_species.clear();
+        self.grid_species
+            .extend(keys.iter().map(|&k| species[k as usize]));
+        let wanted = self.crowd_wanted.swap(false, Ordering::Relaxed);
+        self.grid_heading.clear();
+        if wanted {
+            use rayon::prelude::*;
+            self.grid_heading.resize(keys.len(), glam::Vec2::ZERO);
+            self.grid_heading
+                .par_iter_mut()
+                .zip(keys.par_iter())
+                .with_min_len(1024)
+                .for_each(|(out, &k)| *out = crowd::heading_vector(roots[k as usize].heading));
+        }
+        self.grid_exact = true;
+        self.grid_positions_current = true;
+        self.spawned_since_grid.clear();
+        if self.food_in_grid != self.state.foods.len() {
+            self.food_grid.rebuild(
+                self.state
+                    .foods
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (_, f))| (i as u32, f.pos)),
+            );
+            self.food_in_grid = self.state.foods.len();
+        }
+        self.counters.grid_ns = start.elapsed().as_nanos() as u64;
+    }
+
+    /// World-space skinning palettes of every fish, fish after fish (dense order), joint after
+    /// joint; valid after [`World::update_pose`].
+    pub fn palettes(&self) -> &[Mat4] {
+        &self.palettes
+    }
+
+    /// The fish's range in [`World::palettes`].
+    pub fn palette_range(&self, id: FishId) -> Option<Range<usize>> {
+        let d = self.state.fish.dense(id)?;
+        let range = self.palette_offsets[d] as usize..self.palette_offsets[d + 1] as usize;
+        (range.end <= self.palettes.len()).then_some(range)
+    }
+
+    /// Palette start of each fish (dense order) plus the total at the end.
+    pub fn palette_offsets(&self) -> &[u32] {
+        &self.palette_offsets
+    }
+
+    /// Timings of the last tick's stages.
+    pub fn counters(&self) -> &StageCounters {
+        &self.counters
+    }
+
+    /// Timings, for the stages timed outside the world (perception, Lua).
+    pub fn counters_mut(&mut self) -> &mut StageCounters {
+        &mut self.counters
+    }
+}
