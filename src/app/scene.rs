@@ -78,7 +78,6 @@ pub struct WorldScene<S: Sim> {
     selected: Option<FishId>,
     accumulator_s: f64,
     step_ms: f32,
-    look: Look,
     hot_reload: bool,
     reload_log: Vec<String>,
 }
@@ -111,7 +110,6 @@ impl<S: Sim> WorldScene<S> {
             selected: None,
             accumulator_s: 0.0,
             step_ms: 0.0,
-            look: Look::default(),
             hot_reload: false,
             reload_log: Vec::new(),
         };
@@ -149,11 +147,6 @@ impl<S: Sim> WorldScene<S> {
     /// The world being shown.
     pub fn world(&self) -> &World {
         self.sim.world()
-    }
-
-    /// Water and light settings used by [`WorldScene::frame_input`].
-    pub fn set_look(&mut self, look: Look) {
-        self.look = look;
     }
 
     fn rebuild_instances(&mut self) {
@@ -259,7 +252,7 @@ impl<S: Sim> WorldScene<S> {
             time_s: w.time() as f32,
             props: &self.props,
             overlay: &[],
-            look: self.look,
+            look: Look::default(),
         }
     }
 

@@ -211,15 +211,6 @@ impl TestFish {
         self.inverse_bind.len()
     }
 
-    /// Radius of a sphere around the body's middle (x = −length/2) that holds the whole fish.
-    pub fn bounding_radius(&self) -> f32 {
-        let c = Vec3::new(-self.length * 0.5, 0.0, 0.0);
-        self.positions
-            .iter()
-            .map(|p| (Vec3::from(*p) - c).length())
-            .fold(0.0, f32::max)
-    }
-
     /// The mesh as a renderer upload.
     pub fn upload(&self) -> MeshUpload<'_> {
         MeshUpload {

@@ -180,7 +180,6 @@ struct Attachments {
 pub struct Renderer {
     color_format: wgpu::TextureFormat,
     sample_count: u32,
-    sources: ShaderSources,
     scene_layout: wgpu::BindGroupLayout,
     material_layout: wgpu::BindGroupLayout,
     readback_layout: wgpu::BindGroupLayout,
@@ -318,7 +317,6 @@ impl Renderer {
         Ok(Self {
             color_format,
             sample_count,
-            sources,
             scene_layout,
             material_layout,
             readback_layout,
@@ -368,11 +366,6 @@ impl Renderer {
         self.lod_tolerance_px = tolerance_px.max(0.0);
     }
 
-    /// The shader sources now in use.
-    pub fn shader_sources(&self) -> &ShaderSources {
-        &self.sources
-    }
-
     /// Rebuilds every pipeline from `sources`. On a WGSL or pipeline error, returns it and keeps
     /// drawing with the previous pipelines (never panics on bad shader text).
     pub fn reload_shaders(&mut self, gpu: &Gpu, sources: ShaderSources) -> Result<(), RenderError> {
@@ -389,7 +382,6 @@ impl Renderer {
             self.sample_count,
         )?;
         self.pipelines = pipelines;
-        self.sources = sources;
         Ok(())
     }
 

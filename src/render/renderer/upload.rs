@@ -146,11 +146,6 @@ impl Renderer {
             .map(|m| m.levels.as_slice())
     }
 
-    /// A mesh's bind-space bounding sphere, as used for culling.
-    pub fn mesh_bounds(&self, mesh: MeshId) -> Option<MeshBounds> {
-        self.meshes.get(mesh.0 as usize).map(|m| m.bounds)
-    }
-
     /// Number of joints a mesh's vertices refer to (its highest joint index + 1).
     pub fn mesh_num_joints(&self, mesh: MeshId) -> Option<u32> {
         self.meshes.get(mesh.0 as usize).map(|m| m.num_joints)
