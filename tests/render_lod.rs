@@ -362,12 +362,12 @@ fn skin(mesh: &MeshUpload<'_>, i: usize, palette: &[Mat4]) -> Vec3 {
 /// The turn fish `fish` is made to start at second `second` of [`worst_bend`]'s three: quick
 /// and normal turns of 90° and 180°, to both sides.
 fn hard_turn(fish: usize, second: usize) -> MotionRequest {
-    let kind = if fish % 2 == 0 {
+    let kind = if fish.is_multiple_of(2) {
         TurnKind::Quick
     } else {
         TurnKind::Normal
     };
-    let side = if (fish / 2 + second) % 2 == 0 {
+    let side = if (fish / 2 + second).is_multiple_of(2) {
         Side::Left
     } else {
         Side::Right
