@@ -10,8 +10,9 @@
 //! | Motion (eq. 2–7, Table 1) | [`motion`] |
 //! | Skeletal (section 3.2) | [`skeleton`] |
 //! | Skin mesh (eq. 1) | [`skin`], assets built by [`asset`] |
-//! | Animation | [`render`] |
+//! | Animation | [`render`] (drawing), [`app`] (the window and its panel) |
 
+pub mod app;
 pub mod asset;
 pub mod cli;
 pub mod motion;

@@ -126,8 +126,12 @@ fn bad_arguments_are_errors_that_say_why() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("WIDTHxHEIGHT"));
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.json");
-    std::fs::write(&scene, r#"{"tank": {"min": [0, 0, 0], "max": [-1, 5, 5]}}"#).unwrap();
+    let scene = dir.path().join("scene.lua");
+    std::fs::write(
+        &scene,
+        "return { tank = { min = {0, 0, 0}, max = {-1, 5, 5} }, fish = {} }\n",
+    )
+    .unwrap();
     let out = shoal(&[
         "render",
         "--scene",
@@ -138,14 +142,30 @@ fn bad_arguments_are_errors_that_say_why() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("scene.json") && stderr.contains("tank"),
+        stderr.contains("scene.lua") && stderr.contains("tank"),
         "{stderr}"
     );
 }
 
+/// `--scene demo` (retired) and other unknown names are refused with the scenes there are.
+#[test]
+fn an_unknown_scene_names_the_scenes_there_are() {
+    for name in ["demo", "no_such_scene"] {
+        let out = shoal(&["render", "--scene", name, "--out", "x.png"]);
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains(&format!("no scene `{name}`"))
+                && stderr.contains("porgies")
+                && stderr.contains("default"),
+            "{stderr}"
+        );
+    }
+}
+
 /// `shoal bench render` prints, per fish count, the draw calls, the fish drawn and culled, the
-/// fish per level of detail and the triangles submitted, which add up: every fish of the demo
-/// is in view, each drawn at one level, and the triangles are those of the levels in use plus
+/// fish per level of detail and the triangles submitted, which add up: every fish of the bench
+/// world is in view, each drawn at one level, and the triangles are those of the levels in use plus
 /// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail.
 #[test]
 fn bench_render_reports_triangles_per_frame() {

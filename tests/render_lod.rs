@@ -3,28 +3,24 @@
 //! over the same vertices, a far fish gets a coarser level than a near one, and the culling
 //! sphere holds the whole skinned fish however the motion layer bends it.
 
-use std::path::PathBuf;
+mod common;
 
 use glam::{Mat4, Quat, Vec3};
+use shoal::motion::{Body, MotionParams, MotionPlayer, MotionRequest, RootState, Side, TurnKind};
 use shoal::render::lod::{LOD_TRIANGLE_RATIO, MIN_TRIANGLES_FOR_LODS};
 use shoal::render::testmesh::TestFish;
 use shoal::render::{
-    Camera, DemoMesh, DemoRig, DemoScene, DemoSceneConfig, FishInstance, FrameInput, Gpu, Look,
-    MAX_LODS, MeshBounds, MeshId, MeshLods, MeshUpload, OffscreenTarget, Renderer, SceneDriver,
-    TankBounds,
+    Camera, FishInstance, FrameInput, Gpu, Look, MAX_LODS, MeshBounds, MeshId, MeshLods,
+    MeshUpload, OffscreenTarget, Renderer, TankBounds,
 };
-use shoal::species::SpeciesDesc;
+use shoal::world::{Species, SpeciesDesc};
 
 fn gpu() -> Gpu {
     Gpu::headless().expect("a GPU adapter (lavapipe in CI: apt install mesa-vulkan-drivers)")
 }
 
-fn porgy() -> DemoRig {
-    DemoRig::asset(
-        &SpeciesDesc::black_porgy(),
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb"),
-    )
-    .expect("the generated porgy asset loads and binds")
+fn porgy() -> common::PosedPorgy {
+    common::PosedPorgy::load()
 }
 
 /// One fish of `fish` straight (all yaws 0) with its root (snout) at `pos`, facing +x.
@@ -292,8 +288,7 @@ fn a_far_fish_uses_a_coarser_level_than_a_near_one() {
     let rig = porgy();
     let mesh = renderer.upload_mesh(&gpu, &rig.upload()).unwrap();
     let nj = rig.num_joints();
-    let mut scratch = rig.scratch();
-    let yaw = vec![0.1; rig.body().num_joints()];
+    let yaw = vec![0.1; rig.rig.body.num_joints()];
     let camera = Camera {
         target: Vec3::new(0.0, 100.0, 0.0),
         yaw_rad: 0.0,
@@ -307,10 +302,9 @@ fn a_far_fish_uses_a_coarser_level_than_a_near_one() {
     };
     let mut palettes = vec![Mat4::IDENTITY; 2 * nj];
     for (k, d) in [70.0, 2_500.0].into_iter().enumerate() {
-        rig.write_palette(
+        rig.palette(
             Mat4::from_rotation_translation(Quat::IDENTITY, place(d)),
             &yaw,
-            &mut scratch,
             &mut palettes[k * nj..(k + 1) * nj],
         );
     }
@@ -365,46 +359,33 @@ fn skin(mesh: &MeshUpload<'_>, i: usize, palette: &[Mat4]) -> Vec3 {
         .sum()
 }
 
-/// Largest distance of a skinned vertex from the culling sphere's centre, in culling radii,
-/// over three seconds of a demo scene of `mesh` whose eight fish are made to do quick and normal
-/// turns of 90° and 180° every second, to both sides.
-fn worst_bend(mesh: DemoMesh, rig: &DemoRig) -> f32 {
-    use shoal::motion::{MotionRequest, Side, TurnKind};
-    let mut scene = DemoScene::new(DemoSceneConfig {
-        fish: 8,
-        mesh,
-        ..DemoSceneConfig::default()
-    });
-    assert_eq!(rig.num_joints(), scene.rig().num_joints());
-    let upload = rig.upload();
+/// The turn fish `fish` is made to start at second `second` of [`worst_bend`]'s three: quick
+/// and normal turns of 90° and 180°, to both sides.
+fn hard_turn(fish: usize, second: usize) -> MotionRequest {
+    let kind = if fish.is_multiple_of(2) {
+        TurnKind::Quick
+    } else {
+        TurnKind::Normal
+    };
+    let side = if (fish / 2 + second).is_multiple_of(2) {
+        Side::Left
+    } else {
+        Side::Right
+    };
+    let angle = std::f32::consts::PI * if fish % 4 < 2 { 1.0 } else { 0.5 };
+    MotionRequest::Turn { kind, angle, side }
+}
+
+/// Largest distance of a skinned vertex of `upload` from its culling sphere's centre, in culling
+/// radii, over the frames `palettes` yields (each frame: every fish's palette).
+fn worst_of(upload: &MeshUpload, frames: impl Iterator<Item = Vec<Vec<Mat4>>>) -> f32 {
     let bounds = MeshBounds::from_positions(upload.positions);
     let mut worst = 0.0f32;
-    for step in 0..90 {
-        if step % 30 == 0 {
-            for fish in 0..8 {
-                let kind = if fish % 2 == 0 {
-                    TurnKind::Quick
-                } else {
-                    TurnKind::Normal
-                };
-                let side = if (fish / 2 + step / 30) % 2 == 0 {
-                    Side::Left
-                } else {
-                    Side::Right
-                };
-                let angle = std::f32::consts::PI * if fish % 4 < 2 { 1.0 } else { 0.5 };
-                scene
-                    .request_motion(fish, MotionRequest::Turn { kind, angle, side })
-                    .unwrap();
-            }
-        }
-        scene.step(1.0 / 30.0);
-        let input = scene.frame_input();
-        for inst in input.instances {
-            let palette = &input.palettes[inst.palette_offset as usize..];
+    for frame in frames {
+        for palette in &frame {
             let (sphere, _) = bounds.world_sphere(&palette[0]);
             for i in 0..upload.positions.len() {
-                let d = skin(&upload, i, palette).distance(sphere.center);
+                let d = skin(upload, i, palette).distance(sphere.center);
                 worst = worst.max(d / sphere.radius);
             }
         }
@@ -412,16 +393,97 @@ fn worst_bend(mesh: DemoMesh, rig: &DemoRig) -> f32 {
     worst
 }
 
+/// Largest skinned distance / culling radius of eight porgies in the world (the motion and pose
+/// stages of the tick, no behaviour) made to turn hard every second for three seconds.
+fn worst_bend_porgy() -> f32 {
+    let assets = common::repo().join("assets");
+    let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("porgy loads");
+    let mut world = shoal::world::bench::bench_world(species, 8, 1).unwrap();
+    let rig = porgy();
+    let upload = rig.upload();
+    let frames = (0..90).map(|step| {
+        if step % 30 == 0 {
+            let ids: Vec<_> = world.fish_ids().collect();
+            for (fish, id) in ids.into_iter().enumerate() {
+                world.request(id, hard_turn(fish, step / 30), true).unwrap();
+            }
+        }
+        // 1/30 s: two 60 Hz ticks of motion, then the pose stage.
+        world.step_motion(1.0 / 60.0);
+        world.step_motion(1.0 / 60.0);
+        world.update_pose();
+        let palettes = world.palettes();
+        world
+            .fish_ids()
+            .map(|id| palettes[world.palette_range(id).unwrap()].to_vec())
+            .collect()
+    });
+    worst_of(&upload, frames)
+}
+
+/// The same for eight procedural fish, each on its own motion player (the procedural mesh is
+/// not a world species: its joints 1.. are the driven joints, posed directly).
+fn worst_bend_procedural() -> f32 {
+    let fish = TestFish::demo();
+    let nj = fish.num_joints();
+    let body = Body::evenly_spaced(nj);
+    let params = MotionParams::BLACK_PORGY.with_length(fish.length);
+    let mut swimmers: Vec<(MotionPlayer, RootState, Vec<f32>, Vec<f32>)> = (0..8)
+        .map(|k| {
+            let mut player = MotionPlayer::with_phase(k as f32 * 0.7);
+            player
+                .push(MotionRequest::Swim { speed: params.s })
+                .unwrap();
+            let root = RootState {
+                pos: Vec3::new(-150.0 + 40.0 * k as f32, 120.0, 0.0),
+                heading: k as f32,
+                pitch: 0.0,
+                speed: params.s,
+            };
+            (
+                player,
+                root,
+                vec![0.0; body.joints_x.len()],
+                vec![0.0; body.num_joints()],
+            )
+        })
+        .collect();
+    let upload = fish.upload();
+    let frames = (0..90).map(|step| {
+        swimmers
+            .iter_mut()
+            .enumerate()
+            .map(|(k, (player, root, lateral, yaw))| {
+                if step % 30 == 0 {
+                    player.interrupt(hard_turn(k, step / 30)).unwrap();
+                }
+                player.step(1.0 / 30.0, &params, &body, root, lateral, yaw);
+                let placement = Mat4::from_rotation_translation(
+                    Quat::from_rotation_y(root.heading + player.head_yaw())
+                        * Quat::from_rotation_z(root.pitch),
+                    root.pos + root.left() * player.head_lateral(),
+                );
+                let mut yaws = vec![0.0; nj];
+                let n = yaw.len().min(nj - 1);
+                yaws[1..=n].copy_from_slice(&yaw[..n]);
+                let mut palette = vec![Mat4::IDENTITY; nj];
+                fish.palette(placement, &yaws, &mut palette);
+                palette
+            })
+            .collect()
+    });
+    worst_of(&upload, frames)
+}
+
 /// The culling sphere (bind-space bounds carried by palette joint 0, grown for bending) holds
-/// every skinned vertex of the demo's fish, the porgy asset and the procedural fish, while they
-/// swim and turn hard: a sphere too small would make fish at the screen edges vanish early.
+/// every skinned vertex of the porgy asset and the procedural fish while they swim and turn
+/// hard: a sphere too small would make fish at the screen edges vanish early.
 #[test]
 fn the_culling_sphere_holds_the_bending_fish() {
-    for (name, mesh, rig) in [
-        ("porgy", DemoMesh::Porgy, porgy()),
-        ("procedural", DemoMesh::Procedural, DemoRig::procedural()),
+    for (name, worst) in [
+        ("porgy", worst_bend_porgy()),
+        ("procedural", worst_bend_procedural()),
     ] {
-        let worst = worst_bend(mesh, &rig);
         eprintln!("{name}: largest skinned distance / culling radius: {worst:.3}");
         assert!(
             worst <= 1.0,

@@ -9,13 +9,14 @@
 //! On failure `<name>-actual.png` and `<name>-difference.png` are written beside the reference.
 //! `SHOAL_BLESS=1 cargo test --test render_reference` rewrites the references.
 
+mod common;
+
 use std::path::PathBuf;
 
 use glam::{Mat4, Quat, Vec3};
 use shoal::render::testmesh::TestFish;
 use shoal::render::{
-    Camera, DemoMesh, DemoScene, DemoSceneConfig, FishInstance, FrameInput, Gpu, Look,
-    OffscreenTarget, OverlayLine, Renderer, SceneDriver, TankBounds,
+    Camera, FishInstance, FrameInput, Gpu, Look, OffscreenTarget, OverlayLine, Renderer, TankBounds,
 };
 
 const WIDTH: u32 = 256;
@@ -192,12 +193,16 @@ fn aquarium_with_fish_rocks_and_food() {
         tint: [1.0; 3],
     }))
     .collect::<Vec<_>>();
-    let camera = DemoScene::new(DemoSceneConfig {
-        fish: 0,
-        mesh: DemoMesh::Procedural,
-        ..DemoSceneConfig::default()
-    })
-    .default_camera();
+    // A view of the whole default tank, a little above its centre.
+    let tank = TankBounds::default();
+    let size = tank.size();
+    let camera = Camera {
+        target: tank.center() - Vec3::Y * size.y * 0.1,
+        yaw_rad: 0.35,
+        pitch_rad: 0.2,
+        distance: size.x.max(size.z) * 0.9,
+        fov_y_rad: 50f32.to_radians(),
+    };
     let input = FrameInput {
         palettes: &palette,
         instances: &instances,
@@ -233,19 +238,12 @@ fn aquarium_with_fish_rocks_and_food() {
 /// vertex colours and fins through the whole pipeline.
 #[test]
 fn black_porgy_asset_posed_by_the_species_rig() {
-    use shoal::render::DemoRig;
-    use shoal::species::SpeciesDesc;
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
-    let rig = DemoRig::asset(
-        &SpeciesDesc::black_porgy(),
-        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb"),
-    )
-    .expect("the generated porgy asset loads and binds");
+    let rig = common::PosedPorgy::load();
     let mesh = renderer.upload_mesh(&gpu, &rig.upload()).unwrap();
     let nj = rig.num_joints();
-    let num_driven = rig.body().num_joints();
-    let mut scratch = rig.scratch();
+    let num_driven = rig.rig.body.num_joints();
     let mut palette = vec![Mat4::IDENTITY; 3 * nj];
     let mut instances = Vec::new();
     for k in 0..3usize {
@@ -260,7 +258,7 @@ fn black_porgy_asset_posed_by_the_species_rig() {
                 -10.0 * k as f32,
             ),
         );
-        rig.write_palette(root, &yaw, &mut scratch, &mut palette[k * nj..(k + 1) * nj]);
+        rig.palette(root, &yaw, &mut palette[k * nj..(k + 1) * nj]);
         instances.push(FishInstance {
             mesh,
             palette_offset: (k * nj) as u32,

@@ -2,6 +2,8 @@
 //! compute pass) against a CPU linear-blend-skinning reference written here from eq. (1):
 //! v' = Σ_n w_n · (M_n · v).
 
+mod common;
+
 use glam::{Mat4, Quat, Vec3};
 use shoal::render::testmesh::TestFish;
 use shoal::render::{Gpu, MeshUpload, OffscreenTarget, Renderer};
@@ -214,23 +216,16 @@ fn skinned_mesh_from_the_skin_layer_uploads_and_skins() {
 /// against the skin layer's CPU job.
 #[test]
 fn gpu_skinning_matches_the_skin_layer_on_the_black_porgy_asset() {
-    use shoal::render::DemoRig;
     use shoal::skin::LinearBlendSkinningJob;
-    use shoal::species::SpeciesDesc;
-    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb");
-    let rig = DemoRig::asset(&SpeciesDesc::black_porgy(), &path).expect("porgy loads");
-    let DemoRig::Asset { model, .. } = &rig else {
-        panic!("expected the asset rig");
-    };
-    let driven = rig.body().num_joints();
+    let rig = common::PosedPorgy::load();
+    let driven = rig.rig.body.num_joints();
     let yaw: Vec<f32> = (0..driven).map(|j| 0.3 * (j as f32 * 1.2).sin()).collect();
-    let mut scratch = rig.scratch();
     let mut palette = vec![Mat4::IDENTITY; rig.num_joints()];
     let root =
         Mat4::from_rotation_translation(Quat::from_rotation_y(0.7), Vec3::new(10.0, 60.0, -5.0));
-    rig.write_palette(root, &yaw, &mut scratch, &mut palette);
+    rig.palette(root, &yaw, &mut palette);
 
-    let mesh = &model.mesh;
+    let mesh = &rig.model.mesh;
     let n = mesh.num_vertices();
     let mut cpu_positions = vec![Vec3::ZERO; n];
     let mut cpu_normals = vec![Vec3::ZERO; n];

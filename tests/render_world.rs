@@ -1,10 +1,11 @@
-//! The world seam: `WorldScene` over the real world (black porgies from the generated asset,
+//! The world seam: `app::WorldScene` over the real world (black porgies from the generated asset,
 //! built-in Rust driver) feeds the renderer the world's own palettes, one instance per fish.
 
 mod common;
 
+use shoal::app::WorldScene;
 use shoal::motion::MotionRequest;
-use shoal::render::{Gpu, OffscreenTarget, Renderer, SceneDriver, WorldScene};
+use shoal::render::{Gpu, OffscreenTarget, Renderer};
 use shoal::world::bench::{RustSim, bench_world};
 use shoal::world::driver::WanderDriver;
 use shoal::world::{Species, SpeciesDesc};
@@ -55,7 +56,7 @@ fn panel_edits_reach_the_world_and_bad_values_are_refused() {
     assert_eq!(scene.motion_params(0).unwrap().max_amp, p.max_amp);
     let mut bad = p;
     bad.tt = f32::NAN;
-    let err = scene.set_motion_params(0, bad).unwrap_err();
+    let err = scene.set_motion_params(0, bad).unwrap_err().to_string();
     assert!(err.contains("tt") || err.contains("Tt"), "{err}");
     assert_eq!(
         scene.motion_params(0).unwrap().tt,
@@ -63,26 +64,28 @@ fn panel_edits_reach_the_world_and_bad_values_are_refused() {
         "a refused edit changes nothing"
     );
 
+    let ids = scene.world().fish_id_slice().to_vec();
     scene
-        .request_motion(2, MotionRequest::Stop { duration: 0.5 })
+        .request_motion(ids[2], MotionRequest::Stop { duration: 0.5 })
         .unwrap();
     scene.step(1.0 / 60.0);
-    let mut lines = Vec::new();
-    scene.inspect(2, &mut lines);
+    let lines = scene.inspect(ids[2]);
     assert!(
         lines
             .iter()
             .any(|(k, v)| k == "motion" && v.contains("stop")),
         "{lines:?}"
     );
+    // A fish that is gone: despawned, its handle refused (not another fish's).
+    assert!(scene.sim_mut().world_mut().despawn(ids[3]));
     assert!(
         scene
-            .request_motion(99, MotionRequest::Swim { speed: 10.0 })
+            .request_motion(ids[3], MotionRequest::Swim { speed: 10.0 })
             .is_err()
     );
     let mut wave = Vec::new();
     scene.step(0.2);
-    scene.body_wave(0, &mut wave);
+    scene.body_wave(ids[0], &mut wave);
     assert_eq!(
         wave.len(),
         7,
@@ -130,7 +133,7 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
     let sim = Simulation::from_scene(dir.path(), &scene_path, 5).unwrap();
     let mut scene = WorldScene::new(sim);
     assert_eq!(scene.num_fish(), 3);
-    assert!(!SceneDriver::scene_changed(&scene));
+    assert!(!scene.scene_changed());
 
     std::fs::write(&scene_path, scene_text(7)).unwrap();
     // What the file watcher does on a save.
@@ -140,19 +143,16 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
         sim_events.extend(sim.reload_changed(std::slice::from_ref(&scene_path)));
     }
     assert!(!sim_events.is_empty());
-    assert!(
-        SceneDriver::scene_changed(&scene),
-        "the panel must offer a restart"
-    );
+    assert!(scene.scene_changed(), "the panel must offer a restart");
     assert_eq!(
         scene.num_fish(),
         3,
         "nothing changes until the designer restarts"
     );
 
-    assert_eq!(scene.restart_scene(), Ok(true));
+    assert!(matches!(scene.restart_scene(), Ok(true)));
     assert_eq!(scene.num_fish(), 7);
-    assert!(!SceneDriver::scene_changed(&scene));
+    assert!(!scene.scene_changed());
     let input = scene.frame_input();
     assert_eq!(input.instances.len(), 7);
     assert_eq!(input.palettes.len(), scene.sim().world().palettes().len());

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use glam::Vec2;
-use shoal::render::WorldScene;
-use shoal::render::app::{AppOptions, Aquarium};
+use shoal::app::{AppOptions, Aquarium, SimView};
 use shoal::script::Simulation;
+use shoal::world::FishId;
 
 const VIEW: Vec2 = Vec2::new(960.0, 600.0);
 
@@ -70,10 +70,10 @@ fn aquarium(scripts: &Path, behavior: Option<&str>, select: Option<usize>) -> Aq
     )
     .expect("the test scene loads");
     let options = AppOptions {
-        select,
+        select: select.map(|i| sim.world().fish_id_slice()[i]),
         ..AppOptions::default()
     };
-    let mut aq = Aquarium::new(Box::new(WorldScene::new(sim)), options);
+    let mut aq = Aquarium::new(Box::new(sim), options);
     aq.advance(1.0 / 60.0);
     aq
 }
@@ -84,11 +84,16 @@ fn harness(aq: Aquarium) -> Harness<'static, Aquarium> {
         .build_ui_state(|ui, aq: &mut Aquarium| aq.panel(ui), aq)
 }
 
-/// The inspector's value for `key` of fish `fish`.
-fn inspect(aq: &Aquarium, fish: usize, key: &str) -> String {
-    let mut rows = Vec::new();
-    aq.scene.inspect(fish, &mut rows);
-    rows.into_iter()
+/// Fish `i` of the scene (0-based, in spawn order).
+fn fish(aq: &Aquarium, i: usize) -> FishId {
+    aq.scene.world().fish_id_slice()[i]
+}
+
+/// The inspector's value for `key` of fish `i`.
+fn inspect(aq: &Aquarium, i: usize, key: &str) -> String {
+    aq.scene
+        .inspect(fish(aq, i))
+        .into_iter()
         .find(|(k, _)| k == key)
         .map(|(_, v)| v)
         .unwrap_or_default()
@@ -97,7 +102,7 @@ fn inspect(aq: &Aquarium, fish: usize, key: &str) -> String {
 /// The pixel at the centre of fish `i` in a `VIEW`-sized window.
 fn pixel_of(aq: &Aquarium, i: usize) -> Vec2 {
     let camera = aq.camera();
-    let c = aq.scene.fish_info(i).unwrap().center;
+    let c = aq.scene.fish_info(fish(aq, i)).unwrap().center;
     let ndc = camera.view_proj(VIEW.x / VIEW.y).project_point3(c);
     Vec2::new((ndc.x + 1.0) * 0.5 * VIEW.x, (1.0 - ndc.y) * 0.5 * VIEW.y)
 }
@@ -156,7 +161,7 @@ fn every_motion_button_starts_that_motion_on_the_selected_fish() {
         let aq = h.state_mut();
         assert_eq!(
             aq.selected(),
-            Some(1),
+            Some(fish(aq, 1)),
             "{label}: the click kept the selection"
         );
         let now = inspect(aq, 1, "motion");
@@ -268,5 +273,37 @@ fn the_console_shows_a_script_error_with_file_and_line() {
     assert!(
         line.contains("broken.lua:2:") && line.contains("fish #3") && line.contains("error"),
         "the line names the error, file:line and the fish: {line}"
+    );
+}
+
+/// A despawned selected fish clears the selection (and the follow camera, the inspector); the
+/// selection never moves to the fish that takes its place in the world's order.
+#[test]
+fn despawning_the_selected_fish_clears_the_selection() {
+    let scripts = scripts_with(&[]);
+    let mut aq = aquarium(scripts.path(), None, Some(0));
+    let gone = fish(&aq, 0);
+    assert_eq!(aq.selected(), Some(gone));
+    assert!(aq.following());
+    assert!(aq.scene.sim_mut().world_mut().despawn(gone));
+    // The last fish now sits where fish 0 was in the world's dense order.
+    assert_eq!(aq.scene.world().num_fish(), 2);
+    aq.advance(1.0 / 60.0);
+    assert_eq!(
+        aq.selected(),
+        None,
+        "the selection must not move to another fish"
+    );
+    assert!(!aq.following());
+    assert!(
+        aq.console()
+            .any(|l| l.contains(&format!("fish #{} is gone", gone.index))),
+        "the console says why the selection went"
+    );
+    let mut h = harness(aq);
+    h.run();
+    assert!(
+        h.query_by_label("click a fish to select it").is_some(),
+        "the panel shows no fish"
     );
 }

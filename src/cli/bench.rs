@@ -8,7 +8,9 @@
 //! measure the Rust stages alone. Both tick through `world::step` as a `world::Sim`.
 //!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
-//! demo aquarium offscreen per fish count, waits for the GPU every frame, and reports the median
+//! real world (black porgies in [`crate::world::bench::bench_world`], the built-in Rust driver,
+//! through the window's adapter [`crate::app::WorldScene`]) offscreen per fish count, with the
+//! whole tank in view, waits for the GPU every frame, and reports the median
 //! and p99 frame time, the CPU upload time (culling and level-of-detail choice included), the
 //! draw calls (which do not grow with fish), the fish drawn and culled, the fish at each level of
 //! detail and the triangles submitted per frame (fish, shadows and props).
@@ -21,13 +23,14 @@ use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use crate::render::{DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver};
+use crate::app::WorldScene;
+use crate::render::{Camera, Gpu, OffscreenTarget, Renderer};
 use crate::script::Simulation;
 use crate::world::bench::{
     RustSim, SimBenchResult, bench_positions, bench_tank, bench_world, measure,
 };
 use crate::world::driver::WanderDriver;
-use crate::world::{Species, SpeciesDesc, TICK_HZ};
+use crate::world::{Species, SpeciesDesc, SpeciesId, TICK_HZ};
 
 /// Arguments of `shoal bench`.
 #[derive(Debug, Default, clap::Args)]
@@ -401,24 +404,23 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     for &n in &args.fish {
         let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
         renderer.set_lod_tolerance_px(args.lod_tolerance_px);
-        // The demo scene draws the generated black porgy (procedural fish if it cannot load).
-        let config = DemoSceneConfig {
-            fish: n,
-            ..DemoSceneConfig::default()
+        let species = match &args.model {
+            None => porgy_species()?,
+            Some(path) => model_species(path)?,
         };
-        config.validate().map_err(anyhow::Error::msg)?;
-        let mut scene = match &args.model {
-            None => DemoScene::new(config),
-            Some(path) => {
-                let model = crate::skin::FishModel::load(path)?;
-                let desc = crate::asset::species_file::suggest("bench", "", &model)
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-                    .desc;
-                let rig = crate::render::DemoRig::asset(&desc, path).map_err(anyhow::Error::msg)?;
-                DemoScene::with_rig(config, rig, Vec::new())
-            }
-        };
-        for mut m in scene.meshes() {
+        let mut scene = WorldScene::new(RustSim::new(
+            bench_world(species, n, 1)?,
+            WanderDriver::default(),
+        ));
+        let num_joints = scene
+            .world()
+            .species(SpeciesId(0))
+            .model
+            .skeleton
+            .num_joints();
+        // Species meshes only (the props come after them); a bench world has no rocks or food.
+        let num_species = scene.world().num_species();
+        for mut m in scene.meshes().into_iter().take(num_species) {
             if args.no_materials {
                 m.material = None;
                 m.uvs = &[];
@@ -432,14 +434,13 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
                     .map(|l| format!("{} (error {:.3})", l.num_triangles(), l.error))
                     .collect();
                 println!(
-                    "mesh: {} ({} joints), triangles per level of detail: {}",
+                    "mesh: {} ({num_joints} joints), triangles per level of detail: {}",
                     m.label,
-                    scene.rig().num_joints(),
                     levels.join(", ")
                 );
             }
         }
-        let camera = scene.default_camera();
+        let camera = whole_tank_camera(scene.default_camera(), scene.world().tank(), args.size);
         let mut times = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
         for frame in 0..args.frames + 1 {
@@ -469,6 +470,54 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Where the generated black porgy lives: `assets/black_porgy.glb` under the working directory
+/// when it is there, else under the source tree.
+fn porgy_asset_path() -> PathBuf {
+    let local = PathBuf::from("assets/black_porgy.glb");
+    if local.is_file() {
+        local
+    } else {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb")
+    }
+}
+
+/// The black porgy species on [`porgy_asset_path`].
+fn porgy_species() -> anyhow::Result<Species> {
+    let path = porgy_asset_path();
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Ok(Species::load(SpeciesDesc::black_porgy(), dir)?)
+}
+
+/// A species for a rigged model file (joints spine_1 …), as `shoal asset species` would
+/// suggest it.
+fn model_species(path: &Path) -> anyhow::Result<Species> {
+    let model = crate::skin::FishModel::load(path)?;
+    let file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let desc = crate::asset::species_file::suggest("bench", &file, &model)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+        .desc;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Ok(Species::load(desc, dir)?)
+}
+
+/// `base` moved back along its view direction until the tank's bounding sphere fits the view of
+/// a `size` image, so every fish is drawn (none culled) and the counts compare across fish
+/// counts.
+fn whole_tank_camera(base: Camera, tank: &crate::world::Tank, size: (u32, u32)) -> Camera {
+    let radius = tank.extent().length() * 0.5;
+    let aspect = size.0 as f32 / size.1.max(1) as f32;
+    let half_v = base.fov_y_rad * 0.5;
+    let half_h = (half_v.tan() * aspect).atan();
+    Camera {
+        target: (tank.min + tank.max) * 0.5,
+        distance: radius / half_v.min(half_h).sin() * 1.02,
+        ..base
+    }
 }
 
 /// Draws median and p99 milliseconds per tick against fish count (log–log), with the issue's

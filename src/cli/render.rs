@@ -6,9 +6,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::render::{
-    DemoScene, DemoSceneConfig, Gpu, OffscreenTarget, Renderer, SceneDriver, WorldScene,
-};
+use crate::app::{DynScene, OverlayToggles, SimView, WorldScene};
+use crate::render::{Gpu, OffscreenTarget, Renderer};
 use crate::script::Simulation;
 use crate::world::bench::{RustSim, bench_world};
 use crate::world::driver::WanderDriver;
@@ -17,9 +16,9 @@ use crate::world::{Species, SpeciesDesc};
 /// Arguments of `shoal render`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Scene: a Lua scene (`scripts/scenes/*.lua`), `porgies` (black porgies from
-    /// `assets/black_porgy.glb`, built-in wander/school behaviour), `demo` (procedural fish) or a
-    /// demo JSON file. Default: `scripts/scenes/default.lua`, else `porgies`, else `demo`.
+    /// Scene: a Lua scene (a `.lua` file, or the name of one in `scripts/scenes/`) or `porgies`
+    /// (black porgies from `assets/black_porgy.glb`, built-in wander/school behaviour).
+    /// Default: `scripts/scenes/default.lua`, else `porgies`.
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Simulated seconds to render.
@@ -34,7 +33,7 @@ pub struct Args {
     /// Random seed (overrides the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Number of fish (`porgies` and `demo` scenes; a Lua scene sets its own).
+    /// Number of fish (`porgies` scene; a Lua scene sets its own).
     #[arg(long)]
     pub fish: Option<usize>,
     /// Output: `*.png` (last frame), `*.gif` (animation) or a directory (numbered PNGs).
@@ -111,10 +110,10 @@ pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
 }
 
 /// The camera for frame `frame` of `num_frames` (see [`CameraSpec`]).
-pub fn camera_for(
+pub fn camera_for<S: SimView>(
     spec: CameraSpec,
-    scene: &dyn SceneDriver,
-    select: Option<usize>,
+    scene: &WorldScene<S>,
+    select: Option<crate::world::FishId>,
     frame: u64,
     num_frames: u64,
 ) -> crate::render::Camera {
@@ -176,73 +175,89 @@ pub const DEFAULT_PORGIES: usize = 40;
 
 /// A world of `fish` black porgies (the generated asset, `assets/black_porgy.glb`) at constant
 /// density, driven by the built-in Rust wander/school driver.
-pub fn porgy_scene(root: &Path, fish: usize, seed: u64) -> anyhow::Result<Box<dyn SceneDriver>> {
+pub fn porgy_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<RustSim> {
     let assets = root.join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets)
         .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
     let world = bench_world(species, fish, seed)?;
-    let sim = RustSim::new(world, WanderDriver::default());
-    Ok(Box::new(WorldScene::new(sim)))
+    Ok(RustSim::new(world, WanderDriver::default()))
 }
 
 /// Builds the scene named by `--scene` (see [`Args::scene`]) with the `--seed` and `--fish`
-/// overrides. With no `--scene`: the default Lua scene, else the porgy world, else the demo,
-/// whichever loads first (saying why the others did not).
+/// overrides. With no `--scene`: the default Lua scene, else the porgy world (saying why the Lua
+/// scene did not load).
 pub fn load_scene(
     source: &super::ScriptSource,
     scene: Option<&Path>,
     seed: Option<u64>,
     fish: Option<usize>,
-) -> anyhow::Result<Box<dyn SceneDriver>> {
+) -> anyhow::Result<Box<dyn SimView>> {
     let root = &source.root;
     let seed_or_1 = seed.unwrap_or(1);
-    let lua = |path: &Path| -> anyhow::Result<Box<dyn SceneDriver>> {
+    let lua = |path: &Path| -> anyhow::Result<Box<dyn SimView>> {
         if fish.is_some() {
             anyhow::bail!(
-                "--fish applies to `--scene demo` and `--scene porgies`; the Lua scene `{}` sets \
-                 its own fish",
+                "--fish applies to `--scene porgies`; the Lua scene `{}` sets its own fish",
                 path.display()
             );
         }
         let sim = Simulation::from_scene_with_scripts(root, &source.scripts, path, seed_or_1)
             .with_context(|| format!("loading scene `{}`", path.display()))?;
-        Ok(Box::new(WorldScene::new(sim)))
+        Ok(Box::new(sim))
     };
-    let demo = |config: Option<DemoSceneConfig>| -> anyhow::Result<Box<dyn SceneDriver>> {
-        let mut config = config.unwrap_or_default();
-        if let Some(seed) = seed {
-            config.seed = seed;
-        }
-        if let Some(fish) = fish {
-            config.fish = fish;
-        }
-        config.validate().map_err(anyhow::Error::msg)?;
-        Ok(Box::new(DemoScene::new(config)))
+    let porgies = || -> anyhow::Result<Box<dyn SimView>> {
+        Ok(Box::new(porgy_sim(
+            root,
+            fish.unwrap_or(DEFAULT_PORGIES),
+            seed_or_1,
+        )?))
     };
+    let named = |name: &str| source.scripts.join("scenes").join(format!("{name}.lua"));
     match scene {
         Some(p) if p.extension().is_some_and(|e| e == "lua") => lua(p),
-        Some(p) if p.as_os_str() == "porgies" => {
-            porgy_scene(root, fish.unwrap_or(DEFAULT_PORGIES), seed_or_1)
+        Some(p) if p.as_os_str() == "porgies" => porgies(),
+        Some(p) if p.extension().is_none() && named(&p.to_string_lossy()).is_file() => {
+            lua(&named(&p.to_string_lossy()))
         }
-        Some(p) if p.as_os_str() == "demo" => demo(None),
-        Some(p) => demo(Some(DemoSceneConfig::load(p).map_err(anyhow::Error::msg)?)),
+        Some(p) => Err(unknown_scene(p, &source.scripts)),
         None => {
-            let default_lua = source.scripts.join("scenes/default.lua");
+            let default_lua = named("default");
             if fish.is_none() && default_lua.is_file() {
                 match lua(&default_lua) {
                     Ok(s) => return Ok(s),
                     Err(e) => log::warn!("{e:#}; showing the porgy world instead"),
                 }
             }
-            match porgy_scene(root, fish.unwrap_or(DEFAULT_PORGIES), seed_or_1) {
-                Ok(s) => Ok(s),
-                Err(e) => {
-                    log::warn!("{e:#}; showing the procedural demo instead");
-                    demo(None)
-                }
-            }
+            porgies()
         }
     }
+}
+
+/// The error for a `--scene` that is neither a Lua file nor a known name: it lists the scenes
+/// there are.
+fn unknown_scene(scene: &Path, scripts: &Path) -> anyhow::Error {
+    let dir = scripts.join("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            name.strip_suffix(".lua").map(str::to_owned)
+        })
+        .collect();
+    names.sort();
+    names.push("porgies".into());
+    let why = if scene.as_os_str() == "demo" {
+        " (the procedural `demo` scene was retired: every scene now runs the real simulation)"
+    } else {
+        ""
+    };
+    anyhow::anyhow!(
+        "no scene `{}`{why}. A scene is a Lua file (`--scene path/to/scene.lua`) or one of: {}",
+        scene.display(),
+        names.join(", ")
+    )
 }
 
 enum Output {
@@ -262,33 +277,41 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let output = classify(&args.out)?;
     let source = args.scripts.resolve()?;
     println!("{source}");
-    let mut scene = load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
-    check_select(args.select, scene.num_fish())?;
-    if args.camera == CameraSpec::Follow && args.select.is_none() {
+    let mut scene = WorldScene::new(load_scene(
+        &source,
+        args.scene.as_deref(),
+        args.seed,
+        args.fish,
+    )?);
+    let select = check_select(args.select, scene.world())?;
+    if args.camera == CameraSpec::Follow && select.is_none() {
         anyhow::bail!("--camera follow needs a fish to follow: add --select N");
     }
-    scene.set_selected(args.select);
+    scene.set_selected(select);
 
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
-    render_frames(&gpu, &mut renderer, scene.as_mut(), &args, &output)?;
+    render_frames(&gpu, &mut renderer, &mut scene, select, &args, &output)?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// An error unless `select` names one of `num_fish` fish (0-based).
-pub fn check_select(select: Option<usize>, num_fish: usize) -> anyhow::Result<()> {
-    match select {
-        Some(i) if i >= num_fish => anyhow::bail!(
-            "--select {i}: the scene has {num_fish} fish{}",
-            if num_fish > 0 {
-                format!(", numbered 0 to {}", num_fish - 1)
-            } else {
-                String::new()
-            }
-        ),
-        _ => Ok(()),
+/// The fish `--select N` names (0-based, in the world's order), or an error naming the range.
+pub fn check_select(
+    select: Option<usize>,
+    world: &crate::world::World,
+) -> anyhow::Result<Option<crate::world::FishId>> {
+    let Some(i) = select else { return Ok(None) };
+    if let Some(&id) = world.fish_id_slice().get(i) {
+        return Ok(Some(id));
     }
+    let num_fish = world.num_fish();
+    let range = if num_fish > 0 {
+        format!(", numbered 0 to {}", num_fish - 1)
+    } else {
+        String::new()
+    };
+    anyhow::bail!("--select {i}: the scene has {num_fish} fish{range}")
 }
 
 /// What `--out` asks for: a `.png`, a `.gif`, or a directory (an existing one, or a path without
@@ -316,7 +339,8 @@ fn classify(out: &Path) -> anyhow::Result<Output> {
 fn render_frames(
     gpu: &Gpu,
     renderer: &mut Renderer,
-    scene: &mut dyn SceneDriver,
+    scene: &mut DynScene,
+    select: Option<crate::world::FishId>,
     args: &Args,
     output: &Output,
 ) -> anyhow::Result<()> {
@@ -344,12 +368,6 @@ fn render_frames(
     }
     let mut gif_frames = Vec::new();
     let mut overlay = Vec::new();
-    let toggles = crate::render::OverlayToggles {
-        skeleton: true,
-        midline: true,
-        velocity: true,
-        sensors: true,
-    };
     for frame in 0..num_frames {
         if frame > 0 {
             scene.step(dt);
@@ -362,10 +380,10 @@ fn render_frames(
         if draw {
             overlay.clear();
             if args.overlays {
-                scene.overlay_lines(toggles, &mut overlay);
+                scene.overlay_lines(OverlayToggles::ALL, &mut overlay);
             }
             let mut input = scene.frame_input();
-            input.camera = camera_for(args.camera, scene, args.select, frame, num_frames);
+            input.camera = camera_for(args.camera, scene, select, frame, num_frames);
             input.overlay = &overlay;
             renderer.render(gpu, target.view(), target.size(), &input)?;
             let image = target.read_rgba8(gpu)?;

@@ -3,15 +3,14 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use crate::render::OverlayToggles;
-use crate::render::app::{AppOptions, run_window};
+use crate::app::{AppOptions, OverlayToggles, SimView, run_window};
 
 /// Arguments of `shoal run`.
 #[derive(Debug, Default, clap::Args)]
 pub struct Args {
-    /// Scene: a Lua scene (`scripts/scenes/*.lua`), `porgies` (black porgies from
-    /// `assets/black_porgy.glb`, built-in wander/school behaviour), `demo` (procedural fish) or a
-    /// demo JSON file. Default: `scripts/scenes/default.lua`, else `porgies`, else `demo`.
+    /// Scene: a Lua scene (a `.lua` file, or the name of one in `scripts/scenes/`) or `porgies`
+    /// (black porgies from `assets/black_porgy.glb`, built-in wander/school behaviour).
+    /// Default: `scripts/scenes/default.lua`, else `porgies`.
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Random seed of the scene.
@@ -20,10 +19,10 @@ pub struct Args {
     /// Draw this many frames, then exit (for tests and scripted runs).
     #[arg(long)]
     pub frames: Option<u64>,
-    /// Number of fish (`porgies` and `demo` scenes; a Lua scene sets its own).
+    /// Number of fish (`porgies` scene; a Lua scene sets its own).
     #[arg(long)]
     pub fish: Option<usize>,
-    /// Select (and follow) this fish at start.
+    /// Select (and follow) this fish at start (0-based, in the scene's order).
     #[arg(long)]
     pub select: Option<usize>,
     /// Show every debug overlay at start.
@@ -37,20 +36,18 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let source = args.scripts.resolve()?;
     println!("{source}");
-    let scene = super::render::load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
-    super::render::check_select(args.select, scene.num_fish())?;
-    let all = args.overlays;
+    let sim = super::render::load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
+    let select = super::render::check_select(args.select, sim.world())?;
     let options = AppOptions {
         frames: args.frames,
-        select: args.select,
-        overlays: OverlayToggles {
-            skeleton: all,
-            midline: all,
-            velocity: all,
-            sensors: all,
+        select,
+        overlays: if args.overlays {
+            OverlayToggles::ALL
+        } else {
+            OverlayToggles::default()
         },
     };
-    let presented = run_window(scene, options)?;
+    let presented = run_window(sim, options)?;
     println!("presented {presented} frames");
     Ok(ExitCode::SUCCESS)
 }

@@ -2,8 +2,8 @@
 //! frame, whether it is drawn and with how many triangles.
 //!
 //! - [`MeshBounds`]: a mesh's bounding sphere in bind space, carried to the world by the fish's
-//!   palette joint 0 (the same root-anchored convention as picking's spheres, see
-//!   [`super::FishInfo`]) and grown by [`BEND_MARGIN`] for the body's bending.
+//!   palette joint 0 (the same root-anchored convention as the window's picking spheres) and
+//!   grown by [`BEND_MARGIN`] for the body's bending.
 //! - [`Frustum`]: the six planes of a view-projection matrix; a sphere is culled only when it
 //!   lies wholly outside one of them, so one that touches the frustum is drawn.
 //! - [`ShadowProjection`]: where a fish's planar shadow lands on the sand, so the shadow is culled
@@ -43,7 +43,7 @@ const MIN_LEVEL_SAVING: f32 = 0.25;
 /// Factor on a mesh's bind-pose bounding radius covering its bending: a fish is posed by the
 /// motion layer's joint yaws, so its skinned vertices leave the rigid bind-pose sphere carried by
 /// joint 0 (the tail swings, a quick turn curls the body). Through swimming and forced quick and
-/// normal turns of up to 180° the demo's porgy and procedural fish reach 1.01 bind radii
+/// normal turns of up to 180° the porgy and the procedural fish reached 1.01 bind radii
 /// (`tests/render_lod.rs` checks every skinned vertex); 1.35 leaves a third more for bendier
 /// species and motions. A sphere too small would make fish at the screen edges vanish early,
 /// one too large only draws a few fish just off screen.

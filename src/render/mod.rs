@@ -19,33 +19,28 @@
 //! skinning against a CPU reference.
 //!
 //! [`Renderer`] draws into any colour view: [`OffscreenTarget`] for headless rendering, tests and
-//! benchmarks (read back as RGBA8), or a window surface (see [`app`]). Scenes come from a
-//! [`SceneDriver`]; [`DemoScene`] is the built-in one.
+//! benchmarks (read back as RGBA8), or a window surface (the window, and the adapter that turns
+//! a simulation into frames, are in [`crate::app`]). [`testmesh`] holds a procedural skinned
+//! fish for tests that need a mesh without asset files.
+//!
+//! This module is a leaf: it uses plain data types only (and the skin layer's mesh and
+//! material types for [`MeshUpload::from_skinned_mesh`]), never the simulation.
 
-pub mod app;
 mod camera;
-mod demo_rig;
 mod gpu;
 pub mod lod;
 pub mod material;
 pub mod props;
 mod renderer;
-mod scene;
 pub mod shaders;
 mod target;
 pub mod testmesh;
-mod world_scene;
 
 pub use camera::{Camera, Ray};
-pub use demo_rig::{DemoRig, PoseScratch};
 pub use gpu::{Gpu, GpuError};
 pub use lod::{LodLevel, MAX_LODS, MeshBounds, MeshLods};
 pub use renderer::{DEFAULT_LOD_TOLERANCE_PX, RenderTimings, Renderer};
-pub use scene::{
-    DemoMesh, DemoScene, DemoSceneConfig, FishInfo, OverlayToggles, SceneDriver, porgy_asset_path,
-};
 pub use target::OffscreenTarget;
-pub use world_scene::{WorldScene, WorldSim};
 
 use glam::{Mat4, Vec3};
 

@@ -1,4 +1,4 @@
-//! A procedural skinned fish for tests and the demo scene until the real assets land.
+//! A procedural skinned fish: a test fixture for GPU tests that need a mesh without asset files.
 //!
 //! Model space: the head (snout tip) is at the origin, the body runs along −x to the tail tip at
 //! x = −length, +y is up (the fish faces +x, its left is −z). `num_joints` joints sit evenly on
@@ -152,7 +152,7 @@ impl TestFish {
         fish
     }
 
-    /// The default demo fish: 50 units long, 8 joints, about 1,100 triangles.
+    /// The standard test fish: 50 units long, 8 joints, about 1,100 triangles.
     pub fn demo() -> Self {
         Self::new(50.0, 8, 28, 20)
     }
@@ -209,15 +209,6 @@ impl TestFish {
     /// Number of joints.
     pub fn num_joints(&self) -> usize {
         self.inverse_bind.len()
-    }
-
-    /// Radius of a sphere around the body's middle (x = −length/2) that holds the whole fish.
-    pub fn bounding_radius(&self) -> f32 {
-        let c = Vec3::new(-self.length * 0.5, 0.0, 0.0);
-        self.positions
-            .iter()
-            .map(|p| (Vec3::from(*p) - c).length())
-            .fold(0.0, f32::max)
     }
 
     /// The mesh as a renderer upload.

@@ -130,3 +130,54 @@ pub fn assert_no_script_errors(sim: &Simulation) {
     let errors = sim.error_messages();
     assert!(errors.is_empty(), "script errors: {errors:?}");
 }
+
+/// The generated black porgy (`assets/black_porgy.glb`) and its species rig, as loaded for the
+/// renderer's tests: the model as the file has it, bound by `SpeciesRig::bind`.
+pub struct PosedPorgy {
+    /// The model.
+    pub model: FishModel,
+    /// Its binding (driven joints, bend axes, model → body frame).
+    pub rig: shoal::species::SpeciesRig,
+}
+
+impl PosedPorgy {
+    /// Loads and binds the porgy.
+    pub fn load() -> Self {
+        let model = FishModel::load(&repo().join("assets/black_porgy.glb"))
+            .expect("the generated porgy asset loads");
+        let rig = shoal::species::SpeciesRig::bind(&SpeciesDesc::black_porgy(), &model)
+            .expect("the porgy binds");
+        Self { model, rig }
+    }
+
+    /// The mesh to upload, labelled with the species name.
+    pub fn upload(&self) -> shoal::render::MeshUpload<'_> {
+        shoal::render::MeshUpload::from_skinned_mesh("black_porgy", &self.model.mesh)
+    }
+
+    /// Palette entries per fish.
+    pub fn num_joints(&self) -> usize {
+        self.model.skeleton.num_joints()
+    }
+
+    /// The palette of a fish placed at `root` (world, body frame: root at the head end of the
+    /// column, +x forward) with the motion layer's driven-joint `yaw`, into `out`.
+    pub fn palette(&self, root: Mat4, yaw: &[f32], out: &mut [Mat4]) {
+        let n = self.num_joints();
+        let mut locals = vec![JointTransform::IDENTITY; n];
+        self.rig.pose(yaw, &mut locals);
+        let mut models = vec![Mat4::IDENTITY; n];
+        self.model
+            .skeleton
+            .local_to_model(root * self.rig.model_to_body, &locals, &mut models)
+            .run()
+            .expect("the skeleton poses");
+        for ((o, m), ibm) in out
+            .iter_mut()
+            .zip(&models)
+            .zip(&self.model.inverse_bind_poses)
+        {
+            *o = *m * *ibm;
+        }
+    }
+}

@@ -1,0 +1,383 @@
+//! [`Aquarium`]: the window's state and per-frame logic without the window — the simulation
+//! being shown, the selection and camera, time controls, console, and the views the panel
+//! draws — so UI tests can drive exactly what `shoal run` does.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use glam::Vec2;
+use winit::event::MouseButton;
+
+use super::pointer::Pointer;
+use super::scene::{OverlayToggles, WorldScene};
+use super::sim::SimView;
+use super::window::AppOptions;
+use crate::render::shaders::ShaderWatcher;
+use crate::render::{Camera, OverlayLine, RenderTimings};
+use crate::world::FishId;
+
+/// The scene the window shows: any [`SimView`] behind the adapter.
+pub type DynScene = WorldScene<Box<dyn SimView>>;
+
+/// The aquarium's panel and view logic without a window: the same panel, pointer routing, fish
+/// picking and simulation advance that `shoal run` uses every frame, driven by UI tests
+/// (`egui_kittest`) or any other host.
+pub struct Aquarium {
+    /// The simulation being shown.
+    pub scene: DynScene,
+    pub(super) ui: UiState,
+}
+
+impl Aquarium {
+    /// Shows `sim`, with `options.select` selected (and followed) and `options.overlays` on.
+    pub fn new(sim: Box<dyn SimView>, options: AppOptions) -> Self {
+        let mut scene = WorldScene::new(sim);
+        let mut ui = UiState::new(scene.default_camera());
+        ui.toggles = options.overlays;
+        if let Some(id) = options.select.filter(|&id| scene.world().is_alive(id)) {
+            ui.selected = Some(id);
+            ui.follow = true;
+            ui.species = scene.species_of(id).unwrap_or(0);
+            scene.set_selected(Some(id));
+        }
+        Self { scene, ui }
+    }
+
+    /// Draws the tuning panel into `ui` (inspector and plot as of the last [`Aquarium::advance`]).
+    pub fn panel(&mut self, ui: &mut egui::Ui) {
+        super::panel::panel(ui, &mut self.scene, &mut self.ui);
+    }
+
+    /// One frame's simulation: `frame_dt_s` of real time at the panel's speed (or one tick
+    /// after "step", or nothing while paused), then the console, inspector, plot and overlays.
+    pub fn advance(&mut self, frame_dt_s: f32) {
+        advance(&mut self.scene, &mut self.ui, frame_dt_s);
+        refresh_views(&mut self.scene, &mut self.ui);
+    }
+
+    /// A left click at `at` (physical pixels in a `size` view); `over_ui` when the panel is
+    /// under the pointer, as the window decides it. Picks a fish only in the view.
+    pub fn click(&mut self, at: Vec2, size: Vec2, over_ui: bool) {
+        self.ui.pointer.moved(at);
+        self.ui.pointer.pressed(MouseButton::Left, over_ui);
+        if let Some(at) = self.ui.pointer.released(MouseButton::Left) {
+            select_at(&mut self.scene, &mut self.ui, at, size);
+        }
+    }
+
+    /// The selected fish.
+    pub fn selected(&self) -> Option<FishId> {
+        self.ui.selected
+    }
+    /// Whether the camera follows the selected fish.
+    pub fn following(&self) -> bool {
+        self.ui.follow
+    }
+    /// Whether time is paused.
+    pub fn paused(&self) -> bool {
+        self.ui.paused
+    }
+    /// The overlays shown.
+    pub fn overlays(&self) -> OverlayToggles {
+        self.ui.toggles
+    }
+    /// The overlay segments of the last [`Aquarium::advance`].
+    pub fn overlay_lines(&self) -> &[OverlayLine] {
+        &self.ui.overlay
+    }
+    /// The camera.
+    pub fn camera(&self) -> Camera {
+        self.ui.camera
+    }
+    /// The console's lines, oldest first.
+    pub fn console(&self) -> impl Iterator<Item = &str> {
+        self.ui.log.iter().map(String::as_str)
+    }
+}
+
+/// One frame's times, milliseconds, for the panel's timing table.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct FrameTimes {
+    pub sim_ms: f32,
+    pub upload_ms: f32,
+    pub draw_ms: f32,
+    pub frame_ms: f32,
+}
+
+/// What the window and the panel remember between frames.
+pub(super) struct UiState {
+    pub camera: Camera,
+    pub follow: bool,
+    pub selected: Option<FishId>,
+    /// Species shown in the panel's motion parameters (index in species order).
+    pub species: usize,
+    pub paused: bool,
+    pub step_once: bool,
+    pub speed: f32,
+    pub toggles: OverlayToggles,
+    pub overlay: Vec<OverlayLine>,
+    pub log: VecDeque<String>,
+    pub wave: Vec<[f64; 2]>,
+    pub inspect: Vec<(String, String)>,
+    pub times: VecDeque<FrameTimes>,
+    /// The renderer's counts of the frame being drawn (fish drawn, culled, triangles …).
+    pub render_counts: RenderTimings,
+    pub pointer: Pointer,
+    pub last_frame: Instant,
+    /// Simulated and real seconds of the last frames, for the "behind real time" warning.
+    pub pace: VecDeque<(f32, f32)>,
+    pub watcher: Option<ShaderWatcher>,
+    pub shader_error: Option<String>,
+    scratch_log: Vec<String>,
+    /// Set by the panel's "restart scene" button; handled at the start of the next frame.
+    pub restart_requested: bool,
+    /// `SHOAL_UI_TRACE` is set: console lines, selection changes and the panel's button
+    /// rectangles are also printed on stdout, so an end-to-end test can click by label.
+    pub trace: bool,
+    /// The last line printed for each traced button.
+    traced: Vec<(String, String)>,
+    /// The panel's rectangle in the last frame, physical pixels.
+    pub panel_rect_px: Option<egui::Rect>,
+}
+
+impl UiState {
+    fn new(camera: Camera) -> Self {
+        Self {
+            camera,
+            follow: false,
+            selected: None,
+            species: 0,
+            paused: false,
+            step_once: false,
+            restart_requested: false,
+            speed: 1.0,
+            toggles: OverlayToggles::default(),
+            overlay: Vec::new(),
+            log: VecDeque::new(),
+            wave: Vec::new(),
+            inspect: Vec::new(),
+            times: VecDeque::new(),
+            render_counts: RenderTimings::default(),
+            pointer: Pointer::default(),
+            last_frame: Instant::now(),
+            pace: VecDeque::new(),
+            watcher: None,
+            shader_error: None,
+            scratch_log: Vec::new(),
+            trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
+            traced: Vec::new(),
+            panel_rect_px: None,
+        }
+    }
+
+    /// With [`UiState::trace`], prints a widget's centre and size in physical pixels whenever it
+    /// is drawn somewhere new: `ui: button "quick turn left" at X,Y size WxH`.
+    pub fn trace_widget(&mut self, ui: &egui::Ui, label: &str, response: &egui::Response) {
+        if !self.trace {
+            return;
+        }
+        let ppp = ui.ctx().pixels_per_point();
+        let r = response.rect * ppp;
+        let line = format!(
+            "ui: button {label:?} at {:.0},{:.0} size {:.0}x{:.0}",
+            r.center().x,
+            r.center().y,
+            r.width(),
+            r.height()
+        );
+        match self.traced.iter_mut().find(|(l, _)| l == label) {
+            Some((_, last)) if *last == line => return,
+            Some((_, last)) => *last = line.clone(),
+            None => self.traced.push((label.to_owned(), line.clone())),
+        }
+        println!("{line}");
+    }
+
+    /// Adds a console line (and logs it).
+    pub fn log(&mut self, line: impl Into<String>) {
+        let line = line.into();
+        if self.trace {
+            println!("console: {line}");
+        }
+        log::info!("{line}");
+        self.log.push_back(line);
+        while self.log.len() > 300 {
+            self.log.pop_front();
+        }
+    }
+
+    /// Selects `fish` (or nothing) in the panel and the scene; nothing selected stops following.
+    pub fn select(&mut self, scene: &mut DynScene, fish: Option<FishId>) {
+        self.selected = fish;
+        if self.trace {
+            println!("selected: {:?}", fish.map(|id| id.index));
+        }
+        scene.set_selected(fish);
+        match fish {
+            Some(id) => self.species = scene.species_of(id).unwrap_or(0),
+            None => self.follow = false,
+        }
+    }
+}
+
+/// The per-frame views of the simulation: the selection (cleared when its fish is gone, never
+/// moved to another fish), camera follow, overlay segments, and the selected fish's body wave
+/// and inspector.
+pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
+    if let Some(id) = ui.selected
+        && !scene.world().is_alive(id)
+    {
+        ui.select(scene, None);
+        ui.log(format!("fish #{} is gone; nothing is selected", id.index));
+    }
+    if ui.follow
+        && let Some(info) = ui.selected.and_then(|id| scene.fish_info(id))
+    {
+        ui.camera.target = ui.camera.target.lerp(info.center, 0.15);
+    }
+    ui.overlay.clear();
+    if ui.toggles.any() {
+        scene.overlay_lines(ui.toggles, &mut ui.overlay);
+    }
+    match ui.selected {
+        Some(id) => {
+            scene.body_wave(id, &mut ui.wave);
+            ui.inspect = scene.inspect(id);
+        }
+        None => {
+            ui.wave.clear();
+            ui.inspect.clear();
+        }
+    }
+}
+
+/// The fish under `cursor` (physical pixels from the top-left of a `size` view): the nearest
+/// whose bounding sphere (shrunk to 80 %, the body is thinner than its sphere) the ray through
+/// the pixel hits. CPU only; linear in the number of fish, run on clicks.
+pub fn pick_fish<S: SimView>(
+    camera: &Camera,
+    cursor: Vec2,
+    size: Vec2,
+    scene: &WorldScene<S>,
+) -> Option<FishId> {
+    let ray = camera.ray_through_pixel(cursor, size);
+    let mut best: Option<(FishId, f32)> = None;
+    for &id in scene.world().fish_id_slice() {
+        if let Some(info) = scene.fish_info(id)
+            && let Some(t) = ray.hit_sphere(info.center, info.radius * 0.8)
+            && best.is_none_or(|(_, bt)| t < bt)
+        {
+            best = Some((id, t));
+        }
+    }
+    best.map(|(id, _)| id)
+}
+
+/// Longest real time one frame may simulate, seconds: after a stall (a window drag, a debugger)
+/// the aquarium goes on instead of racing to catch up.
+pub(super) const MAX_FRAME_DT_S: f32 = 0.1;
+
+/// The simulation part of a frame: advances the scene by the frame's real time × the speed
+/// slider (all of it: no tick is dropped), by exactly one tick after "step", or not at all while
+/// paused; then moves the scene's new log lines into the console.
+pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
+    let frame_dt_s = if frame_dt_s.is_finite() {
+        frame_dt_s.max(0.0)
+    } else {
+        0.0
+    };
+    let before = scene.time_s();
+    if ui.step_once {
+        scene.step(1.0 / crate::world::TICK_HZ as f32);
+        ui.step_once = false;
+    } else if !ui.paused {
+        let wanted = frame_dt_s.min(MAX_FRAME_DT_S) * ui.speed;
+        scene.step(wanted);
+        ui.pace
+            .push_back((scene.time_s() - before, frame_dt_s * ui.speed));
+        while ui.pace.len() > 120 {
+            ui.pace.pop_front();
+        }
+    }
+    scene.drain_log(&mut ui.scratch_log);
+    for line in std::mem::take(&mut ui.scratch_log) {
+        ui.log(line);
+    }
+}
+
+/// Simulated seconds per requested simulated second over the last frames (1 when keeping up).
+pub(super) fn pace_ratio(pace: &VecDeque<(f32, f32)>) -> f32 {
+    let (done, wanted) = pace
+        .iter()
+        .fold((0.0, 0.0), |(d, w), (a, b)| (d + a, w + b));
+    if wanted > 0.0 {
+        (done / wanted).min(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Selects the fish under `at` (see [`pick_fish`]), or none on open water, and shows its species'
+/// parameters in the panel.
+pub(super) fn select_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: Vec2) {
+    let picked = pick_fish(&ui.camera, at, size, scene);
+    ui.select(scene, picked);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::bench::{RustSim, bench_world};
+    use crate::world::driver::WanderDriver;
+    use crate::world::{Species, SpeciesDesc};
+
+    fn porgies(fish: usize) -> WorldScene<RustSim> {
+        let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+        let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("porgy loads");
+        WorldScene::new(RustSim::new(
+            bench_world(species, fish, 1).expect("the bench world builds"),
+            WanderDriver::default(),
+        ))
+    }
+
+    #[test]
+    fn clicking_a_fish_centre_picks_that_fish_and_empty_water_picks_none() {
+        let scene = porgies(6);
+        let camera = scene.default_camera();
+        let size = Vec2::new(800.0, 600.0);
+        let view_proj = camera.view_proj(size.x / size.y);
+        let mut picked_any = false;
+        for &id in scene.world().fish_id_slice() {
+            let c = scene.fish_info(id).unwrap().center;
+            let ndc = view_proj.project_point3(c);
+            let px = Vec2::new((ndc.x + 1.0) * 0.5 * size.x, (1.0 - ndc.y) * 0.5 * size.y);
+            let got = pick_fish(&camera, px, size, &scene);
+            // Another fish may sit in front; whatever is picked must be on the ray, and when
+            // it is not this fish, that one must be nearer the eye.
+            let got = got.expect("a fish centre hits at least that fish");
+            if got == id {
+                picked_any = true;
+            } else {
+                let eye = camera.eye();
+                let d_got = (scene.fish_info(got).unwrap().center - eye).length();
+                assert!(
+                    d_got < (c - eye).length() + 60.0,
+                    "picked {got:?} behind {id:?}"
+                );
+            }
+        }
+        assert!(picked_any);
+        // Straight up from the top-left corner: open water.
+        assert_eq!(pick_fish(&camera, Vec2::new(1.0, 1.0), size, &scene), None);
+    }
+
+    #[test]
+    fn pace_is_one_when_keeping_up_and_the_share_done_when_behind() {
+        let mut pace = VecDeque::new();
+        assert_eq!(pace_ratio(&pace), 1.0);
+        pace.push_back((0.1, 0.1));
+        assert_eq!(pace_ratio(&pace), 1.0);
+        pace.push_back((0.1, 0.3));
+        assert!((pace_ratio(&pace) - 0.5).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,28 @@
+//! The aquarium application: the window (`shoal run`), its egui tuning panel, and the adapter
+//! that shows a simulation through the renderer.
+//!
+//! - [`SimView`] is what the app sees of a simulation: whole 60 Hz ticks of a
+//!   [`crate::world::World`], plus inspector lines, a log and hot reload where the simulation has
+//!   them. [`crate::script::Simulation`] (Lua behaviours) and [`crate::world::bench::RustSim`]
+//!   (the built-in Rust driver) implement it, in [`sim`].
+//! - [`WorldScene`] turns a [`SimView`] into what [`crate::render::Renderer`] draws (meshes,
+//!   palettes, instances, props, overlays) and answers the panel's questions about a fish, by
+//!   [`crate::world::FishId`].
+//! - [`Aquarium`] is the window's state and per-frame logic without a window (selection,
+//!   camera, time controls, console, panel), so UI tests drive what `shoal run` does;
+//!   [`run_window`] puts it in a winit window.
+//!
+//! The renderer ([`crate::render`]) knows none of this: it takes plain frame data.
+
+mod aquarium;
+mod panel;
+mod pointer;
+mod scene;
+pub mod sim;
+mod window;
+
+pub use aquarium::{Aquarium, DynScene, pick_fish};
+pub use pointer::Pointer;
+pub use scene::{FOOD_PELLET_RADIUS, FishInfo, OverlayToggles, WorldScene};
+pub use sim::{SimError, SimView};
+pub use window::{AppError, AppOptions, run_window};

@@ -1,0 +1,290 @@
+//! The tuning panel: one function per section (time, selected fish, motion parameters,
+//! overlays, timings, console), drawn top to bottom by [`panel`].
+
+use std::collections::VecDeque;
+
+use super::aquarium::{DynScene, FrameTimes, MAX_FRAME_DT_S, UiState, pace_ratio};
+use crate::motion::{MotionParams, MotionRequest, Side, TurnKind};
+use crate::world::FishId;
+
+const WARNING: egui::Color32 = egui::Color32::from_rgb(255, 210, 90);
+const ERROR: egui::Color32 = egui::Color32::from_rgb(255, 110, 90);
+
+/// The tuning panel.
+pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    ui.heading("shoal");
+    notices(ui, scene, st);
+    section(ui, "Time", |ui| time_controls(ui, st));
+    section(ui, "Selected fish", |ui| selected_fish(ui, scene, st));
+    section(ui, "Motion parameters", |ui| {
+        motion_parameters(ui, scene, st)
+    });
+    section(ui, "Overlays", |ui| overlays(ui, st));
+    section(ui, "Timings (last 120 frames, ms)", |ui| {
+        timings(ui, scene, st);
+    });
+    section(ui, "Console", |ui| console(ui, st));
+}
+
+/// A collapsing section, open at start.
+fn section(ui: &mut egui::Ui, title: &str, body: impl FnOnce(&mut egui::Ui)) {
+    egui::CollapsingHeader::new(title)
+        .default_open(true)
+        .show(ui, body);
+}
+
+/// The scene file changed (offer a restart); a shader failed to compile.
+fn notices(ui: &mut egui::Ui, scene: &DynScene, st: &mut UiState) {
+    if scene.scene_changed() {
+        ui.horizontal(|ui| {
+            ui.colored_label(WARNING, "the scene file changed");
+            if ui.button("restart scene").clicked() {
+                st.restart_requested = true;
+            }
+        });
+    }
+    if let Some(err) = &st.shader_error {
+        ui.colored_label(
+            ERROR,
+            format!("shader error (previous pipelines still drawing):\n{err}"),
+        );
+    }
+}
+
+/// Pause/play, one step, the speed slider and the "behind real time" warning.
+fn time_controls(ui: &mut egui::Ui, st: &mut UiState) {
+    ui.horizontal(|ui| {
+        let label = if st.paused { "play" } else { "pause" };
+        let toggle = ui.button(label);
+        st.trace_widget(ui, label, &toggle);
+        if toggle.clicked() {
+            st.paused = !st.paused;
+        }
+        let step = ui.button("step");
+        st.trace_widget(ui, "step", &step);
+        if step.clicked() {
+            st.paused = true;
+            st.step_once = true;
+        }
+    });
+    ui.add(
+        egui::Slider::new(&mut st.speed, 0.1..=4.0)
+            .logarithmic(true)
+            .text("speed ×"),
+    );
+    let pace = pace_ratio(&st.pace);
+    if !st.paused && pace < 0.95 {
+        ui.colored_label(
+            WARNING,
+            format!(
+                "behind real time: simulating {:.0} % of the requested speed \
+                 (frames are slower than {:.0} ms)",
+                pace * 100.0,
+                MAX_FRAME_DT_S * 1e3
+            ),
+        );
+    }
+}
+
+/// The selected fish: follow/deselect, motion buttons, body wave plot and inspector.
+fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let Some(fish) = st.selected else {
+        ui.label("click a fish to select it");
+        return;
+    };
+    ui.horizontal(|ui| {
+        ui.label(format!("fish #{}", fish.index));
+        let follow = ui.checkbox(&mut st.follow, "follow");
+        st.trace_widget(ui, "follow", &follow);
+        let deselect = ui.button("deselect");
+        st.trace_widget(ui, "deselect", &deselect);
+        if deselect.clicked() {
+            st.select(scene, None);
+        }
+    });
+    if st.selected.is_none() {
+        return;
+    }
+    motion_buttons(ui, scene, st, fish);
+    body_wave_plot(ui, st);
+    egui::Grid::new("inspector").striped(true).show(ui, |ui| {
+        for (k, v) in &st.inspect {
+            ui.label(k);
+            ui.label(v);
+            ui.end_row();
+        }
+    });
+}
+
+/// The motion layer's requests, sized from the fish's species (speed, turn angle, length).
+fn motion_requests(params: Option<MotionParams>) -> [(&'static str, MotionRequest); 11] {
+    let (s, angle, l) = params.map_or((40.0, std::f32::consts::FRAC_PI_2, 50.0), |p| {
+        (p.s, p.turn_angle, p.l)
+    });
+    let turn = |kind, side| MotionRequest::Turn { kind, angle, side };
+    [
+        ("swim", MotionRequest::Swim { speed: s }),
+        (
+            "accelerate",
+            MotionRequest::Accelerate {
+                speed: 2.0 * s,
+                duration: 1.0,
+            },
+        ),
+        ("stop", MotionRequest::Stop { duration: 1.0 }),
+        ("normal turn left", turn(TurnKind::Normal, Side::Left)),
+        ("normal turn right", turn(TurnKind::Normal, Side::Right)),
+        ("quick turn left", turn(TurnKind::Quick, Side::Left)),
+        ("quick turn right", turn(TurnKind::Quick, Side::Right)),
+        ("serial turn left", turn(TurnKind::Serial, Side::Left)),
+        ("serial turn right", turn(TurnKind::Serial, Side::Right)),
+        ("ascend", MotionRequest::Ascend { height: l }),
+        ("descend", MotionRequest::Descend { depth: l }),
+    ]
+}
+
+/// One button per motion request; a click starts it on `fish` now and says so in the console.
+fn motion_buttons(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState, fish: FishId) {
+    let params = scene.species_of(fish).and_then(|s| scene.motion_params(s));
+    ui.horizontal_wrapped(|ui| {
+        for (label, request) in motion_requests(params) {
+            let button = ui.button(label);
+            st.trace_widget(ui, label, &button);
+            if button.clicked() {
+                let n = fish.index;
+                match scene.request_motion(fish, request) {
+                    Ok(()) => st.log(format!("fish #{n}: {label} requested")),
+                    Err(e) => st.log(format!("fish #{n}: {label}: {e}")),
+                }
+            }
+        }
+    });
+}
+
+/// The selected fish's lateral displacement along its body.
+fn body_wave_plot(ui: &mut egui::Ui, st: &UiState) {
+    ui.label("body wave (lateral displacement vs position along body)");
+    egui_plot::Plot::new("body wave")
+        .height(140.0)
+        .include_x(0.0)
+        .include_x(1.0)
+        .include_y(-10.0)
+        .include_y(10.0)
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .show(ui, |plot| {
+            plot.line(egui_plot::Line::new(
+                "lateral",
+                egui_plot::PlotPoints::from(st.wave.clone()),
+            ));
+        });
+}
+
+/// The species picker and one slider per motion parameter (eq. 2–7, Table 1); an edit applies
+/// to the live species at once.
+fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let species = scene.species_names();
+    if !species.is_empty() {
+        egui::ComboBox::from_label("species")
+            .selected_text(species.get(st.species).cloned().unwrap_or_default())
+            .show_ui(ui, |ui| {
+                for (i, name) in species.iter().enumerate() {
+                    ui.selectable_value(&mut st.species, i, name);
+                }
+            });
+    }
+    let Some(mut p) = scene.motion_params(st.species) else {
+        ui.label("(this scene has no tunable motion)");
+        return;
+    };
+    let before = p;
+    ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
+    ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
+    ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
+    ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
+    ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
+    ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
+    ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
+    ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
+    let mut deg = p.turn_angle.to_degrees();
+    ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
+    p.turn_angle = deg.to_radians();
+    if p != before
+        && let Err(e) = scene.set_motion_params(st.species, p)
+    {
+        st.log(e.to_string());
+    }
+}
+
+/// The debug overlay checkboxes.
+fn overlays(ui: &mut egui::Ui, st: &mut UiState) {
+    ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
+    ui.checkbox(&mut st.toggles.midline, "body midline");
+    ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
+    ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
+}
+
+/// Picks one stage's time out of a frame's timings.
+type StageOf = fn(&FrameTimes) -> f32;
+
+fn mean_max(times: &VecDeque<FrameTimes>, f: impl Fn(&FrameTimes) -> f32) -> (f32, f32) {
+    if times.is_empty() {
+        return (0.0, 0.0);
+    }
+    let sum: f32 = times.iter().map(&f).sum();
+    let max = times.iter().map(&f).fold(0.0, f32::max);
+    (sum / times.len() as f32, max)
+}
+
+/// Frame stage times (mean and max), the simulation's own stages, and the renderer's counts.
+fn timings(ui: &mut egui::Ui, scene: &DynScene, st: &UiState) {
+    egui::Grid::new("timings").striped(true).show(ui, |ui| {
+        ui.label("stage");
+        ui.label("mean");
+        ui.label("max");
+        ui.end_row();
+        let rows: [(&str, StageOf); 4] = [
+            ("simulation", |t| t.sim_ms),
+            ("skinning upload", |t| t.upload_ms),
+            ("draw (encode+submit)", |t| t.draw_ms),
+            ("frame", |t| t.frame_ms),
+        ];
+        for (name, f) in rows {
+            let (mean, max) = mean_max(&st.times, f);
+            ui.label(name);
+            ui.label(format!("{mean:.2}"));
+            ui.label(format!("{max:.2}"));
+            ui.end_row();
+        }
+        for (name, ms) in scene.stage_timings_ms() {
+            ui.label(format!("  sim: {name}"));
+            ui.label(format!("{ms:.2}"));
+            ui.end_row();
+        }
+    });
+    let c = &st.render_counts;
+    ui.label(format!(
+        "fish drawn {} (per level of detail, full first: {:?}), culled {}; shadows {}",
+        c.num_fish_drawn, c.num_fish_per_lod, c.num_fish_culled, c.num_shadows_drawn
+    ));
+    ui.label(format!(
+        "{} triangles, {} draw calls",
+        c.num_triangles, c.num_draw_calls
+    ));
+}
+
+/// The console: script errors, reloads, requests; newest at the bottom.
+fn console(ui: &mut egui::Ui, st: &mut UiState) {
+    if ui.button("clear").clicked() {
+        st.log.clear();
+    }
+    egui::ScrollArea::vertical()
+        .max_height(180.0)
+        .stick_to_bottom(true)
+        .show(ui, |ui| {
+            for line in &st.log {
+                ui.monospace(line);
+            }
+        });
+}

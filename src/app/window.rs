@@ -1,0 +1,495 @@
+//! The aquarium window (`shoal run`): winit 0.30 + the egui tuning panel over the wgpu
+//! renderer. The per-frame logic that needs no window lives in [`super::aquarium`].
+//!
+//! Mouse: left drag orbits, right or middle drag pans, the wheel zooms, a left click (without
+//! dragging) selects the fish under the cursor (ray against each fish's bounding sphere).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec2;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::window::{Window, WindowId};
+
+use super::aquarium::{Aquarium, FrameTimes, advance, refresh_views, select_at};
+use super::scene::OverlayToggles;
+use super::sim::SimView;
+use crate::render::shaders::{ShaderSources, ShaderWatcher};
+use crate::render::{Gpu, GpuError, RenderError, Renderer};
+use crate::world::FishId;
+
+/// Why the window could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// No display to open a window on.
+    #[error(
+        "cannot open a window: {0}. With no display, render headless instead: \
+         `shoal render --seconds 5 --out aquarium.gif`"
+    )]
+    NoDisplay(String),
+    /// No GPU adapter or device.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The renderer failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+}
+
+/// Options of the window.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AppOptions {
+    /// Draw this many frames, then close (for tests and scripted runs).
+    pub frames: Option<u64>,
+    /// Fish selected (and followed) at start.
+    pub select: Option<FishId>,
+    /// Overlays shown at start.
+    pub overlays: OverlayToggles,
+}
+/// Opens the aquarium window on `sim` and runs until it is closed (or `options.frames` are
+/// presented). Returns the number of frames presented.
+pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, AppError> {
+    let has_display = ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    if !has_display {
+        return Err(AppError::NoDisplay(
+            "neither DISPLAY nor WAYLAND_DISPLAY is set".into(),
+        ));
+    }
+    let event_loop = EventLoop::new().map_err(|e| AppError::NoDisplay(e.to_string()))?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App {
+        aq: Aquarium::new(sim, options),
+        options,
+        window: None,
+        error: None,
+        presented: 0,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| AppError::NoDisplay(e.to_string()))?;
+    if let Some(err) = app.error {
+        return Err(err);
+    }
+    Ok(app.presented)
+}
+
+struct WindowState {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    gpu: Gpu,
+    renderer: Renderer,
+    egui_ctx: egui::Context,
+    egui_state: egui_winit::State,
+    egui_renderer: egui_wgpu::Renderer,
+}
+
+struct App {
+    /// The simulation, selection, camera and panel state.
+    aq: Aquarium,
+    options: AppOptions,
+    window: Option<WindowState>,
+    error: Option<AppError>,
+    presented: u64,
+}
+
+impl App {
+    fn init(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
+        let window = event_loop
+            .create_window(
+                Window::default_attributes()
+                    .with_title("shoal — aquarium")
+                    .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 760.0)),
+            )
+            .map_err(|e| AppError::NoDisplay(e.to_string()))?;
+        let window = Arc::new(window);
+        let instance = Gpu::new_instance();
+        let surface = instance
+            .create_surface(window.clone())
+            .map_err(|e| GpuError::Surface(e.to_string()))?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: Some(&surface),
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let gpu = Gpu::open(instance, adapter)?;
+        println!("adapter: {}", gpu.adapter_summary());
+        let caps = surface.get_capabilities(&gpu.adapter);
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| f.is_srgb())
+            .or_else(|| caps.formats.first().copied())
+            .ok_or_else(|| GpuError::Surface("the surface supports no format".into()))?;
+        let size = window.inner_size();
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps
+                .alpha_modes
+                .first()
+                .copied()
+                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+        };
+        surface.configure(&gpu.device, &config);
+        let sources = match crate::render::shaders::source_dir() {
+            Some(dir) => {
+                match ShaderWatcher::new(&dir) {
+                    Ok(w) => {
+                        self.aq
+                            .ui
+                            .log(format!("watching {} for shader edits", dir.display()));
+                        self.aq.ui.watcher = Some(w);
+                    }
+                    Err(e) => self.aq.ui.log(e),
+                }
+                ShaderSources::load_dir(&dir).unwrap_or_default()
+            }
+            None => ShaderSources::embedded(),
+        };
+        let mut renderer = match Renderer::with_shaders(&gpu, format, sources) {
+            Ok(r) => r,
+            Err(e) => {
+                self.aq
+                    .ui
+                    .log(format!("{e}\n(falling back to the built-in shaders)"));
+                Renderer::new(&gpu, format)?
+            }
+        };
+        for mesh in self.aq.scene.meshes() {
+            renderer.upload_mesh(&gpu, &mesh)?;
+        }
+        if let Err(e) = self.aq.scene.enable_hot_reload() {
+            self.aq.ui.log(format!("script hot reload is off: {e}"));
+        }
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(gpu.device.limits().max_texture_dimension_2d as usize),
+        );
+        let egui_renderer =
+            egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
+        self.aq.ui.log(format!(
+            "{} fish, MSAA {}×, surface {format:?}",
+            self.aq.scene.num_fish(),
+            renderer.sample_count()
+        ));
+        self.window = Some(WindowState {
+            window,
+            surface,
+            config,
+            gpu,
+            renderer,
+            egui_ctx,
+            egui_state,
+            egui_renderer,
+        });
+        Ok(())
+    }
+
+    fn pick(&mut self, at: Vec2) {
+        let Some(ws) = &self.window else { return };
+        let size = Vec2::new(ws.config.width as f32, ws.config.height as f32);
+        select_at(&mut self.aq.scene, &mut self.aq.ui, at, size);
+    }
+
+    /// Mouse input for the 3D view. `over_ui`: egui has the pointer (over the panel, or a panel
+    /// widget is being dragged), so a press there starts nothing in the view and its release
+    /// picks no fish.
+    fn handle_input(&mut self, event: &WindowEvent, over_ui: bool) {
+        match event {
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = Vec2::new(position.x as f32, position.y as f32);
+                let height = self
+                    .window
+                    .as_ref()
+                    .map_or(1.0, |w| w.config.height.max(1) as f32);
+                match self.aq.ui.pointer.moved(p) {
+                    Some((MouseButton::Left, delta)) => self.aq.ui.camera.orbit(
+                        delta.x / height * std::f32::consts::PI,
+                        delta.y / height * std::f32::consts::PI,
+                    ),
+                    Some((MouseButton::Right | MouseButton::Middle, delta)) => {
+                        self.aq.ui.follow = false;
+                        self.aq.ui.camera.pan(delta.x / height, delta.y / height);
+                    }
+                    _ => {}
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => match state {
+                ElementState::Pressed => self.aq.ui.pointer.pressed(*button, over_ui),
+                ElementState::Released => {
+                    if let Some(at) = self.aq.ui.pointer.released(*button) {
+                        self.pick(at);
+                    }
+                }
+            },
+            WindowEvent::MouseWheel { .. } if over_ui => {}
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => *y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.aq.ui.camera.zoom(0.9f32.powf(lines));
+            }
+            _ => {}
+        }
+    }
+
+    /// One frame: simulate, apply a requested restart and edited shaders, refresh the views,
+    /// draw the aquarium and the panel, present.
+    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
+        let now = Instant::now();
+        let frame_dt = (now - self.aq.ui.last_frame).as_secs_f32();
+        self.aq.ui.last_frame = now;
+
+        let sim_start = Instant::now();
+        advance(&mut self.aq.scene, &mut self.aq.ui, frame_dt);
+        let sim_ms = sim_start.elapsed().as_secs_f32() * 1e3;
+
+        let Some(ws) = self.window.as_mut() else {
+            return Ok(());
+        };
+        if std::mem::take(&mut self.aq.ui.restart_requested) {
+            restart_scene(ws, &mut self.aq);
+        }
+        reload_shaders(ws, &mut self.aq);
+        refresh_views(&mut self.aq.scene, &mut self.aq.ui);
+
+        let surface_texture = match ws.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                ws.surface.configure(&ws.gpu.device, &ws.config);
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Validation => {
+                return Err(GpuError::Surface("surface validation error".into()).into());
+            }
+        };
+        let view = surface_texture
+            .texture
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = ws
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("window frame encoder"),
+            });
+        let size = (ws.config.width, ws.config.height);
+        {
+            let mut input = self.aq.scene.frame_input();
+            input.camera = self.aq.ui.camera;
+            input.overlay = &self.aq.ui.overlay;
+            ws.renderer
+                .encode(&ws.gpu, &mut encoder, &view, size, &input)?;
+        }
+        let rt = ws.renderer.timings();
+        self.aq.ui.render_counts = rt;
+        let extra = draw_panel(ws, &mut self.aq, &mut encoder, &view);
+
+        let submit = Instant::now();
+        ws.gpu
+            .queue
+            .submit(extra.into_iter().chain([encoder.finish()]));
+        ws.window.pre_present_notify();
+        ws.gpu.queue.present(surface_texture);
+        let draw_ms = rt.draw_ms + submit.elapsed().as_secs_f32() * 1e3;
+        self.presented += 1;
+        let times = &mut self.aq.ui.times;
+        times.push_back(FrameTimes {
+            sim_ms,
+            upload_ms: rt.upload_ms,
+            draw_ms,
+            frame_ms: frame_dt * 1e3,
+        });
+        while times.len() > 120 {
+            times.pop_front();
+        }
+        if self.options.frames.is_some_and(|n| self.presented >= n) {
+            event_loop.exit();
+        }
+        Ok(())
+    }
+}
+
+/// The scene file was edited and the designer asked for a restart: reload it and upload its
+/// meshes again.
+fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
+    match aq.scene.restart_scene() {
+        Ok(meshes_changed) => {
+            if meshes_changed {
+                ws.renderer.clear_meshes();
+                for mesh in aq.scene.meshes() {
+                    if let Err(e) = ws.renderer.upload_mesh(&ws.gpu, &mesh) {
+                        aq.ui.log(format!("scene restart: {e}"));
+                    }
+                }
+            }
+            aq.ui.select(&mut aq.scene, None);
+            let fish = aq.scene.num_fish();
+            aq.ui.log(format!("scene restarted: {fish} fish"));
+        }
+        Err(e) => aq.ui.log(format!("scene restart failed: {e}")),
+    }
+}
+
+/// Shader hot reload: new pipelines from the edited files, or the old ones kept on error.
+fn reload_shaders(ws: &mut WindowState, aq: &mut Aquarium) {
+    let Some(w) = &aq.ui.watcher else { return };
+    if !w.changed() {
+        return;
+    }
+    let dir = w.dir().to_owned();
+    let result = ShaderSources::load_dir(&dir)
+        .map_err(|e| format!("cannot read shaders: {e}"))
+        .and_then(|sources| {
+            ws.renderer
+                .reload_shaders(&ws.gpu, sources)
+                .map_err(|e| e.to_string())
+        });
+    let msg = match result {
+        Ok(()) => {
+            aq.ui.shader_error = None;
+            "shaders reloaded".to_owned()
+        }
+        Err(e) => {
+            aq.ui.shader_error = Some(e.clone());
+            format!("{e}\n(keeping the previous pipelines)")
+        }
+    };
+    aq.ui.log(msg);
+}
+
+/// Runs the panel and encodes it over the aquarium in `view`. Returns the command buffers
+/// egui's renderer needs submitted before `encoder`.
+fn draw_panel(
+    ws: &mut WindowState,
+    aq: &mut Aquarium,
+    encoder: &mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+) -> Vec<wgpu::CommandBuffer> {
+    let raw_input = ws.egui_state.take_egui_input(&ws.window);
+    let full = ws.egui_ctx.run_ui(raw_input, |ui| {
+        let shown = egui::Panel::right("tuning").resizable(true).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| aq.panel(ui));
+        });
+        // Where the panel is, in physical pixels: a press there is the panel's even when
+        // it comes before egui has seen the pointer arrive (a fast click).
+        aq.ui.panel_rect_px = Some(shown.response.rect * ui.ctx().pixels_per_point());
+    });
+    ws.egui_state
+        .handle_platform_output(&ws.window, full.platform_output);
+    let jobs = ws.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
+    let screen = egui_wgpu::ScreenDescriptor {
+        size_in_pixels: [ws.config.width, ws.config.height],
+        pixels_per_point: full.pixels_per_point,
+    };
+    let mut textures = full.textures_delta;
+    for (id, deltas) in textures.set.drain() {
+        for delta in &deltas {
+            ws.egui_renderer
+                .update_texture(&ws.gpu.device, &ws.gpu.queue, id, delta);
+        }
+    }
+    let extra =
+        ws.egui_renderer
+            .update_buffers(&ws.gpu.device, &ws.gpu.queue, encoder, &jobs, &screen);
+    {
+        let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("egui pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let mut pass = pass.forget_lifetime();
+        ws.egui_renderer.render(&mut pass, &jobs, &screen);
+    }
+    for id in textures.free.drain() {
+        ws.egui_renderer.free_texture(&id);
+    }
+    extra
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.window.is_some() {
+            return;
+        }
+        if let Err(e) = self.init(event_loop) {
+            self.error = Some(e);
+            event_loop.exit();
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(ws) = self.window.as_mut() else {
+            return;
+        };
+        let response = ws.egui_state.on_window_event(&ws.window, &event);
+        match &event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                ws.config.width = size.width.max(1);
+                ws.config.height = size.height.max(1);
+                ws.surface.configure(&ws.gpu.device, &ws.config);
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.frame(event_loop) {
+                    self.error = Some(e);
+                    event_loop.exit();
+                }
+            }
+            _ => {
+                // egui sees every event first; the view only gets the pointer where egui does
+                // not want it (a click on a panel button must not also pick a fish).
+                let cursor = self.aq.ui.pointer.cursor;
+                let over_panel = self
+                    .aq
+                    .ui
+                    .panel_rect_px
+                    .is_some_and(|r| r.contains(egui::pos2(cursor.x, cursor.y)));
+                let over_ui = response.consumed
+                    || over_panel
+                    || ws.egui_ctx.is_pointer_over_egui()
+                    || ws.egui_ctx.egui_wants_pointer_input();
+                self.handle_input(&event, over_ui);
+            }
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(ws) = &self.window {
+            ws.window.request_redraw();
+        }
+    }
+}

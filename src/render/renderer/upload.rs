@@ -1,0 +1,153 @@
+//! Mesh uploads: checked, levels of detail built, vertex, index and texture-coordinate buffers
+//! and the material created.
+
+use super::{GpuMesh, Renderer, Vertex};
+use crate::render::lod::{LodLevel, MeshBounds, MeshLods};
+use crate::render::material;
+use crate::render::{Gpu, MeshId, MeshUpload, RenderError};
+
+impl Renderer {
+    /// Uploads one species' mesh; the returned id is used by [`super::FishInstance::mesh`].
+    /// Builds its levels of detail ([`MeshLods::build`]) and bounding sphere on the way.
+    pub fn upload_mesh(&mut self, gpu: &Gpu, mesh: &MeshUpload<'_>) -> Result<MeshId, RenderError> {
+        let bad = |why: String| RenderError::InvalidMesh {
+            label: mesh.label.to_owned(),
+            why,
+        };
+        let n = mesh.positions.len();
+        for (name, len) in [
+            ("normals", mesh.normals.len()),
+            ("colors", mesh.colors.len()),
+            ("joints", mesh.joints.len()),
+            ("weights", mesh.weights.len()),
+        ] {
+            if len != n {
+                return Err(bad(format!(
+                    "{name} has {len} entries but positions has {n}"
+                )));
+            }
+        }
+        if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
+            return Err(bad(format!(
+                "uvs has {} entries but positions has {n}",
+                mesh.uvs.len()
+            )));
+        }
+        if n == 0 || mesh.indices.is_empty() {
+            return Err(bad("no vertices or no indices".into()));
+        }
+        if !mesh.indices.len().is_multiple_of(3) {
+            return Err(bad(format!(
+                "{} indices is not a whole number of triangles",
+                mesh.indices.len()
+            )));
+        }
+        if let Some((i, &ix)) = mesh
+            .indices
+            .iter()
+            .enumerate()
+            .find(|(_, ix)| **ix as usize >= n)
+        {
+            return Err(bad(format!(
+                "index {i} is {ix}, but there are only {n} vertices"
+            )));
+        }
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        if let Some(i) = (0..n).find(|&i| {
+            !finite(&mesh.positions[i]) || !finite(&mesh.normals[i]) || !finite(&mesh.weights[i])
+        }) {
+            return Err(bad(format!("vertex {i} has a NaN or infinite value")));
+        }
+        let num_joints = mesh
+            .joints
+            .iter()
+            .flat_map(|j| j.iter())
+            .map(|&j| u32::from(j) + 1)
+            .max()
+            .unwrap_or(1);
+        let vertices: Vec<Vertex> = (0..n)
+            .map(|i| Vertex {
+                position: mesh.positions[i],
+                normal: mesh.normals[i],
+                color: mesh.colors[i],
+                joints: mesh.joints[i],
+                weights: mesh.weights[i],
+            })
+            .collect();
+        let lods = MeshLods::build(mesh);
+        use wgpu::util::DeviceExt;
+        let vertex_label = format!("{} vertices", mesh.label);
+        let index_label = format!("{} indices", mesh.label);
+        let vertices = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&vertex_label),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+            });
+        let indices = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&index_label),
+                contents: bytemuck::cast_slice(&lods.indices),
+                usage: wgpu::BufferUsages::INDEX,
+            });
+        let uvs: Vec<[f32; 2]> = if mesh.uvs.is_empty() {
+            vec![[0.0; 2]; n]
+        } else {
+            mesh.uvs
+                .iter()
+                .map(|uv| uv.map(|x| if x.is_finite() { x } else { 0.0 }))
+                .collect()
+        };
+        let uv_label = format!("{} texture coordinates", mesh.label);
+        let uvs = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&uv_label),
+                contents: bytemuck::cast_slice(&uvs),
+                usage: wgpu::BufferUsages::VERTEX,
+            });
+        // A texture without coordinates cannot be sampled: keep the rest of the material.
+        let without_uvs = mesh
+            .material
+            .filter(|m| mesh.uvs.is_empty() && m.base_color_texture.is_some())
+            .map(|m| crate::skin::Material {
+                base_color_texture: None,
+                ..m.clone()
+            });
+        let material = material::upload(
+            &gpu.device,
+            &gpu.queue,
+            &self.material_layout,
+            mesh.label,
+            without_uvs.as_ref().or(mesh.material),
+        );
+        let first_bucket = self.num_lod_buckets;
+        self.num_lod_buckets += lods.levels.len() as u32;
+        self.meshes.push(GpuMesh {
+            vertices,
+            indices,
+            levels: lods.levels,
+            bounds: MeshBounds::from_positions(mesh.positions),
+            first_bucket,
+            num_vertices: n as u32,
+            num_joints,
+            uvs,
+            material,
+        });
+        Ok(MeshId(self.meshes.len() as u32 - 1))
+    }
+
+    /// A mesh's levels of detail, full detail first (index ranges into its one index buffer).
+    pub fn mesh_lods(&self, mesh: MeshId) -> Option<&[LodLevel]> {
+        self.meshes
+            .get(mesh.0 as usize)
+            .map(|m| m.levels.as_slice())
+    }
+
+    /// Number of joints a mesh's vertices refer to (its highest joint index + 1).
+    pub fn mesh_num_joints(&self, mesh: MeshId) -> Option<u32> {
+        self.meshes.get(mesh.0 as usize).map(|m| m.num_joints)
+    }
+}
