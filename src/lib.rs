@@ -12,6 +12,8 @@
 //! | Skin mesh (eq. 1) | [`skin`], assets built by [`asset`] |
 //! | Animation | [`render`] (drawing), [`app`] (the window and its panel) |
 
+#![warn(missing_docs)]
+
 pub mod app;
 pub mod asset;
 pub mod cli;

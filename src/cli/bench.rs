@@ -84,6 +84,7 @@ pub struct SimArgs {
     /// `--fish` and `--driver` do not apply.
     #[arg(long)]
     pub scene: Option<PathBuf>,
+    /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
 }

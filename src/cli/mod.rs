@@ -18,6 +18,7 @@ pub mod test;
 #[derive(Debug, Parser)]
 #[command(name = "shoal", version, about, long_about = None)]
 pub struct Cli {
+    /// The subcommand; none runs the aquarium.
     #[command(subcommand)]
     pub command: Option<Command>,
 }

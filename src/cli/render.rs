@@ -50,6 +50,7 @@ pub struct Args {
     /// Draw every debug overlay (skeletons, midlines, velocity, sensor ranges).
     #[arg(long)]
     pub overlays: bool,
+    /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
 }

@@ -28,6 +28,7 @@ pub struct Args {
     /// Show every debug overlay at start.
     #[arg(long)]
     pub overlays: bool,
+    /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
 }

@@ -27,6 +27,7 @@ pub struct Args {
     /// with new content.
     #[arg(long)]
     pub watch: bool,
+    /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
 }
