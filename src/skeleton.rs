@@ -82,8 +82,11 @@ pub enum SkeletonError {
         "skeleton arrays differ in length: {parents} parents, {names} names, {rests} rest poses"
     )]
     LengthMismatch {
+        /// Number of parent indices.
         parents: usize,
+        /// Number of names.
         names: usize,
+        /// Number of rest poses.
         rests: usize,
     },
     /// More joints than indices can address.
@@ -92,18 +95,29 @@ pub enum SkeletonError {
     /// A joint's parent does not come before it (or does not exist).
     #[error("joint {joint} ({name:?}) has parent {parent}, which does not precede it")]
     ParentOrder {
+        /// The joint's index.
         joint: usize,
+        /// The joint's name.
         name: String,
+        /// Its parent's index.
         parent: usize,
     },
     /// The parent links form a cycle, so no order puts parents first.
     #[error("joint hierarchy has a cycle through joint {joint} ({name:?})")]
-    Cycle { joint: usize, name: String },
+    Cycle {
+        /// A joint on the cycle.
+        joint: usize,
+        /// Its name.
+        name: String,
+    },
     /// A job's slice does not have one entry per joint.
     #[error("{what} has {len} entries, expected {expected} (one per joint)")]
     SliceLength {
+        /// Which slice.
         what: &'static str,
+        /// Its length.
         len: usize,
+        /// The number of joints.
         expected: usize,
     },
     /// A number given to a job or builder is NaN, infinite or out of its range.

@@ -159,7 +159,9 @@ pub enum RunError {
     /// A directory could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
+        /// The directory.
         path: PathBuf,
+        /// Why it could not be read.
         source: std::io::Error,
     },
     /// `--filter` matched no test.

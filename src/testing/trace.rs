@@ -51,12 +51,19 @@ pub enum TraceError {
     /// Creating or writing a file failed.
     #[error("cannot write {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// Why it could not be written.
         source: std::io::Error,
     },
     /// The plotting backend failed.
     #[error("cannot draw {path}: {message}")]
-    Plot { path: PathBuf, message: String },
+    Plot {
+        /// The image file.
+        path: PathBuf,
+        /// What the backend said.
+        message: String,
+    },
 }
 
 /// The CSV header: one column per [`Sample`] field.
