@@ -623,6 +623,22 @@ impl ScriptHost {
         self.fish_errors.get(&id.index).map(String::as_str)
     }
 
+    /// A copy of every fish table of this lane (see [`super::fish_state`]).
+    pub fn save_fish_state(
+        &self,
+    ) -> Result<super::fish_state::LaneState, super::fish_state::FishStateError> {
+        super::fish_state::save(&self.lua, &self.fish_tables)
+    }
+
+    /// Puts back the fish tables of [`ScriptHost::save_fish_state`]'s copy.
+    pub fn restore_fish_state(
+        &mut self,
+        state: &super::fish_state::LaneState,
+    ) -> Result<(), super::fish_state::FishStateError> {
+        self.table_cache.clear();
+        super::fish_state::restore(&self.lua, &self.fish_tables, state)
+    }
+
     /// A fish's memory table as JSON (functions and other non-data values become null).
     pub fn memory_json(&self, id: FishId) -> serde_json::Value {
         let Some(t) = self.existing_fish_table(id) else {

@@ -17,9 +17,11 @@
 //! - [`scene`]: species and scene files read through serde.
 //! - [`reload`]: the directory watcher behind hot reload.
 //! - [`sim`]: [`Simulation`], the fixed-tick loop tying scripts to the [`crate::world`].
+//! - [`fish_state`]: a lane's per-fish state copied and put back (rewinding a simulation).
 
 pub mod api;
 pub mod error;
+pub mod fish_state;
 pub mod host;
 pub mod log;
 pub mod reload;
@@ -34,4 +36,4 @@ pub use host::ScriptHost;
 pub use log::{LogEntry, LogLevel};
 pub use sandbox::Limits;
 pub use scene::SceneDesc;
-pub use sim::{ReloadEvent, Simulation, lane_index};
+pub use sim::{ReloadEvent, SimSnapshot, Simulation, lane_index};

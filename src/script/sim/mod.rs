@@ -47,10 +47,12 @@ use crate::world::{
 mod console;
 mod lanes;
 mod reload;
+mod snapshot;
 
 use lanes::Lane;
 pub use lanes::{Scripts, default_lanes, lane_index};
 pub use reload::ReloadEvent;
+pub use snapshot::SimSnapshot;
 
 /// A species the simulation loaded from `scripts/species/`.
 #[derive(Debug, Clone)]
