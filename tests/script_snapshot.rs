@@ -98,3 +98,25 @@ fn a_function_in_fish_memory_is_refused_naming_the_fish_and_field() {
         "{err}"
     );
 }
+
+#[test]
+fn a_snapshot_restores_into_another_simulation_of_the_same_scene() {
+    let mut a = default_scene(2);
+    a.run(3.0);
+    let snap = a.snapshot().unwrap();
+    let mut b = default_scene(2);
+    b.restore(&snap).unwrap();
+    for k in 0..120 {
+        a.step();
+        b.step();
+        assert!(
+            fingerprint(&a) == fingerprint(&b),
+            "tick {} after the restore differs",
+            k + 1
+        );
+    }
+    // A different number of lanes cannot take it.
+    let mut c = default_scene(1);
+    let err = c.restore(&snap).unwrap_err().to_string();
+    assert!(err.contains("2 script lanes"), "{err}");
+}

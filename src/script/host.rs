@@ -627,7 +627,7 @@ impl ScriptHost {
     pub fn save_fish_state(
         &self,
     ) -> Result<super::fish_state::LaneState, super::fish_state::FishStateError> {
-        super::fish_state::save(&self.lua, &self.fish_tables)
+        super::fish_state::save(&self.fish_tables)
     }
 
     /// Puts back the fish tables of [`ScriptHost::save_fish_state`]'s copy.
@@ -636,7 +636,12 @@ impl ScriptHost {
         state: &super::fish_state::LaneState,
     ) -> Result<(), super::fish_state::FishStateError> {
         self.table_cache.clear();
-        super::fish_state::restore(&self.lua, &self.fish_tables, state)
+        let lua = &self.lua;
+        let params = |index: u32, generation: u32| match self.fish_params.get(&index) {
+            Some((g, v)) if *g == generation => lua.to_value(&**v),
+            _ => lua.create_table().map(Value::Table),
+        };
+        super::fish_state::restore(lua, &self.fish_tables, state, params)
     }
 
     /// A fish's memory table as JSON (functions and other non-data values become null).
