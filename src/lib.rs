@@ -11,6 +11,9 @@
 //! | Skeletal (section 3.2) | [`skeleton`] |
 //! | Skin mesh (eq. 1) | [`skin`], assets built by [`asset`] |
 //! | Animation | [`render`] (drawing), [`app`] (the window and its panel) |
+//!
+//! Around the layers: [`testing`] runs scripted behaviour tests (`shoal test`), [`timeline`]
+//! records, replays and compares runs (`shoal record`, `replay`, `diff`).
 
 #![warn(missing_docs)]
 
@@ -24,4 +27,5 @@ pub mod skeleton;
 pub mod skin;
 pub mod species;
 pub mod testing;
+pub mod timeline;
 pub mod world;

@@ -13,6 +13,7 @@ pub mod render;
 pub mod run;
 pub mod skin;
 pub mod test;
+pub mod timeline;
 
 /// shoal: script artificial fish in Lua and watch them swim.
 #[derive(Debug, Parser)]
@@ -44,6 +45,13 @@ pub enum Command {
     Test(test::Args),
     /// Benchmarks: simulation and rendering.
     Bench(bench::Args),
+    /// Record a run of a scene headless: every fish's pose at every tick, with the scene, seed
+    /// and scripts needed to run it again.
+    Record(timeline::RecordArgs),
+    /// Re-run a recording from a moment with the current (edited) scripts.
+    Replay(timeline::ReplayArgs),
+    /// Compare two runs fish by fish: when they part and how far.
+    Diff(timeline::DiffArgs),
 }
 
 /// `--scripts DIR` (or `SHOAL_SCRIPTS`): where behaviours, species and scenes come from.
@@ -158,6 +166,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Asset(args)) => asset::run(args),
         Some(Command::Test(args)) => test::run(args),
         Some(Command::Bench(args)) => bench::run(args),
+        Some(Command::Record(args)) => timeline::record(args),
+        Some(Command::Replay(args)) => timeline::replay(args),
+        Some(Command::Diff(args)) => timeline::diff(args),
     }
 }
 
