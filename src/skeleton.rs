@@ -550,11 +550,6 @@ impl VertebralChain {
         self.joints_x.len() - 1
     }
 
-    /// Skeleton index of driven joint `k` (0-based, head to tail).
-    pub fn driven_joint(&self, k: usize) -> usize {
-        k + 1
-    }
-
     /// A pose job writing `bend_left` (the motion layer's joint yaws) into `locals`.
     pub fn pose<'a>(
         &'a self,

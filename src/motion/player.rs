@@ -569,20 +569,6 @@ impl MotionPlayer {
         self.phase
     }
 
-    /// The current motion's turn weight I_p(t) of equation (7), in [0, 1] (0 outside turns).
-    pub fn turn_weight(&self) -> f32 {
-        self.current.ip(self.current.elapsed_s)
-    }
-
-    /// Weight of the current motion's body shape against the previous one's, in [0, 1]
-    /// (1 once the cross-fade is over).
-    pub fn blend_weight(&self) -> f32 {
-        match self.previous {
-            Some(_) => smoothstep(self.blend_elapsed_s / SHAPE_BLEND_S),
-            None => 1.0,
-        }
-    }
-
     /// Sideways offset of the head from the root's travel line after the last step, length
     /// units, positive to the fish's left (the head's recoil in front of the pivot).
     pub fn head_lateral(&self) -> f32 {

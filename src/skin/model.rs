@@ -301,16 +301,6 @@ impl FishModel {
             warnings,
         })
     }
-
-    /// The skinning palette of the rest pose (identity up to rounding).
-    pub fn rest_palette(&self) -> Vec<Mat4> {
-        self.skeleton
-            .rest_models()
-            .iter()
-            .zip(&self.inverse_bind_poses)
-            .map(|(m, i)| *m * *i)
-            .collect()
-    }
 }
 
 /// Area-weighted vertex normals of a triangle list (zero where a vertex has no area).
