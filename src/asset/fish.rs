@@ -4,7 +4,7 @@
 //! length (snout to caudal tips) is 1 unit: the snout at z = +0.5, the tail tips at z = −0.5.
 //! Positions along the body are fractions `f` of that length from the snout (0) to the tail (1).
 //!
-//! Every fish has the same 30 joints (names in [`JOINT_NAMES`]): the vertebral chain
+//! Every fish has the same 30 joints (names in [`JOINT_NAMES`], which the species side owns): the vertebral chain
 //! `root`, `spine_1` … `spine_6`, `tail_end` — seven segments (root→spine_1, …,
 //! spine_6→tail_end) bent at the six driven joints `spine_1` … `spine_6` — plus `head`, `snout`,
 //! `jaw`, eyes, gill covers and fin joints. Joints are unrotated at rest.
@@ -17,45 +17,7 @@ use std::f32::consts::{PI, TAU};
 use glam::Vec3;
 
 use super::rigged::{Influences, MaterialSet, RiggedMesh};
-
-/// The 30 joint names of a generated fish, in file (and skeleton) order, parents first.
-pub const JOINT_NAMES: [&str; 30] = [
-    "root",
-    "head",
-    "snout",
-    "jaw",
-    "eye_L",
-    "eye_R",
-    "gill_L",
-    "gill_R",
-    "pectoral_L_1",
-    "pectoral_L_2",
-    "pectoral_R_1",
-    "pectoral_R_2",
-    "pelvic_L",
-    "pelvic_R",
-    "spine_1",
-    "dorsal_1",
-    "spine_2",
-    "dorsal_2",
-    "spine_3",
-    "dorsal_3",
-    "anal_1",
-    "spine_4",
-    "anal_2",
-    "spine_5",
-    "spine_6",
-    "caudal_upper_1",
-    "caudal_upper_2",
-    "caudal_lower_1",
-    "caudal_lower_2",
-    "tail_end",
-];
-
-/// The six driven vertebral joints, head to tail.
-pub const DRIVEN_JOINTS: [&str; 6] = [
-    "spine_1", "spine_2", "spine_3", "spine_4", "spine_5", "spine_6",
-];
+use crate::species::{DRIVEN_JOINTS, JOINT_NAMES};
 
 fn joint(name: &str) -> u16 {
     JOINT_NAMES.iter().position(|n| *n == name).unwrap_or(0) as u16

@@ -13,7 +13,10 @@ pub mod rig;
 mod rigged;
 pub mod species_file;
 
-pub use fish::{DRIVEN_JOINTS, FishPlan, JOINT_NAMES, MedianFin, Profile, chain_blend, smoothstep};
+/// The generated fish's joint names live with the species that drive them; re-exported here
+/// for the generator's callers.
+pub use crate::species::{DRIVEN_JOINTS, JOINT_NAMES};
+pub use fish::{FishPlan, MedianFin, Profile, chain_blend, smoothstep};
 pub use glb::GlbBuilder;
 pub use rigged::{Influences, MaterialSet, RiggedMesh};
 
