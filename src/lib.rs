@@ -20,6 +20,7 @@
 pub mod app;
 pub mod asset;
 pub mod cli;
+pub mod math;
 pub mod motion;
 pub mod render;
 pub mod script;

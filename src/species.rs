@@ -391,7 +391,7 @@ impl SpeciesRig {
         }
         let centroid = positions.iter().copied().sum::<Vec3>() / positions.len() as f32;
         let joint_pos = |j: usize| skeleton.rest_models()[j].w_axis.truncate();
-        let mut forward = snap_to_asset_axis(principal_axis(positions, centroid));
+        let mut forward = snap_to_asset_axis(crate::math::principal_axis(positions, centroid));
         // Orient tail → head. The chain's hierarchy says which end is the head: each listed
         // joint should descend from the one before it.
         let descends = |child: usize, ancestor: usize| {
@@ -529,34 +529,6 @@ impl SpeciesRig {
             locals[j].rotation = (rest * Quat::from_axis_angle(*axis, angle)).normalize();
         }
     }
-}
-
-/// Largest-variance direction of the points (power iteration, deterministic sign).
-fn principal_axis(points: &[Vec3], centroid: Vec3) -> Vec3 {
-    let mut c = [[0.0f64; 3]; 3];
-    for p in points {
-        let d = (*p - centroid).to_array();
-        for (i, row) in c.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v += f64::from(d[i]) * f64::from(d[j]);
-            }
-        }
-    }
-    let mut v = [0.577f64, 0.577, 0.577];
-    // Start from the largest diagonal entry's axis to converge fast and deterministically.
-    let k = (0..3).fold(0, |b, i| if c[i][i] > c[b][b] { i } else { b });
-    v[k] = 1.0;
-    for _ in 0..100 {
-        let next: Vec<f64> = (0..3)
-            .map(|i| c[i][0] * v[0] + c[i][1] * v[1] + c[i][2] * v[2])
-            .collect();
-        let len = (next[0] * next[0] + next[1] * next[1] + next[2] * next[2]).sqrt();
-        if len.is_nan() || len <= 0.0 {
-            break;
-        }
-        v = [next[0] / len, next[1] / len, next[2] / len];
-    }
-    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32).normalize_or(Vec3::Z)
 }
 
 /// Asset files are usually modelled along a coordinate axis; a principal axis within 15° of

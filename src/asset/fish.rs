@@ -17,6 +17,7 @@ use std::f32::consts::{PI, TAU};
 use glam::Vec3;
 
 use super::rigged::{Influences, MaterialSet, RiggedMesh};
+use crate::math::smoothstep_between;
 use crate::species::{DRIVEN_JOINTS, JOINT_NAMES};
 
 fn joint(name: &str) -> u16 {
@@ -507,7 +508,7 @@ impl FishPlan {
     }
 
     fn body_color(&self, f: f32, c: f32) -> [f32; 4] {
-        let up = smoothstep(-0.35, 0.45, c);
+        let up = smoothstep_between(-0.35, 0.45, c);
         let mut rgb = [0.0; 3];
         for (k, v) in rgb.iter_mut().enumerate() {
             *v = self.belly[k] + (self.back[k] - self.belly[k]) * up;
@@ -554,9 +555,9 @@ impl FishPlan {
                 pairs.clear();
                 Self::chain_weights(&chain, f, &mut pairs, 1.0);
                 // Lower jaw.
-                let jaw = (1.0 - f / 0.07).max(0.0) * smoothstep(-0.1, -0.6, c);
+                let jaw = (1.0 - f / 0.07).max(0.0) * smoothstep_between(-0.1, -0.6, c);
                 // Gill covers.
-                let gill = 0.5 * bump(f, 0.15, 0.26) * smoothstep(0.4, 0.9, s.abs());
+                let gill = 0.5 * bump(f, 0.15, 0.26) * smoothstep_between(0.4, 0.9, s.abs());
                 let keep = 1.0 - jaw - gill;
                 for p in &mut pairs {
                     p.1 *= keep;
@@ -694,7 +695,7 @@ impl FishPlan {
         };
         let weights = |a: f32, b: f32, out: &mut Vec<(u16, f32)>| {
             let f = fin.start + a * (fin.end - fin.start);
-            let t = smoothstep(0.0, 1.0, b);
+            let t = smoothstep_between(0.0, 1.0, b);
             Self::chain_weights(&chain, f, out, 1.0 - t);
             chain_blend(&fin_joints, f, 0.5, |j, w| out.push((j, w * t)));
         };
@@ -721,9 +722,9 @@ impl FishPlan {
         };
         let weights = |a: f32, b: f32, out: &mut Vec<(u16, f32)>| {
             let s = 2.0 * a - 1.0;
-            let upper = smoothstep(-0.4, 0.4, s);
-            let outer = smoothstep(0.25, 0.8, b);
-            let body = (1.0 - smoothstep(0.0, 0.5, b)).max(0.0);
+            let upper = smoothstep_between(-0.4, 0.4, s);
+            let outer = smoothstep_between(0.25, 0.8, b);
+            let body = (1.0 - smoothstep_between(0.0, 0.5, b)).max(0.0);
             let fin = 1.0 - body;
             out.push((joint("spine_6"), body));
             out.push((joint("caudal_upper_1"), fin * upper * (1.0 - outer)));
@@ -764,8 +765,8 @@ impl FishPlan {
             };
             let normal = dir.cross(up).normalize() * side;
             let weights = |_a: f32, b: f32, out: &mut Vec<(u16, f32)>| {
-                let base = 1.0 - smoothstep(0.0, 0.3, b);
-                let outer = smoothstep(0.3, 0.9, b);
+                let base = 1.0 - smoothstep_between(0.0, 0.3, b);
+                let outer = smoothstep_between(0.3, 0.9, b);
                 Self::chain_weights(&chain, pf, out, base);
                 out.push((joint(j1), (1.0 - base) * (1.0 - outer)));
                 out.push((joint(j2), (1.0 - base) * outer));
@@ -791,7 +792,7 @@ impl FishPlan {
             };
             let normal = dir.cross(Vec3::Z).normalize();
             let weights = |_a: f32, b: f32, out: &mut Vec<(u16, f32)>| {
-                let base = 1.0 - smoothstep(0.0, 0.4, b);
+                let base = 1.0 - smoothstep_between(0.0, 0.4, b);
                 Self::chain_weights(&chain, vf, out, base);
                 out.push((joint(j), 1.0 - base));
             };
@@ -890,12 +891,6 @@ fn joint_slot(name: &str) -> usize {
 /// Writes (joint, weight) pairs for the sheet point (a, b).
 type WeightFn<'a> = dyn Fn(f32, f32, &mut Vec<(u16, f32)>) + 'a;
 
-/// Hermite smoothstep from 0 at `e0` to 1 at `e1` (either order).
-pub fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
 /// A smooth bump: 0 outside [a, b], 1 in the middle.
 fn bump(x: f32, a: f32, b: f32) -> f32 {
     if x <= a || x >= b {
@@ -933,12 +928,12 @@ pub fn chain_blend(chain: &[(u16, f32)], x: f32, blend: f32, mut emit: impl FnMu
     // Hand-over zone around joint k (from k−1) or around joint k+1 (to k+1).
     if k > 0 && x < chain[k].1 + gap(k) {
         let h = gap(k);
-        let t = smoothstep(chain[k].1 - h, chain[k].1 + h, x);
+        let t = smoothstep_between(chain[k].1 - h, chain[k].1 + h, x);
         emit(chain[k - 1].0, 1.0 - t);
         emit(chain[k].0, t);
     } else if k + 1 < chain.len() && x > chain[k + 1].1 - gap(k + 1) {
         let h = gap(k + 1);
-        let t = smoothstep(chain[k + 1].1 - h, chain[k + 1].1 + h, x);
+        let t = smoothstep_between(chain[k + 1].1 - h, chain[k + 1].1 + h, x);
         emit(chain[k].0, 1.0 - t);
         emit(chain[k + 1].0, t);
     } else if k == 0 && x < chain[0].1 {

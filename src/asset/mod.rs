@@ -16,7 +16,7 @@ pub mod species_file;
 /// The generated fish's joint names live with the species that drive them; re-exported here
 /// for the generator's callers.
 pub use crate::species::{DRIVEN_JOINTS, JOINT_NAMES};
-pub use fish::{FishPlan, MedianFin, Profile, chain_blend, smoothstep};
+pub use fish::{FishPlan, MedianFin, Profile, chain_blend};
 pub use glb::GlbBuilder;
 pub use rigged::{Influences, MaterialSet, RiggedMesh};
 

@@ -246,7 +246,9 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         Axis::X => Vec3::X,
         Axis::Y => Vec3::Y,
         Axis::Z => Vec3::Z,
-        Axis::Auto => crate::species::snap_to_asset_axis(principal_axis(&positions, centroid)),
+        Axis::Auto => {
+            crate::species::snap_to_asset_axis(crate::math::principal_axis(&positions, centroid))
+        }
     };
     let along: Vec<f32> = positions
         .iter()
@@ -409,55 +411,6 @@ fn sanitize(name: &str) -> String {
             }
         })
         .collect()
-}
-
-/// Largest-variance direction of the points (power iteration on the covariance, deterministic).
-fn principal_axis(points: &[Vec3], centroid: Vec3) -> Vec3 {
-    let mut c = [[0.0f64; 3]; 3];
-    for p in points {
-        let d = (*p - centroid).to_array();
-        for i in 0..3 {
-            for j in 0..3 {
-                c[i][j] += f64::from(d[i]) * f64::from(d[j]);
-            }
-        }
-    }
-    // Start from the bounding box's longest extent.
-    let (lo, hi) = points
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
-            (a.min(*p), b.max(*p))
-        });
-    let ext = hi - lo;
-    let mut v = if ext.x >= ext.y && ext.x >= ext.z {
-        [1.0f64, 0.1, 0.1]
-    } else if ext.y >= ext.z {
-        [0.1, 1.0, 0.1]
-    } else {
-        [0.1, 0.1, 1.0]
-    };
-    for _ in 0..64 {
-        let mut next = [0.0f64; 3];
-        for i in 0..3 {
-            next[i] = c[i][0] * v[0] + c[i][1] * v[1] + c[i][2] * v[2];
-        }
-        let len = (next[0] * next[0] + next[1] * next[1] + next[2] * next[2]).sqrt();
-        if len.is_nan() || len <= 0.0 {
-            break;
-        }
-        v = [next[0] / len, next[1] / len, next[2] / len];
-    }
-    let a = Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32).normalize_or(Vec3::X);
-    // Deterministic sign: largest component positive.
-    let m = a.abs().max_element();
-    if (a.x.abs() == m && a.x < 0.0)
-        || (a.y.abs() == m && a.y < 0.0)
-        || (a.z.abs() == m && a.z < 0.0)
-    {
-        -a
-    } else {
-        a
-    }
 }
 
 /// Two unit vectors perpendicular to `axis` and each other.

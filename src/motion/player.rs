@@ -7,6 +7,7 @@ use std::f32::consts::{FRAC_PI_4, PI, TAU};
 use super::body::curve_to_yaw;
 use super::wave::{self, smoothstep};
 use super::{Body, MotionError, MotionParams, MotionRequest, RootState, TurnKind};
+use crate::math::wrap_angle;
 
 /// Seconds a `Swim` request takes to reach its speed (smoothstep ramp).
 pub const SPEED_RAMP_S: f32 = 0.5;
@@ -460,16 +461,6 @@ fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSample) -> f32 {
         }
     };
     wave::t_locomotion(swim, t, ip)
-}
-
-/// `a` wrapped into (−π, π]. An angle already there is returned as it is: the formula's
-/// (a + π) − π would only add rounding (and an `fmodf` call) to most fish's heading every step.
-fn wrap_angle(a: f32) -> f32 {
-    if a > -PI && a <= PI {
-        return a;
-    }
-    let w = (a + PI).rem_euclid(TAU) - PI;
-    if w <= -PI { w + TAU } else { w }
 }
 
 /// Plays a queue of [`MotionRequest`]s for one fish, integrating the wave phase over time.

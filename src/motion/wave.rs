@@ -169,11 +169,8 @@ pub fn swim_wave(
     }
 }
 
-/// Smoothstep 3u² − 2u³ of `u` clamped to [0, 1]: the ramp every speed change and blend uses.
-pub fn smoothstep(u: f32) -> f32 {
-    let u = u.clamp(0.0, 1.0);
-    u * u * (3.0 - 2.0 * u)
-}
+/// The smoothstep every speed change and blend uses (written once, in [`crate::math`]).
+pub use crate::math::smoothstep;
 
 #[cfg(test)]
 mod tests {

@@ -77,7 +77,7 @@ impl TestFish {
                 let (sin, cos) = theta.sin_cos();
                 let p = Vec3::new(-u * length, h * cos, w * sin);
                 // Dark back, silver flanks and belly, faint vertical bands.
-                let top = smoothstep(-0.2, 0.75, cos);
+                let top = crate::math::smoothstep_between(-0.2, 0.75, cos);
                 let band = 0.9 + 0.1 * (u * 38.0).sin();
                 let mut c = lerp3(silver, dark, top);
                 c = [c[0] * band, c[1] * band, c[2] * band];
@@ -242,11 +242,6 @@ impl TestFish {
             *dst = root * model * *inv;
         }
     }
-}
-
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 fn lerp3(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {

@@ -6,8 +6,6 @@
 //! above with 0 facing +x, so the horizontal forward vector is (cos h, 0, −sin h) and the fish's
 //! left is the direction its heading turns towards.
 
-use std::f32::consts::{PI, TAU};
-
 use glam::Vec3;
 
 use super::Tank;
@@ -19,22 +17,8 @@ pub fn forward(heading: f32, pitch: f32) -> Vec3 {
     Vec3::new(ch * cp, sp, -sh * cp)
 }
 
-/// Wraps an angle (radians) into (−π, π].
-pub fn wrap_angle(a: f32) -> f32 {
-    if !a.is_finite() {
-        return 0.0;
-    }
-    if a > -PI && a <= PI {
-        // Already there: itself, not (a + 2π) − 2π, which would round a negative angle (and
-        // call `fmodf`) every time.
-        return a;
-    }
-    let mut w = a.rem_euclid(TAU); // [0, 2π)
-    if w > PI {
-        w -= TAU;
-    }
-    w
-}
+/// Wraps an angle (radians) into (−π, π]; NaN gives 0 (written once, in [`crate::math`]).
+pub use crate::math::wrap_angle;
 
 /// Heading (radians, counter-clockwise from +x seen from above) of the horizontal part of `dir`;
 /// 0 when `dir` is vertical or zero.
@@ -141,6 +125,7 @@ pub fn tank_distances(tank: &Tank, pos: Vec3) -> (f32, f32, f32, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f32::consts::{PI, TAU};
 
     fn close(a: f32, b: f32) -> bool {
         (a - b).abs() < 1e-5
