@@ -349,6 +349,54 @@ impl TurnKind {
     }
 }
 
+/// A word that names none of a motion type's values: what [`Side`]'s and [`TurnKind`]'s
+/// `FromStr` return, for the script and test APIs to show. Its message lists the accepted names.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{what} must be {accepted}, got \"{got}\"")]
+pub struct UnknownName {
+    /// What was being parsed: `"side"` or `"kind"`.
+    pub what: &'static str,
+    /// The accepted names, quoted, as a phrase: `"left" or "right"`.
+    pub accepted: &'static str,
+    /// The word given.
+    pub got: String,
+}
+
+impl std::str::FromStr for Side {
+    type Err = UnknownName;
+
+    /// `"left"` or `"right"` (lower case, as scripts write them).
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        match s {
+            "left" => Ok(Side::Left),
+            "right" => Ok(Side::Right),
+            other => Err(UnknownName {
+                what: "side",
+                accepted: "\"left\" or \"right\"",
+                got: other.to_owned(),
+            }),
+        }
+    }
+}
+
+impl std::str::FromStr for TurnKind {
+    type Err = UnknownName;
+
+    /// `"normal"`, `"quick"` or `"serial"` (lower case, as scripts write them).
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        match s {
+            "normal" => Ok(TurnKind::Normal),
+            "quick" => Ok(TurnKind::Quick),
+            "serial" => Ok(TurnKind::Serial),
+            other => Err(UnknownName {
+                what: "kind",
+                accepted: "\"normal\", \"quick\" or \"serial\"",
+                got: other.to_owned(),
+            }),
+        }
+    }
+}
+
 impl MotionRequest {
     /// Checks the request's numbers: speeds and heights finite and ≥ 0, durations finite and
     /// ≥ 0, turn angles finite in (0, 2π].
@@ -416,5 +464,29 @@ impl RootState {
     /// that the model's +x axis maps onto [`RootState::forward`].
     pub fn rotation(&self) -> glam::Quat {
         glam::Quat::from_rotation_y(self.heading) * glam::Quat::from_rotation_z(self.pitch)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sides_and_turn_kinds_parse_from_their_script_names() {
+        assert_eq!("left".parse(), Ok(Side::Left));
+        assert_eq!("right".parse(), Ok(Side::Right));
+        assert_eq!("normal".parse(), Ok(TurnKind::Normal));
+        assert_eq!("quick".parse(), Ok(TurnKind::Quick));
+        assert_eq!("serial".parse(), Ok(TurnKind::Serial));
+        let e = "Left".parse::<Side>().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "side must be \"left\" or \"right\", got \"Left\""
+        );
+        let e = "sideways".parse::<TurnKind>().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "kind must be \"normal\", \"quick\" or \"serial\", got \"sideways\""
+        );
     }
 }

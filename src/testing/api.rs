@@ -48,7 +48,7 @@ use mlua::{Lua, LuaSerdeExt, Table, UserData, UserDataFields, UserDataMethods, V
 
 use super::trace::{Sample, Trace};
 use super::{Failure, RunOptions, ScriptLine, TestOutcome};
-use crate::motion::{MotionRequest, Side, TurnKind};
+use crate::motion::MotionRequest;
 use crate::script::Simulation;
 use crate::script::log::{LogEntry, LogLevel};
 use crate::world::{FishId, FoodId};
@@ -730,25 +730,14 @@ fn json_to_lua(lua: &Lua, json: &serde_json::Value) -> mlua::Result<Value> {
     lua.to_value_with(json, options)
 }
 
-fn parse_side(side: &str) -> mlua::Result<Side> {
-    match side {
-        "left" => Ok(Side::Left),
-        "right" => Ok(Side::Right),
-        other => Err(mlua::Error::runtime(format!(
-            "side must be \"left\" or \"right\", got {other:?}"
-        ))),
-    }
-}
-
-fn parse_kind(kind: &str) -> mlua::Result<TurnKind> {
-    match kind {
-        "normal" => Ok(TurnKind::Normal),
-        "quick" => Ok(TurnKind::Quick),
-        "serial" => Ok(TurnKind::Serial),
-        other => Err(mlua::Error::runtime(format!(
-            "turn kind must be \"normal\", \"quick\" or \"serial\", got {other:?}"
-        ))),
-    }
+/// A side or turn kind named by a test, parsed by the motion layer's one parser; the error lists
+/// the accepted names.
+fn parse_name<T: std::str::FromStr<Err = crate::motion::UnknownName>>(
+    method: &str,
+    word: &str,
+) -> mlua::Result<T> {
+    word.parse()
+        .map_err(|e| mlua::Error::runtime(format!("{method}: {e}")))
 }
 
 impl FishHandle {
@@ -847,9 +836,9 @@ impl UserData for FishHandle {
                 this.request(
                     lua,
                     MotionRequest::Turn {
-                        kind: parse_kind(&kind)?,
+                        kind: parse_name("turn", &kind)?,
                         angle: degrees.to_radians(),
-                        side: parse_side(&side)?,
+                        side: parse_name("turn", &side)?,
                     },
                 )
             },

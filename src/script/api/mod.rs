@@ -152,27 +152,23 @@ fn world_err(name: &str, e: crate::world::WorldError) -> mlua::Error {
     rt(format!("shoal.{name}: {e}"))
 }
 
+/// `s` parsed by the motion layer's one parser (`FromStr` of [`Side`] or [`TurnKind`]); the error,
+/// which lists the accepted names, is prefixed `shoal.{name}: `.
+fn parse_name<T: std::str::FromStr<Err = crate::motion::UnknownName>>(
+    name: &str,
+    s: &LuaString,
+) -> mlua::Result<T> {
+    String::from_utf8_lossy(s.as_bytes().as_ref())
+        .parse()
+        .map_err(|e| rt(format!("shoal.{name}: {e}")))
+}
+
 fn parse_side(name: &str, s: &LuaString) -> mlua::Result<Side> {
-    match s.as_bytes().as_ref() {
-        b"left" => Ok(Side::Left),
-        b"right" => Ok(Side::Right),
-        other => Err(rt(format!(
-            "shoal.{name}: side must be \"left\" or \"right\", got \"{}\"",
-            String::from_utf8_lossy(other)
-        ))),
-    }
+    parse_name(name, s)
 }
 
 fn parse_turn(name: &str, s: &LuaString) -> mlua::Result<TurnKind> {
-    match s.as_bytes().as_ref() {
-        b"normal" => Ok(TurnKind::Normal),
-        b"quick" => Ok(TurnKind::Quick),
-        b"serial" => Ok(TurnKind::Serial),
-        other => Err(rt(format!(
-            "shoal.{name}: kind must be \"normal\", \"quick\" or \"serial\", got \"{}\"",
-            String::from_utf8_lossy(other)
-        ))),
-    }
+    parse_name(name, s)
 }
 
 fn request(lua: &Lua, name: &str, r: MotionRequest, now: Option<bool>) -> mlua::Result<()> {
