@@ -339,12 +339,17 @@ impl Side {
 }
 
 impl TurnKind {
-    /// The motion name the player reports for this turn.
+    /// The motion name the player reports for this turn (`"normal_turn"`, …).
     pub fn name(self) -> &'static str {
+        self.motion().name()
+    }
+
+    /// The motion this turn plays as.
+    pub fn motion(self) -> MotionKind {
         match self {
-            TurnKind::Normal => "normal_turn",
-            TurnKind::Quick => "quick_turn",
-            TurnKind::Serial => "serial_turn",
+            TurnKind::Normal => MotionKind::NormalTurn,
+            TurnKind::Quick => MotionKind::QuickTurn,
+            TurnKind::Serial => MotionKind::SerialTurn,
         }
     }
 }
@@ -397,6 +402,64 @@ impl std::str::FromStr for TurnKind {
     }
 }
 
+/// Which motion a [`MotionPlayer`] is playing: one variant per [`MotionRequest`] (one per turn
+/// kind) plus [`MotionKind::Idle`]. Steering and the inspector branch on this;
+/// [`MotionKind::name`] is the name scripts, traces and records show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MotionKind {
+    /// At rest with nothing queued.
+    Idle,
+    /// [`MotionRequest::Swim`].
+    Swim,
+    /// [`MotionRequest::Accelerate`].
+    Accelerate,
+    /// [`MotionRequest::Stop`].
+    Stop,
+    /// [`MotionRequest::Turn`] of [`TurnKind::Normal`].
+    NormalTurn,
+    /// [`MotionRequest::Turn`] of [`TurnKind::Quick`].
+    QuickTurn,
+    /// [`MotionRequest::Turn`] of [`TurnKind::Serial`].
+    SerialTurn,
+    /// [`MotionRequest::Ascend`].
+    Ascend,
+    /// [`MotionRequest::Descend`].
+    Descend,
+}
+
+impl MotionKind {
+    /// The motion's name: `"idle"`, `"swim"`, `"accelerate"`, `"stop"`, `"normal_turn"`,
+    /// `"quick_turn"`, `"serial_turn"`, `"ascend"` or `"descend"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            MotionKind::Idle => "idle",
+            MotionKind::Swim => "swim",
+            MotionKind::Accelerate => "accelerate",
+            MotionKind::Stop => "stop",
+            MotionKind::NormalTurn => "normal_turn",
+            MotionKind::QuickTurn => "quick_turn",
+            MotionKind::SerialTurn => "serial_turn",
+            MotionKind::Ascend => "ascend",
+            MotionKind::Descend => "descend",
+        }
+    }
+
+    /// Whether this is one of the three turns.
+    pub fn is_turn(self) -> bool {
+        matches!(
+            self,
+            MotionKind::NormalTurn | MotionKind::QuickTurn | MotionKind::SerialTurn
+        )
+    }
+}
+
+impl std::fmt::Display for MotionKind {
+    /// Writes [`MotionKind::name`].
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl MotionRequest {
     /// Checks the request's numbers: speeds and heights finite and ≥ 0, durations finite and
     /// ≥ 0, turn angles finite in (0, 2π].
@@ -433,16 +496,22 @@ impl MotionRequest {
         }
     }
 
-    /// The name [`MotionPlayer::current_name`] reports while this request plays.
-    pub fn name(&self) -> &'static str {
+    /// The motion [`MotionPlayer::current_kind`] reports while this request plays.
+    pub fn kind(&self) -> MotionKind {
         match self {
-            MotionRequest::Swim { .. } => "swim",
-            MotionRequest::Accelerate { .. } => "accelerate",
-            MotionRequest::Stop { .. } => "stop",
-            MotionRequest::Turn { kind, .. } => kind.name(),
-            MotionRequest::Ascend { .. } => "ascend",
-            MotionRequest::Descend { .. } => "descend",
+            MotionRequest::Swim { .. } => MotionKind::Swim,
+            MotionRequest::Accelerate { .. } => MotionKind::Accelerate,
+            MotionRequest::Stop { .. } => MotionKind::Stop,
+            MotionRequest::Turn { kind, .. } => kind.motion(),
+            MotionRequest::Ascend { .. } => MotionKind::Ascend,
+            MotionRequest::Descend { .. } => MotionKind::Descend,
         }
+    }
+
+    /// The name [`MotionPlayer::current_name`] reports while this request plays
+    /// ([`MotionKind::name`] of [`MotionRequest::kind`]).
+    pub fn name(&self) -> &'static str {
+        self.kind().name()
     }
 }
 
@@ -488,5 +557,41 @@ mod tests {
             e.to_string(),
             "kind must be \"normal\", \"quick\" or \"serial\", got \"sideways\""
         );
+    }
+
+    #[test]
+    fn motion_kinds_name_the_requests_that_play_them() {
+        let turn = |kind| MotionRequest::Turn {
+            kind,
+            angle: 1.0,
+            side: Side::Left,
+        };
+        let cases = [
+            (MotionRequest::Swim { speed: 1.0 }, "swim"),
+            (
+                MotionRequest::Accelerate {
+                    speed: 1.0,
+                    duration: 1.0,
+                },
+                "accelerate",
+            ),
+            (MotionRequest::Stop { duration: 1.0 }, "stop"),
+            (turn(TurnKind::Normal), "normal_turn"),
+            (turn(TurnKind::Quick), "quick_turn"),
+            (turn(TurnKind::Serial), "serial_turn"),
+            (MotionRequest::Ascend { height: 1.0 }, "ascend"),
+            (MotionRequest::Descend { depth: 1.0 }, "descend"),
+        ];
+        for (request, name) in cases {
+            assert_eq!(request.kind().name(), name);
+            assert_eq!(request.name(), name);
+            assert_eq!(request.kind().to_string(), name);
+            assert_eq!(
+                request.kind().is_turn(),
+                matches!(request, MotionRequest::Turn { .. })
+            );
+        }
+        assert_eq!(MotionPlayer::new().current_kind(), MotionKind::Idle);
+        assert_eq!(MotionPlayer::new().current_name(), "idle");
     }
 }

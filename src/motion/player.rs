@@ -6,7 +6,7 @@ use std::f32::consts::{FRAC_PI_4, PI, TAU};
 
 use super::body::curve_to_yaw;
 use super::wave::{self, smoothstep};
-use super::{Body, MotionError, MotionParams, MotionRequest, RootState, TurnKind};
+use super::{Body, MotionError, MotionKind, MotionParams, MotionRequest, RootState, TurnKind};
 use crate::math::wrap_angle;
 
 /// Seconds a `Swim` request takes to reach its speed (smoothstep ramp).
@@ -172,8 +172,8 @@ impl Active {
         a
     }
 
-    fn name(&self) -> &'static str {
-        self.request.map_or("idle", |r| r.name())
+    fn kind(&self) -> MotionKind {
+        self.request.map_or(MotionKind::Idle, |r| r.kind())
     }
 
     fn completed(&self) -> bool {
@@ -533,10 +533,16 @@ impl MotionPlayer {
         self.queue.len()
     }
 
+    /// The motion now playing ([`MotionKind::Idle`] when at rest with nothing queued).
+    pub fn current_kind(&self) -> MotionKind {
+        self.current.kind()
+    }
+
     /// Name of the motion now playing (`"swim"`, `"accelerate"`, `"stop"`, `"normal_turn"`,
-    /// `"quick_turn"`, `"serial_turn"`, `"ascend"`, `"descend"`, `"idle"`).
+    /// `"quick_turn"`, `"serial_turn"`, `"ascend"`, `"descend"`, `"idle"`): the
+    /// [`MotionKind::name`] of [`MotionPlayer::current_kind`].
     pub fn current_name(&self) -> &'static str {
-        self.current.name()
+        self.current_kind().name()
     }
 
     /// The request now playing (`None` when idle). After a motion completes with nothing

@@ -324,7 +324,7 @@ impl<'w> FishRef<'w> {
         let plan = steer::plan_steer(
             self.root(),
             self.world.state.tank.max.y,
-            player.current_name(),
+            player.current_kind(),
             &mut controls.steer,
             want,
             &params,

@@ -14,7 +14,7 @@ use rand_pcg::Pcg32;
 
 use super::sense::{bearing, forward, heading_of, tank_distances, wrap_angle};
 use super::{Obstacle, Tank};
-use crate::motion::{MotionRequest, RootState, Side, TurnKind};
+use crate::motion::{MotionKind, MotionRequest, RootState, Side, TurnKind};
 
 /// What a behaviour wants: a heading (radians), a depth below the surface (world units) and a
 /// speed (world units per second).
@@ -373,16 +373,19 @@ pub struct SteerPlan {
     pub interrupt: bool,
 }
 
-fn is_turn(motion: &str) -> bool {
-    matches!(motion, "normal_turn" | "quick_turn" | "serial_turn")
+fn is_background(motion: MotionKind) -> bool {
+    matches!(
+        motion,
+        MotionKind::Swim | MotionKind::Idle | MotionKind::Accelerate | MotionKind::Stop
+    )
 }
 
-fn is_background(motion: &str) -> bool {
-    matches!(motion, "swim" | "idle" | "accelerate" | "stop")
+fn is_climb(motion: MotionKind) -> bool {
+    matches!(motion, MotionKind::Ascend | MotionKind::Descend)
 }
 
 /// Turns a wish into at most one motion request, given what the fish is doing (`playing`, the
-/// motion player's current motion name) and what was requested before (`memo`, updated here when
+/// motion player's current motion) and what was requested before (`memo`, updated here when
 /// a request is returned). Turning comes first, then depth, then speed: one request per call, so
 /// calling this every behaviour tick carries out the whole wish in a few ticks.
 ///
@@ -395,18 +398,18 @@ fn is_background(motion: &str) -> bool {
 pub fn plan_steer(
     now: &RootState,
     surface_y: f32,
-    playing: &str,
+    playing: MotionKind,
     memo: &mut SteerMemo,
     want: Steer,
     params: &SteerParams,
 ) -> Option<SteerPlan> {
-    if !is_turn(playing) {
+    if !playing.is_turn() {
         memo.turn_target = None;
     }
-    if !matches!(playing, "ascend" | "descend") {
+    if !is_climb(playing) {
         memo.depth_target = None;
     }
-    if !matches!(playing, "accelerate" | "stop") {
+    if !matches!(playing, MotionKind::Accelerate | MotionKind::Stop) {
         memo.speed_target = None;
     }
 
@@ -434,12 +437,12 @@ pub fn plan_steer(
                 side,
             },
             // Small corrections wait for a depth change to finish; anything else goes now.
-            interrupt: is_turn(playing)
+            interrupt: playing.is_turn()
                 || is_background(playing)
                 || error.abs() >= params.large_turn,
         });
     }
-    if is_turn(playing) {
+    if playing.is_turn() {
         // Heading is close enough, but the turn still playing may overshoot; let it finish.
         return None;
     }
@@ -462,10 +465,10 @@ pub fn plan_steer(
         };
         return Some(SteerPlan {
             request,
-            interrupt: is_background(playing) || matches!(playing, "ascend" | "descend"),
+            interrupt: is_background(playing) || is_climb(playing),
         });
     }
-    if matches!(playing, "ascend" | "descend") {
+    if is_climb(playing) {
         return None;
     }
 
@@ -473,7 +476,7 @@ pub fn plan_steer(
     let speed = want.speed.max(0.0);
     let current = memo.speed_target.unwrap_or(now.speed);
     let deadband = (params.speed_deadband * params.cruise_speed).max(1e-3);
-    let idle_but_asked_to_swim = playing == "idle" && speed > deadband;
+    let idle_but_asked_to_swim = playing == MotionKind::Idle && speed > deadband;
     if (speed - current).abs() > deadband || idle_but_asked_to_swim {
         let change = (speed - now.speed).abs();
         let accel = (params.accel_lengths_per_s2 * params.body_length).max(1e-3);
@@ -677,7 +680,7 @@ mod tests {
         let plan = plan_steer(
             &root(0.0, 50.0, 50.0),
             100.0,
-            "swim",
+            MotionKind::Swim,
             &mut memo,
             want(0.3, 50.0, 50.0),
             &p,
@@ -697,7 +700,7 @@ mod tests {
         let plan = plan_steer(
             &root(0.0, 50.0, 50.0),
             100.0,
-            "swim",
+            MotionKind::Swim,
             &mut memo,
             want(-2.0, 50.0, 50.0),
             &p,
@@ -716,7 +719,7 @@ mod tests {
         let plan = plan_steer(
             &root(0.0, 10.0, 50.0),
             100.0,
-            "swim",
+            MotionKind::Swim,
             &mut memo,
             want(2.0, 50.0, 10.0),
             &p,
@@ -736,7 +739,7 @@ mod tests {
             plan_steer(
                 &root(0.0, 50.0, 50.0),
                 100.0,
-                "swim",
+                MotionKind::Swim,
                 &mut memo,
                 want(0.05, 50.0, 50.0),
                 &p
@@ -750,14 +753,24 @@ mod tests {
         let p = SteerParams::new(50.0, 50.0);
         let mut memo = SteerMemo::default();
         let now = root(0.0, 50.0, 50.0);
-        assert!(plan_steer(&now, 100.0, "swim", &mut memo, want(1.0, 50.0, 50.0), &p).is_some());
+        assert!(
+            plan_steer(
+                &now,
+                100.0,
+                MotionKind::Swim,
+                &mut memo,
+                want(1.0, 50.0, 50.0),
+                &p
+            )
+            .is_some()
+        );
         // Half-way through the turn, the same wish (slightly moved) requests nothing.
         let half = root(0.5, 50.0, 50.0);
         assert!(
             plan_steer(
                 &half,
                 100.0,
-                "normal_turn",
+                MotionKind::NormalTurn,
                 &mut memo,
                 want(1.1, 50.0, 50.0),
                 &p
@@ -768,7 +781,7 @@ mod tests {
         let plan = plan_steer(
             &half,
             100.0,
-            "normal_turn",
+            MotionKind::NormalTurn,
             &mut memo,
             want(-1.0, 50.0, 50.0),
             &p,
@@ -790,17 +803,51 @@ mod tests {
         let mut memo = SteerMemo::default();
         // Depth now 50 (surface 100, y 50); want 80: descend 30.
         let now = root(0.0, 50.0, 50.0);
-        let plan = plan_steer(&now, 100.0, "swim", &mut memo, want(0.0, 80.0, 50.0), &p).unwrap();
+        let plan = plan_steer(
+            &now,
+            100.0,
+            MotionKind::Swim,
+            &mut memo,
+            want(0.0, 80.0, 50.0),
+            &p,
+        )
+        .unwrap();
         assert_eq!(plan.request, MotionRequest::Descend { depth: 30.0 });
         // While descending, the same wish asks nothing more.
-        assert!(plan_steer(&now, 100.0, "descend", &mut memo, want(0.0, 80.0, 50.0), &p).is_none());
+        assert!(
+            plan_steer(
+                &now,
+                100.0,
+                MotionKind::Descend,
+                &mut memo,
+                want(0.0, 80.0, 50.0),
+                &p
+            )
+            .is_none()
+        );
         // Want to go up: ascend.
         let mut memo = SteerMemo::default();
-        let plan = plan_steer(&now, 100.0, "swim", &mut memo, want(0.0, 20.0, 50.0), &p).unwrap();
+        let plan = plan_steer(
+            &now,
+            100.0,
+            MotionKind::Swim,
+            &mut memo,
+            want(0.0, 20.0, 50.0),
+            &p,
+        )
+        .unwrap();
         assert_eq!(plan.request, MotionRequest::Ascend { height: 30.0 });
         // On heading and depth, faster: accelerate, once.
         let mut memo = SteerMemo::default();
-        let plan = plan_steer(&now, 100.0, "swim", &mut memo, want(0.0, 50.0, 100.0), &p).unwrap();
+        let plan = plan_steer(
+            &now,
+            100.0,
+            MotionKind::Swim,
+            &mut memo,
+            want(0.0, 50.0, 100.0),
+            &p,
+        )
+        .unwrap();
         assert!(matches!(
             plan.request,
             MotionRequest::Accelerate { speed: 100.0, .. }
@@ -809,7 +856,7 @@ mod tests {
             plan_steer(
                 &now,
                 100.0,
-                "accelerate",
+                MotionKind::Accelerate,
                 &mut memo,
                 want(0.0, 50.0, 100.0),
                 &p
@@ -818,7 +865,15 @@ mod tests {
         );
         // Speed zero: stop.
         let mut memo = SteerMemo::default();
-        let plan = plan_steer(&now, 100.0, "swim", &mut memo, want(0.0, 50.0, 0.0), &p).unwrap();
+        let plan = plan_steer(
+            &now,
+            100.0,
+            MotionKind::Swim,
+            &mut memo,
+            want(0.0, 50.0, 0.0),
+            &p,
+        )
+        .unwrap();
         assert!(matches!(plan.request, MotionRequest::Stop { .. }));
     }
 }
