@@ -1,0 +1,134 @@
+//! The body's shape at one midline sample: the paper's F of equations (3)–(7) for one motion, and
+//! the rigid chain that the joint yaws pose.
+
+use std::f32::consts::{PI, TAU};
+
+use super::active::{Active, Plan};
+use super::table::{WaveSample, WaveTable};
+use super::{QUICK_TURN_BEND_GAIN, SERIAL_TURN_BEND_GAIN};
+use crate::motion::TurnKind;
+use crate::motion::wave;
+
+/// Per-step values every shape evaluation shares.
+pub(super) struct ShapeContext {
+    pub(super) gain: f32,
+    /// sin φ, cos φ of the swim wave's phase.
+    pub(super) phase: (f32, f32),
+    pub(super) tt: f32,
+    pub(super) f: f32,
+}
+
+/// A motion's turn terms for this step (the same at every sample).
+pub(super) struct TurnStep {
+    /// I_p at the motion's time.
+    ip: f32,
+    /// 2π·ω''·t of F_st, and its sine and cosine.
+    omega_t: f32,
+    sin_cos: (f32, f32),
+    /// The table's turn wavelength is the motion's (else F_st is evaluated directly).
+    tabled: bool,
+}
+
+impl TurnStep {
+    pub(super) fn new(a: &Active, c: &ShapeContext, table: &WaveTable) -> Self {
+        let ip = a.ip(a.elapsed_s);
+        match a.plan {
+            Plan::Turn {
+                kind: TurnKind::Quick | TurnKind::Serial,
+                wavelength,
+                ..
+            } if ip != 0.0 => {
+                let omega_t = TAU * wave::omega_2(c.tt) * a.elapsed_s;
+                TurnStep {
+                    ip,
+                    omega_t,
+                    sin_cos: omega_t.sin_cos(),
+                    tabled: wavelength.to_bits() == table.turn_wavelength.to_bits(),
+                }
+            }
+            _ => TurnStep {
+                ip,
+                omega_t: 0.0,
+                sin_cos: (0.0, 1.0),
+                tabled: true,
+            },
+        }
+    }
+}
+
+/// The paper's F (positive to the fish's right) of motion `a` at midline sample `s` (see
+/// [`WaveTable`]); `turn` holds the motion's turn terms for this step.
+pub(super) fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSample) -> f32 {
+    // sin(2π·x'/λ − φ) (λ' in front of the pivot): eq. (3)/(4) without the amplitude.
+    let (sin_phi, cos_phi) = c.phase;
+    let travelling = s.swim.0 * cos_phi - s.swim.1 * sin_phi;
+    let swim = s.amp * c.gain * travelling;
+    let Plan::Turn {
+        kind,
+        d,
+        wavelength,
+        strokes,
+        ..
+    } = a.plan
+    else {
+        return swim;
+    };
+    let (ip, xp, amp) = (turn.ip, s.xp, s.amp);
+    if ip == 0.0 || xp < 0.0 {
+        // The turn functions only change the part behind the pivot (paper 3.5.2).
+        return swim;
+    }
+    let t = match kind {
+        // Eq. (5), F_nt = A(x)·(sin(2π·x'/λ − φ) + d)·f: behind the pivot its sine is the swim
+        // wave's.
+        TurnKind::Normal => amp * (travelling + d) * c.f,
+        TurnKind::Quick | TurnKind::Serial => {
+            // One |sin| lobe per stroke: the bend enters at the pivot when the stroke starts
+            // and runs to the tail; before it arrives (and after the last stroke) a point is
+            // not bent, so no lobe of a stroke that never happened shows.
+            let theta = turn.omega_t - TAU * xp / wavelength;
+            if theta < 0.0 || theta > strokes as f32 * PI {
+                0.0
+            } else {
+                let gain = if kind == TurnKind::Quick {
+                    QUICK_TURN_BEND_GAIN
+                } else {
+                    SERIAL_TURN_BEND_GAIN
+                };
+                let a_st = amp * gain * c.f;
+                if turn.tabled {
+                    // Eq. (6), F_st = A·d·|sin(2π·x'/Λ'' − 2π·ω''·t)|, by angle subtraction.
+                    let (sin_t, cos_t) = turn.sin_cos;
+                    a_st * d * (s.turn.0 * cos_t - s.turn.1 * sin_t).abs()
+                } else {
+                    wave::f_st(a_st, xp, wavelength, a.elapsed_s, c.tt, d)
+                }
+            }
+        }
+    };
+    wave::t_locomotion(swim, t, ip)
+}
+
+/// Sideways displacement (positive left) of each `joints_x` sample of the rigid chain that starts
+/// `head_lateral` to the side, leaves the head at `head_yaw` and bends by `yaw` at each driven
+/// joint. Segment lengths are Δx·l.
+pub(super) fn posed_lateral(
+    l: f32,
+    joints_x: &[f32],
+    head_lateral: f32,
+    head_yaw: f32,
+    yaw: &[f32],
+    lateral: &mut [f32],
+) {
+    let mut left = head_lateral;
+    let mut alpha = -head_yaw;
+    let mut x_prev = 0.0;
+    for (k, (&x, out)) in joints_x.iter().zip(lateral.iter_mut()).enumerate() {
+        if k > 0 {
+            alpha += yaw[k - 1];
+        }
+        left += (x - x_prev) * l * alpha.sin();
+        x_prev = x;
+        *out = left;
+    }
+}
