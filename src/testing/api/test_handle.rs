@@ -1,0 +1,144 @@
+//! `t`, the handle a test function receives: `t:world{…}` and the checks.
+
+use super::{
+    Cell, TANK_KEYS, TestHandle, WORLD_KEYS, WorldHandle, WorldState, caller_line, check_keys,
+    located, make_scratch, vec3_from,
+};
+use crate::script::Simulation;
+use crate::testing::Failure;
+use mlua::{Lua, Table, UserData, UserDataMethods, Value};
+use std::path::Path;
+
+impl TestHandle {
+    pub(super) fn fail(&self, lua: &Lua, message: String) {
+        let mut state = self.0.borrow_mut();
+        let file = state.file.clone();
+        let sim_time = state.last_time;
+        state.failures.push(Failure {
+            file,
+            line: caller_line(lua),
+            message,
+            sim_time,
+        });
+    }
+
+    pub(super) fn check(&self, lua: &Lua, ok: bool, message: impl FnOnce() -> String) -> bool {
+        self.0.borrow_mut().num_checks += 1;
+        if !ok {
+            self.fail(lua, message());
+        }
+        ok
+    }
+}
+
+fn describe(value: &Value) -> String {
+    match value {
+        Value::Nil => "nil".into(),
+        Value::Boolean(b) => b.to_string(),
+        Value::Integer(i) => i.to_string(),
+        Value::Number(n) => format!("{n:.4}"),
+        Value::String(s) => format!("{:?}", s.to_string_lossy()),
+        other => other.type_name().to_string(),
+    }
+}
+
+impl UserData for TestHandle {
+    fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
+        methods.add_method("world", |lua, this, opts: Option<Table>| {
+            let opts = match opts {
+                Some(t) => t,
+                None => lua.create_table()?,
+            };
+            check_keys(lua, &opts, "t:world", WORLD_KEYS)?;
+            let seed: u64 = opts.get::<Option<u64>>("seed")?.unwrap_or(1);
+            let scene: Option<String> = opts.get("scene")?;
+            let scratch_wanted = opts.get::<Option<bool>>("scratch")?.unwrap_or(false);
+            let allow_errors = opts.get::<Option<bool>>("allow_errors")?.unwrap_or(false);
+            let line = caller_line(lua);
+            let mut root = this.0.borrow().root.clone();
+            let scratch = if scratch_wanted {
+                let dir = make_scratch(&root)
+                    .map_err(|e| located(lua, format!("t:world scratch copy: {e}")))?;
+                root = dir.path().to_path_buf();
+                Some(dir)
+            } else {
+                None
+            };
+            let mut sim = match &scene {
+                Some(scene) => Simulation::from_scene(&root, Path::new(scene), seed),
+                None => Simulation::empty(&root, seed),
+            }
+            .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            if let Some(tank) = opts.get::<Option<Table>>("tank")? {
+                check_keys(lua, &tank, "t:world tank", TANK_KEYS)?;
+                let min = vec3_from(&tank.get("min")?, "tank.min")?;
+                let max = vec3_from(&tank.get("max")?, "tank.max")?;
+                sim.set_tank(min, max)
+                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            }
+            let world = Cell::new(WorldState {
+                sim,
+                scratch,
+                allow_errors,
+                line,
+                log: Vec::new(),
+                trace: Vec::new(),
+                fish: Vec::new(),
+                foods: Vec::new(),
+            });
+            this.0.borrow_mut().worlds.push(world.clone());
+            Ok(WorldHandle {
+                world,
+                test: this.0.clone(),
+            })
+        });
+        methods.add_method(
+            "expect",
+            |lua, this, (cond, msg): (Value, Option<String>)| {
+                let ok = !matches!(cond, Value::Nil | Value::Boolean(false));
+                Ok(this.check(lua, ok, || {
+                    format!(
+                        "expected: {} — got {}",
+                        msg.unwrap_or_else(|| "condition to hold".into()),
+                        describe(&cond)
+                    )
+                }))
+            },
+        );
+        methods.add_method(
+            "near",
+            |lua, this, (actual, expected, tol, msg): (f64, f64, f64, Option<String>)| {
+                let ok = (actual - expected).abs() <= tol;
+                Ok(this.check(lua, ok, || {
+                    format!(
+                        "{}: expected {expected:.4} ± {tol:.4}, actual {actual:.4} (off by {:.4})",
+                        msg.unwrap_or_else(|| "values differ".into()),
+                        (actual - expected).abs()
+                    )
+                }))
+            },
+        );
+        methods.add_method(
+            "less",
+            |lua, this, (a, b, msg): (f64, f64, Option<String>)| {
+                Ok(this.check(lua, a < b, || {
+                    format!(
+                        "{}: expected {a:.4} < {b:.4}",
+                        msg.unwrap_or_else(|| "comparison failed".into())
+                    )
+                }))
+            },
+        );
+        methods.add_method(
+            "greater",
+            |lua, this, (a, b, msg): (f64, f64, Option<String>)| {
+                Ok(this.check(lua, a > b, || {
+                    format!(
+                        "{}: expected {a:.4} > {b:.4}",
+                        msg.unwrap_or_else(|| "comparison failed".into())
+                    )
+                }))
+            },
+        );
+    }
+}
