@@ -150,7 +150,10 @@ pub fn rig_file(path: &Path, opts: &RigOptions) -> Result<Rigged, RigError> {
     rig_scene(&scene, opts)
 }
 
-/// Rigs a scene already read.
+/// Rigs a scene already read: bakes its meshes into scene space ([`bake_scene`]), finds the
+/// long axis and the head end ([`body_frame`]), places the chain along the midline
+/// ([`chain_joints`]) and weights every vertex to it, then writes the GLB with the first
+/// material.
 pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigError> {
     if opts.num_joints < 2 || opts.num_joints > 64 {
         return Err(RigError::Option(format!(
@@ -158,13 +161,111 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
             opts.num_joints
         )));
     }
-    let path = scene.path.clone();
+    let mut warnings = scene.warnings.clone();
+    let baked = bake_scene(scene, &mut warnings)?;
+    let frame = body_frame(scene, &baked.positions, opts)?;
+    let (names, chain_f, joint_positions) = chain_joints(opts, &baked.positions, &frame);
+    let parents: Vec<Option<usize>> = (0..names.len())
+        .map(|j| if j == 0 { None } else { Some(j - 1) })
+        .collect();
+    let chain: Vec<(u16, f32)> = chain_f
+        .iter()
+        .enumerate()
+        .map(|(j, &f)| (j as u16, f))
+        .collect();
+    let mut pairs = Vec::new();
+    let influences: Vec<Influences> = frame
+        .fractions
+        .iter()
+        .map(|&f| {
+            pairs.clear();
+            chain_blend(&chain, f, 0.35, |j, w| pairs.push((j, w)));
+            Influences::from_pairs(&pairs, 0)
+        })
+        .collect();
+
+    let name = scene
+        .nodes
+        .iter()
+        .find_map(|n| n.mesh.and(n.name.clone()))
+        .unwrap_or_else(|| "fish".into());
+    let Baked {
+        positions,
+        normals,
+        colors,
+        uvs,
+        all_uvs,
+        tangents,
+        all_tangents,
+        indices,
+        material,
+    } = baked;
+    let rigged = RiggedMesh {
+        name: sanitize(&name),
+        joint_names: names.clone(),
+        joint_parents: parents,
+        joint_positions,
+        positions,
+        normals,
+        colors,
+        uvs: if all_uvs && !uvs.is_empty() {
+            Some(uvs)
+        } else {
+            None
+        },
+        tangents: None,
+        influences,
+        indices,
+    };
+    let have_tangents = all_tangents && tangents.len() == rigged.positions.len();
+    let materials = copy_material(
+        scene,
+        material,
+        rigged.uvs.is_some(),
+        have_tangents,
+        &mut warnings,
+    )?;
+    let mut rigged = rigged;
+    if materials.materials[0].get("normalTexture").is_some() {
+        rigged.tangents = Some(tangents);
+    }
+    let glb = rigged.to_glb(&materials, "shoal asset rig");
+    Ok(Rigged {
+        glb,
+        joint_names: names.clone(),
+        driven_joints: names[1..names.len() - 1].to_vec(),
+        mesh: rigged,
+        axis: frame.axis,
+        head_positive: frame.head_positive,
+        warnings,
+    })
+}
+
+/// Every mesh node of the default scene, baked into scene space as one triangle list.
+struct Baked {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    colors: Vec<[f32; 4]>,
+    uvs: Vec<[f32; 2]>,
+    /// Every primitive had TEXCOORD_0.
+    all_uvs: bool,
+    tangents: Vec<[f32; 4]>,
+    /// Every primitive had TANGENT.
+    all_tangents: bool,
+    indices: Vec<u32>,
+    /// The first primitive's material (the rig keeps only that one).
+    material: Option<usize>,
+}
+
+/// Bakes every mesh node of the default scene into scene space: positions, normals, tangents
+/// (handedness flipped under a mirroring transform), colours, TEXCOORD_0 and indices. Errors
+/// when there is no triangle mesh; warns about skinned nodes and extra materials.
+fn bake_scene(scene: &GltfScene, warnings: &mut Vec<String>) -> Result<Baked, RigError> {
+    let path = &scene.path;
     let mesh_err = |problem: String| RigError::Mesh {
         path: path.clone(),
         problem,
     };
-    let mut warnings = scene.warnings.clone();
-    // Bake every mesh node of the default scene into scene space.
     let globals = scene.globals_from(&scene.rest_locals());
     let mut positions = Vec::new();
     let mut normals = Vec::new();
@@ -238,8 +339,42 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
     if positions.len() > u32::MAX as usize / 2 {
         return Err(mesh_err("mesh too large".into()));
     }
+    Ok(Baked {
+        positions,
+        normals,
+        colors,
+        uvs,
+        all_uvs,
+        tangents,
+        all_tangents,
+        indices,
+        material,
+    })
+}
 
-    // Long axis.
+/// Where the body lies: its long axis (unit, tail to head), the head end, and each vertex's
+/// position along the body.
+struct BodyFrame {
+    centroid: Vec3,
+    /// Unit long axis, pointing from tail to head.
+    axis: Vec3,
+    /// Whether the head is at the +axis end of the chosen axis before orienting.
+    head_positive: bool,
+    /// The head's coordinate along `axis` from the centroid.
+    head_t: f32,
+    /// Snout to tail, length units.
+    length: f32,
+    /// Per vertex: fraction of the length from the snout, in [0, 1].
+    fractions: Vec<f32>,
+}
+
+/// The long axis (the option's, or the principal axis snapped to a coordinate axis) and the
+/// head end (the option's, or the end whose last fifth has the larger cross-section).
+fn body_frame(
+    scene: &GltfScene,
+    positions: &[Vec3],
+    opts: &RigOptions,
+) -> Result<BodyFrame, RigError> {
     let n = positions.len() as f32;
     let centroid = positions.iter().copied().sum::<Vec3>() / n;
     let mut axis = match opts.axis {
@@ -247,7 +382,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         Axis::Y => Vec3::Y,
         Axis::Z => Vec3::Z,
         Axis::Auto => {
-            crate::species::snap_to_asset_axis(crate::math::principal_axis(&positions, centroid))
+            crate::species::snap_to_asset_axis(crate::math::principal_axis(positions, centroid))
         }
     };
     let along: Vec<f32> = positions
@@ -261,9 +396,10 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         });
     let length = tmax - tmin;
     if length.is_nan() || length <= 1e-9 {
-        return Err(mesh_err(
-            "the mesh has no extent along its long axis".into(),
-        ));
+        return Err(RigError::Mesh {
+            path: scene.path.clone(),
+            problem: "the mesh has no extent along its long axis".into(),
+        });
     }
     // Perpendicular frame for the cross-section measure.
     let (u, w) = perpendicular_frame(axis);
@@ -305,7 +441,32 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         .iter()
         .map(|p| ((head_t - (*p - centroid).dot(axis)) / length).clamp(0.0, 1.0))
         .collect();
+    Ok(BodyFrame {
+        centroid,
+        axis,
+        head_positive,
+        head_t,
+        length,
+        fractions,
+    })
+}
 
+/// The chain's joints, root, `spine_1` … and `tail_end`: their names, their fractions of the
+/// length from the snout (the tail tip's 1.0 not included) and their positions on the midline
+/// (the mean of the vertices in a slab around each).
+fn chain_joints(
+    opts: &RigOptions,
+    positions: &[Vec3],
+    frame: &BodyFrame,
+) -> (Vec<String>, Vec<f32>, Vec<Vec3>) {
+    let BodyFrame {
+        centroid,
+        axis,
+        head_t,
+        length,
+        ..
+    } = *frame;
+    let fractions = frame.fractions.as_slice();
     // Chain: root, spine_1.., tail_end.
     let driven = opts.num_joints - 1;
     let mut chain_f = vec![0.12f32];
@@ -326,7 +487,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         let half = 0.04;
         let mut sum = Vec3::ZERO;
         let mut count = 0.0f32;
-        for (p, &pf) in positions.iter().zip(&fractions) {
+        for (p, &pf) in positions.iter().zip(fractions) {
             if (pf - f).abs() <= half {
                 let d = *p - centroid;
                 sum += d - axis * d.dot(axis);
@@ -337,68 +498,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         let t = head_t - f * length;
         joint_positions.push(centroid + axis * t + offset);
     }
-    let parents: Vec<Option<usize>> = (0..names.len())
-        .map(|j| if j == 0 { None } else { Some(j - 1) })
-        .collect();
-    let chain: Vec<(u16, f32)> = chain_f
-        .iter()
-        .enumerate()
-        .map(|(j, &f)| (j as u16, f))
-        .collect();
-    let mut pairs = Vec::new();
-    let influences: Vec<Influences> = fractions
-        .iter()
-        .map(|&f| {
-            pairs.clear();
-            chain_blend(&chain, f, 0.35, |j, w| pairs.push((j, w)));
-            Influences::from_pairs(&pairs, 0)
-        })
-        .collect();
-
-    let name = scene
-        .nodes
-        .iter()
-        .find_map(|n| n.mesh.and(n.name.clone()))
-        .unwrap_or_else(|| "fish".into());
-    let rigged = RiggedMesh {
-        name: sanitize(&name),
-        joint_names: names.clone(),
-        joint_parents: parents,
-        joint_positions,
-        positions,
-        normals,
-        colors,
-        uvs: if all_uvs && !uvs.is_empty() {
-            Some(uvs)
-        } else {
-            None
-        },
-        tangents: None,
-        influences,
-        indices,
-    };
-    let have_tangents = all_tangents && tangents.len() == rigged.positions.len();
-    let materials = copy_material(
-        scene,
-        material,
-        rigged.uvs.is_some(),
-        have_tangents,
-        &mut warnings,
-    )?;
-    let mut rigged = rigged;
-    if materials.materials[0].get("normalTexture").is_some() {
-        rigged.tangents = Some(tangents);
-    }
-    let glb = rigged.to_glb(&materials, "shoal asset rig");
-    Ok(Rigged {
-        glb,
-        joint_names: names.clone(),
-        driven_joints: names[1..names.len() - 1].to_vec(),
-        mesh: rigged,
-        axis,
-        head_positive,
-        warnings,
-    })
+    (names, chain_f, joint_positions)
 }
 
 fn sanitize(name: &str) -> String {
