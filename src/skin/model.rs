@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::{Mat4, Vec3};
 
 use super::SkinError;
-use super::gltf_scene::{GltfScene, skin_vertex};
+use super::gltf_scene::{GltfScene, SceneMesh, SceneSkin, skin_vertex};
 use super::material::{Material, transform_uvs};
 use crate::skeleton::{JointTransform, Skeleton};
 
@@ -75,35 +75,13 @@ impl FishModel {
         Self::from_scene(&scene)
     }
 
-    /// Builds the model from a scene already read.
+    /// Builds the model from a scene already read: the first skinned mesh node
+    /// ([`skinned_node`]), its skin's joints as a skeleton ([`skin_joints`]), and its primitives
+    /// skinned into the bind shape ([`bind_shape`]), with warnings about what was dropped.
     pub fn from_scene(scene: &GltfScene) -> Result<FishModel, SkinError> {
         let path = &scene.path;
         let mut warnings = scene.warnings.clone();
-        let mesh_nodes = scene.scene_mesh_nodes();
-        let Some(&node_index) = mesh_nodes.iter().find(|&&n| scene.nodes[n].skin.is_some()) else {
-            let morph_only = mesh_nodes.iter().any(|&n| {
-                scene.nodes[n]
-                    .mesh
-                    .and_then(|m| scene.meshes.get(m))
-                    .is_some_and(|m| m.primitives.iter().any(|p| p.has_morph_targets))
-            });
-            let detail = if mesh_nodes.is_empty() {
-                "the default scene has no mesh".to_string()
-            } else if morph_only {
-                "its meshes are deformed by morph targets only, which shoal does not play; \
-                 rig it with `shoal asset rig`"
-                    .to_string()
-            } else {
-                format!(
-                    "none of its {} mesh nodes has a skin; rig it with `shoal asset rig`",
-                    mesh_nodes.len()
-                )
-            };
-            return Err(SkinError::NoSkin {
-                path: path.clone(),
-                detail,
-            });
-        };
+        let node_index = skinned_node(scene)?;
         let node = &scene.nodes[node_index];
         let invalid = |problem: String| SkinError::Invalid {
             path: path.clone(),
@@ -128,51 +106,8 @@ impl FishModel {
             ));
         }
 
-        // Joint hierarchy: each joint's parent is its nearest ancestor that is a joint of this
-        // skin; its rest local is the product of the node transforms in between.
         let num = skin.joints.len();
-        let mut joint_of_node = vec![None; scene.nodes.len()];
-        for (i, &n) in skin.joints.iter().enumerate() {
-            if n >= scene.nodes.len() {
-                return Err(invalid(format!(
-                    "skin {skin_index} joint {i} is missing node {n}"
-                )));
-            }
-            if joint_of_node[n].is_some() {
-                return Err(invalid(format!("skin {skin_index} lists node {n} twice")));
-            }
-            joint_of_node[n] = Some(i);
-        }
-        let mut parents = Vec::with_capacity(num);
-        let mut names = Vec::with_capacity(num);
-        let mut rests = Vec::with_capacity(num);
-        for (i, &n) in skin.joints.iter().enumerate() {
-            names.push(
-                scene.nodes[n]
-                    .name
-                    .clone()
-                    .unwrap_or_else(|| format!("joint_{i}")),
-            );
-            let mut chain = scene.nodes[n].local_matrix;
-            let mut direct = true;
-            let mut at = scene.nodes[n].parent;
-            let mut parent = None;
-            while let Some(a) = at {
-                if let Some(j) = joint_of_node[a] {
-                    parent = Some(j);
-                    break;
-                }
-                chain = scene.nodes[a].local_matrix * chain;
-                direct = false;
-                at = scene.nodes[a].parent;
-            }
-            parents.push(parent);
-            rests.push(if direct {
-                scene.nodes[n].local
-            } else {
-                JointTransform::from_mat4(chain)
-            });
-        }
+        let (parents, names, rests) = skin_joints(scene, skin, skin_index)?;
         let (skeleton, order) =
             Skeleton::from_unordered(&parents, &names, &rests).map_err(|source| {
                 SkinError::Skeleton {
@@ -192,7 +127,6 @@ impl FishModel {
             .zip(&skin.inverse_bind_matrices)
             .map(|(&n, ibm)| globals[n] * *ibm)
             .collect();
-        let mut extent = 0.0f32;
         let mut model_mismatch = 0.0f32;
         for (new, &old) in order.iter().enumerate() {
             let g = globals[skin.joints[old]];
@@ -206,70 +140,19 @@ impl FishModel {
             );
         }
 
-        let mut out = SkinnedMesh::default();
-        let mut inconsistent = 0usize;
-        let mut computed_normals = false;
-        let mut morph = false;
-        for prim in &mesh.primitives {
-            let (Some(joints), Some(weights)) = (&prim.joints, &prim.weights) else {
-                return Err(invalid(format!(
-                    "node {node_index} is skinned but mesh {mesh_index} primitive {} has no JOINTS_0/WEIGHTS_0",
-                    prim.index
-                )));
-            };
-            morph |= prim.has_morph_targets;
-            let base = out.positions.len() as u32;
-            let normals_in = match &prim.normals {
-                Some(n) => n.clone(),
-                None => {
-                    computed_normals = true;
-                    vertex_normals(&prim.positions, &prim.indices)
-                }
-            };
-            for v in 0..prim.positions.len() {
-                let Some((p, n, _)) = skin_vertex(
-                    &bind_palette,
-                    joints[v],
-                    weights[v],
-                    prim.positions[v],
-                    normals_in[v],
-                ) else {
-                    return Err(SkinError::Accessor {
-                        path: path.clone(),
-                        accessor: 0,
-                        what: format!("mesh {mesh_index} primitive {} JOINTS", prim.index),
-                        problem: format!(
-                            "vertex {v} uses joint {:?} but skin {skin_index} has {num} joints",
-                            joints[v]
-                        ),
-                    });
-                };
-                // Do the influencing joints agree where this vertex sits at rest?
-                for k in 0..4 {
-                    if weights[v][k] > 0.0 {
-                        let q = bind_palette[usize::from(joints[v][k])]
-                            .transform_point3(prim.positions[v]);
-                        if q.distance(p) > 1e-4 * (1.0 + p.length()) {
-                            inconsistent += 1;
-                            break;
-                        }
-                    }
-                }
-                extent = extent.max(p.abs().max_element());
-                out.positions.push(p);
-                out.normals.push(n);
-                out.colors.push(prim.colors[v]);
-                let j = joints[v];
-                out.joints.push([
-                    new_of_old[usize::from(j[0])],
-                    new_of_old[usize::from(j[1])],
-                    new_of_old[usize::from(j[2])],
-                    new_of_old[usize::from(j[3])],
-                ]);
-                out.weights.push(weights[v]);
-            }
-            out.indices.extend(prim.indices.iter().map(|i| i + base));
-        }
+        let BindShape {
+            mut out,
+            inconsistent,
+            computed_normals,
+            morph,
+            extent,
+        } = bind_shape(
+            path,
+            mesh,
+            (node_index, mesh_index, skin_index),
+            &bind_palette,
+            &new_of_old,
+        )?;
         resolve_material(scene, &mesh.primitives, &mut out, &mut warnings);
         let file = path.display();
         if inconsistent > 0 {
@@ -301,6 +184,201 @@ impl FishModel {
             warnings,
         })
     }
+}
+
+/// The first mesh node of the default scene (depth first) that has a skin; when there is none,
+/// an error saying why (no mesh, only morph targets, or no skin).
+fn skinned_node(scene: &GltfScene) -> Result<usize, SkinError> {
+    let path = &scene.path;
+    let mesh_nodes = scene.scene_mesh_nodes();
+    let Some(&node_index) = mesh_nodes.iter().find(|&&n| scene.nodes[n].skin.is_some()) else {
+        let morph_only = mesh_nodes.iter().any(|&n| {
+            scene.nodes[n]
+                .mesh
+                .and_then(|m| scene.meshes.get(m))
+                .is_some_and(|m| m.primitives.iter().any(|p| p.has_morph_targets))
+        });
+        let detail = if mesh_nodes.is_empty() {
+            "the default scene has no mesh".to_string()
+        } else if morph_only {
+            "its meshes are deformed by morph targets only, which shoal does not play; \
+             rig it with `shoal asset rig`"
+                .to_string()
+        } else {
+            format!(
+                "none of its {} mesh nodes has a skin; rig it with `shoal asset rig`",
+                mesh_nodes.len()
+            )
+        };
+        return Err(SkinError::NoSkin {
+            path: path.clone(),
+            detail,
+        });
+    };
+    Ok(node_index)
+}
+
+/// Each joint's parent, name and rest local transform, in the skin's joint order. A joint's
+/// parent is its nearest ancestor that is a joint of this skin; its rest local is the product of
+/// the node transforms in between.
+#[allow(clippy::type_complexity)]
+fn skin_joints(
+    scene: &GltfScene,
+    skin: &SceneSkin,
+    skin_index: usize,
+) -> Result<(Vec<Option<usize>>, Vec<String>, Vec<JointTransform>), SkinError> {
+    let invalid = |problem: String| SkinError::Invalid {
+        path: scene.path.clone(),
+        problem,
+    };
+    let num = skin.joints.len();
+    let mut joint_of_node = vec![None; scene.nodes.len()];
+    for (i, &n) in skin.joints.iter().enumerate() {
+        if n >= scene.nodes.len() {
+            return Err(invalid(format!(
+                "skin {skin_index} joint {i} is missing node {n}"
+            )));
+        }
+        if joint_of_node[n].is_some() {
+            return Err(invalid(format!("skin {skin_index} lists node {n} twice")));
+        }
+        joint_of_node[n] = Some(i);
+    }
+    let mut parents = Vec::with_capacity(num);
+    let mut names = Vec::with_capacity(num);
+    let mut rests = Vec::with_capacity(num);
+    for (i, &n) in skin.joints.iter().enumerate() {
+        names.push(
+            scene.nodes[n]
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("joint_{i}")),
+        );
+        let mut chain = scene.nodes[n].local_matrix;
+        let mut direct = true;
+        let mut at = scene.nodes[n].parent;
+        let mut parent = None;
+        while let Some(a) = at {
+            if let Some(j) = joint_of_node[a] {
+                parent = Some(j);
+                break;
+            }
+            chain = scene.nodes[a].local_matrix * chain;
+            direct = false;
+            at = scene.nodes[a].parent;
+        }
+        parents.push(parent);
+        rests.push(if direct {
+            scene.nodes[n].local
+        } else {
+            JointTransform::from_mat4(chain)
+        });
+    }
+    Ok((parents, names, rests))
+}
+
+/// A skinned mesh's primitives merged and skinned into the bind shape, with what the warnings
+/// need.
+struct BindShape {
+    out: SkinnedMesh,
+    /// Vertices whose joints' global·IBM disagree at rest.
+    inconsistent: usize,
+    /// A primitive had no normals.
+    computed_normals: bool,
+    /// A primitive has morph targets (ignored).
+    morph: bool,
+    /// Largest |coordinate| of the bind shape.
+    extent: f32,
+}
+
+/// Skins every primitive of `mesh` into the bind shape with the file's rest palette
+/// (`bind_palette`, by file joint index) and renumbers its joints into skeleton order
+/// (`new_of_old`). `ids` is (node, mesh, skin) for error messages.
+fn bind_shape(
+    path: &Path,
+    mesh: &SceneMesh,
+    ids: (usize, usize, usize),
+    bind_palette: &[Mat4],
+    new_of_old: &[u16],
+) -> Result<BindShape, SkinError> {
+    let (node_index, mesh_index, skin_index) = ids;
+    let invalid = |problem: String| SkinError::Invalid {
+        path: path.to_path_buf(),
+        problem,
+    };
+    let num = new_of_old.len();
+    let mut extent = 0.0f32;
+    let mut out = SkinnedMesh::default();
+    let mut inconsistent = 0usize;
+    let mut computed_normals = false;
+    let mut morph = false;
+    for prim in &mesh.primitives {
+        let (Some(joints), Some(weights)) = (&prim.joints, &prim.weights) else {
+            return Err(invalid(format!(
+                "node {node_index} is skinned but mesh {mesh_index} primitive {} has no JOINTS_0/WEIGHTS_0",
+                prim.index
+            )));
+        };
+        morph |= prim.has_morph_targets;
+        let base = out.positions.len() as u32;
+        let normals_in = match &prim.normals {
+            Some(n) => n.clone(),
+            None => {
+                computed_normals = true;
+                vertex_normals(&prim.positions, &prim.indices)
+            }
+        };
+        for v in 0..prim.positions.len() {
+            let Some((p, n, _)) = skin_vertex(
+                bind_palette,
+                joints[v],
+                weights[v],
+                prim.positions[v],
+                normals_in[v],
+            ) else {
+                return Err(SkinError::Accessor {
+                    path: path.to_path_buf(),
+                    accessor: 0,
+                    what: format!("mesh {mesh_index} primitive {} JOINTS", prim.index),
+                    problem: format!(
+                        "vertex {v} uses joint {:?} but skin {skin_index} has {num} joints",
+                        joints[v]
+                    ),
+                });
+            };
+            // Do the influencing joints agree where this vertex sits at rest?
+            for k in 0..4 {
+                if weights[v][k] > 0.0 {
+                    let q =
+                        bind_palette[usize::from(joints[v][k])].transform_point3(prim.positions[v]);
+                    if q.distance(p) > 1e-4 * (1.0 + p.length()) {
+                        inconsistent += 1;
+                        break;
+                    }
+                }
+            }
+            extent = extent.max(p.abs().max_element());
+            out.positions.push(p);
+            out.normals.push(n);
+            out.colors.push(prim.colors[v]);
+            let j = joints[v];
+            out.joints.push([
+                new_of_old[usize::from(j[0])],
+                new_of_old[usize::from(j[1])],
+                new_of_old[usize::from(j[2])],
+                new_of_old[usize::from(j[3])],
+            ]);
+            out.weights.push(weights[v]);
+        }
+        out.indices.extend(prim.indices.iter().map(|i| i + base));
+    }
+    Ok(BindShape {
+        out,
+        inconsistent,
+        computed_normals,
+        morph,
+        extent,
+    })
 }
 
 /// Area-weighted vertex normals of a triangle list (zero where a vertex has no area).
