@@ -343,9 +343,32 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter
     Ok((lua, budget, meter))
 }
 
+/// Makes the fresh state a sandbox, in this order: [`restrict_libraries`],
+/// [`restrict_globals`], [`install_print`], `require` set aside for [`module_env`],
+/// [`guard_protected_calls`], [`install_budget_hook`].
 fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -> mlua::Result<()> {
     let g = lua.globals();
+    restrict_libraries(lua, &g, budget, limits)?;
+    restrict_globals(lua, &g)?;
+    install_print(lua, &g)?;
+    // require: per module (see `module_env`); the set of every file loaded through it.
+    lua.set_named_registry_value(LOADED_KEY, lua.create_table()?)?;
+    g.set("require", Value::Nil)?;
+    guard_protected_calls(lua, &g, budget)?;
+    install_budget_hook(lua, budget)?;
+    let _ = root;
+    Ok(())
+}
 
+/// The standard libraries cut down: `os` to its clock, `string` without `dump` and with bounded
+/// pattern functions, a bounded `table.move`, and no `dofile`, `loadfile`, `io`, `debug`,
+/// `package` or `require`.
+fn restrict_libraries(
+    lua: &Lua,
+    g: &Table,
+    budget: &Arc<Budget>,
+    limits: Limits,
+) -> mlua::Result<()> {
     // os: only the clock.
     let os: Table = g.get("os")?;
     let safe_os = lua.create_table()?;
@@ -385,7 +408,12 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -
     for name in ["dofile", "loadfile", "io", "debug", "package", "require"] {
         g.set(name, Value::Nil)?;
     }
+    Ok(())
+}
 
+/// The base functions that could escape the limits: `collectgarbage` (only "count"), `load` (set
+/// aside for text chunks), `setmetatable` (no finalizers) and the shared string metatable.
+fn restrict_globals(lua: &Lua, g: &Table) -> mlua::Result<()> {
     // collectgarbage: only "count" (stopping the collector would defeat the memory limit).
     let raw_gc: Function = g.get("collectgarbage")?;
     g.set(
@@ -439,8 +467,11 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -
     lua.load("getmetatable('').__metatable = false")
         .set_name("=shoal host")
         .exec()?;
+    Ok(())
+}
 
-    // print: into the script console, with the caller's file:line.
+/// `print`: into the script console, with the caller's file:line.
+fn install_print(lua: &Lua, g: &Table) -> mlua::Result<()> {
     g.set(
         "print",
         lua.create_function(|lua, args: mlua::Variadic<Value>| {
@@ -464,11 +495,12 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -
             Ok(())
         })?,
     )?;
+    Ok(())
+}
 
-    // require: per module (see `module_env`); the set of every file loaded through it.
-    lua.set_named_registry_value(LOADED_KEY, lua.create_table()?)?;
-    g.set("require", Value::Nil)?;
-
+/// `pcall`, `xpcall`, `coroutine.resume`/`wrap`/`create`: they must not swallow the host's
+/// stop.
+fn guard_protected_calls(lua: &Lua, g: &Table, budget: &Arc<Budget>) -> mlua::Result<()> {
     // pcall / xpcall / coroutine.resume must not swallow the host's stop: rethrow while set.
     // Coroutines are created by mlua, which gives each the budget hook for good (the watchdog
     // turns the hook on for the main thread only).
@@ -515,10 +547,13 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -
         g.get::<Function>("error")?,
         create,
     ))?;
+    Ok(())
+}
 
-    // The budget hook.
+/// The budget hook: every [`HOOK_INTERVAL`] instructions, stops the call that is over its
+/// instruction budget, its time limit or the memory limit.
+fn install_budget_hook(lua: &Lua, budget: &Arc<Budget>) -> mlua::Result<()> {
     let b = budget.clone();
-    let _ = root;
     lua.set_global_hook(
         HookTriggers::new().every_nth_instruction(HOOK_INTERVAL),
         move |lua, debug| {
