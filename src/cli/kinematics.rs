@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context as _, anyhow, bail};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 
@@ -475,7 +476,21 @@ pub fn plot(subject: &Subject, ms: &[Measurement], out: &Path) -> anyhow::Result
         .flat_map(|m| m.kinematics.envelope.iter().map(|p| p.amplitude))
         .fold(0.12f32, f32::max)
         * 1.1;
-    let mut chart = ChartBuilder::on(&left)
+    draw_envelope(&left, subject, ms, y_max)?;
+    draw_midlines(&right, ms, y_max)?;
+    area.present()
+        .with_context(|| format!("writing {}", out.display()))?;
+    Ok(())
+}
+
+/// The left panel: the measured amplitude envelope at each speed over the published data.
+fn draw_envelope(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    subject: &Subject,
+    ms: &[Measurement],
+    y_max: f32,
+) -> anyhow::Result<()> {
+    let mut chart = ChartBuilder::on(area)
         .margin(14)
         .caption(
             "amplitude envelope a(x), half peak-to-peak",
@@ -552,13 +567,20 @@ pub fn plot(subject: &Subject, ms: &[Measurement], out: &Path) -> anyhow::Result
         .label_font(("sans-serif", 15))
         .draw()
         .map_err(plot_err)?;
+    Ok(())
+}
 
-    // Midlines over one beat at the first speed.
+/// The right panel: the midline over one tail beat at the first speed, within its envelope.
+fn draw_midlines(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    ms: &[Measurement],
+    y_max: f32,
+) -> anyhow::Result<()> {
     let m = &ms[0];
     let s = &m.series;
     let frames = (s.rate_hz / m.kinematics.tail_beat_hz).round() as usize;
     let lat_max = y_max.max(0.12) * 1.2;
-    let mut chart = ChartBuilder::on(&right)
+    let mut chart = ChartBuilder::on(area)
         .margin(14)
         .caption(
             format!(
@@ -602,8 +624,6 @@ pub fn plot(subject: &Subject, ms: &[Measurement], out: &Path) -> anyhow::Result
             ))
             .map_err(plot_err)?;
     }
-    area.present()
-        .with_context(|| format!("writing {}", out.display()))?;
     Ok(())
 }
 
