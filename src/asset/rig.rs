@@ -150,9 +150,9 @@ pub fn rig_file(path: &Path, opts: &RigOptions) -> Result<Rigged, RigError> {
     rig_scene(&scene, opts)
 }
 
-/// Rigs a scene already read: bakes its meshes into scene space ([`bake_scene`]), finds the
-/// long axis and the head end ([`body_frame`]), places the chain along the midline
-/// ([`chain_joints`]) and weights every vertex to it, then writes the GLB with the first
+/// Rigs a scene already read: bakes its meshes into scene space (`bake_scene`), finds the
+/// long axis and the head end (`body_frame`), places the chain along the midline
+/// (`chain_joints`) and weights every vertex to it, then writes the GLB with the first
 /// material.
 pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigError> {
     if opts.num_joints < 2 || opts.num_joints > 64 {

@@ -1,9 +1,7 @@
 //! Motion layer (paper sections 3.4–3.5, equations (2)–(7), Table 1).
 //!
-//! CONTRACT (written before the implementation so the world, the Lua host and the renderer can be
-//! built against it in parallel): the public types and signatures in this file are the interface;
-//! the motion work fills in the bodies and may add to it, but does not change these signatures
-//! without telling the integrator.
+//! The public types in this file (requests, parameters, the root's state, [`MotionKind`]) are what
+//! the world, the Lua host and the renderer use of the motion layer.
 //!
 //! Conventions shared by every layer:
 //! - Lengths are in the units of the species' body length `l` (Table 1 uses l = 50).
@@ -16,8 +14,9 @@
 //!
 //! Files: [`wave`] holds equations (2)–(7) as functions named after the paper's symbols;
 //! [`body`] turns the body curve into joint yaws (power profile after Fig. 5); [`player`] holds
-//! [`MotionPlayer`] (the motions, their queue and the root's locomotion); [`presets`] the four
-//! experiments of Table 1. `docs/motion.md` maps every equation to its function and records every
+//! [`MotionPlayer`] (the motions, their queue, and the step as named stages: queue, root
+//! locomotion, phase, blend, shape, pose); [`presets`] the four experiments of Table 1. The
+//! smoothstep and angle wrap it uses are [`crate::math`]'s. `docs/motion.md` maps every equation to its function and records every
 //! reading of the paper that had to be chosen.
 
 use glam::Vec3;

@@ -76,8 +76,8 @@ impl FishModel {
     }
 
     /// Builds the model from a scene already read: the first skinned mesh node
-    /// ([`skinned_node`]), its skin's joints as a skeleton ([`skin_joints`]), and its primitives
-    /// skinned into the bind shape ([`bind_shape`]), with warnings about what was dropped.
+    /// (`skinned_node`), its skin's joints as a skeleton (`skin_joints`), and its primitives
+    /// skinned into the bind shape (`bind_shape`), with warnings about what was dropped.
     pub fn from_scene(scene: &GltfScene) -> Result<FishModel, SkinError> {
         let path = &scene.path;
         let mut warnings = scene.warnings.clone();

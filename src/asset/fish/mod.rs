@@ -4,8 +4,8 @@
 //! length (snout to caudal tips) is 1 unit: the snout at z = +0.5, the tail tips at z = −0.5.
 //! Positions along the body are fractions `f` of that length from the snout (0) to the tail (1).
 //!
-//! Every fish has the same 30 joints (names in [`JOINT_NAMES`], which the species side owns): the vertebral chain
-//! `root`, `spine_1` … `spine_6`, `tail_end` — seven segments (root→spine_1, …,
+//! Every fish has the same 30 joints (names in [`JOINT_NAMES`], which `species.rs` owns): the
+//! vertebral chain `root`, `spine_1` … `spine_6`, `tail_end` — seven segments (root→spine_1, …,
 //! spine_6→tail_end) bent at the six driven joints `spine_1` … `spine_6` — plus `head`, `snout`,
 //! `jaw`, eyes, gill covers and fin joints. Joints are unrotated at rest.
 //!

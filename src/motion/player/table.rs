@@ -18,6 +18,9 @@ use crate::motion::{Body, MotionParams};
 ///
 /// [`MotionPlayer::step_with`] takes a table built for its `params` and `body`;
 /// [`MotionPlayer::step`] keeps one per thread, rebuilt when the body or parameters change.
+///
+/// [`MotionPlayer::step_with`]: super::MotionPlayer::step_with
+/// [`MotionPlayer::step`]: super::MotionPlayer::step
 #[derive(Debug, Clone, Default)]
 pub struct WaveTable {
     /// The parameters and midline samples it was built for, bit for bit.

@@ -37,7 +37,7 @@
 //!   `t:greater(a, b, msg)`: record a failure (with file, line, expected, actual, simulated time)
 //!   and carry on; a Lua error ends the test as a failure.
 //! - A key an option table does not take is an error naming it, with a "did you mean".
-//! - What the world's scripts `print` is kept with the test ([`ScriptLine`]).
+//! - What the world's scripts `print` is kept with the test ([`ScriptLine`](super::ScriptLine)).
 //!
 //! Files: this one holds the state a running test shares and the helpers its handles use;
 //! `test_handle` is `t`, `world_handle` is `w` (with its measures), `fish_handle` the fish and
