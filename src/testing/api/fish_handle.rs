@@ -135,7 +135,7 @@ impl UserData for FoodHandle {
     fn add_fields<F: UserDataFields<Self>>(fields: &mut F) {
         fields.add_field_method_get("eaten", |_, this| {
             let world = this.world.borrow();
-            Ok(world.sim.world().food(this.id).is_some_and(|f| f.eaten))
+            Ok(world.sim.world().was_eaten(this.id))
         });
         fields.add_field_method_get("eaten_at", |_, this| {
             let world = this.world.borrow();
