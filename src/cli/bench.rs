@@ -245,7 +245,13 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         }
         sim.set_lanes(n)?;
     }
-    let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+    // One second of warm-up, then the per-module profile counts the measured ticks only.
+    for _ in 0..TICK_HZ as usize {
+        sim.step();
+    }
+    sim.reset_profile();
+    let result = measure(sim.sim_mut(), 0, ticks);
+    let modules = sim.profile();
     let errors = sim.error_messages();
     let switched_off = sim.switched_off();
     if args.json {
@@ -257,6 +263,10 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
                 "results": [result],
                 "script_errors": errors.len(),
                 "switched_off": switched_off.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+                "modules": modules
+                    .iter()
+                    .map(|m| Ok((m.module.clone(), serde_json::to_value(m)?)))
+                    .collect::<Result<serde_json::Map<_, _>, serde_json::Error>>()?,
             }))?
         );
     } else {
@@ -266,6 +276,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
             sim.num_lanes()
         );
         print_row(&result, true, Driver::Lua);
+        print_profile(&modules);
         if !errors.is_empty() {
             println!(
                 "{} distinct script errors; first: {}",
@@ -590,6 +601,39 @@ fn plot_sim(path: &Path, results: &[SimBenchResult], title: &str) -> anyhow::Res
         .draw()?;
     area.present()?;
     Ok(())
+}
+
+/// The per-module table of `shoal bench sim --scene`: what each behaviour costs, the most
+/// expensive first.
+fn print_profile(modules: &[crate::script::sim::ModuleProfile]) {
+    if modules.is_empty() {
+        return;
+    }
+    println!("\nper behaviour module (CPU time over every lane, measured ticks):");
+    println!(
+        "  {:<14} {:>9} {:>12} {:>11} {:>10} {:>13} {:>7} {:>7}",
+        "module",
+        "calls",
+        "behaviour ms",
+        "sensing ms",
+        "µs/call",
+        "ms per sim s",
+        "errors",
+        "limits"
+    );
+    for m in modules {
+        println!(
+            "  {:<14} {:>9} {:>12.2} {:>11.2} {:>10.2} {:>13.2} {:>7} {:>7}",
+            m.module,
+            m.calls,
+            m.behavior_ms,
+            m.sensing_ms,
+            m.us_per_call,
+            m.ms_per_sim_s,
+            m.errors,
+            m.limit_stops
+        );
+    }
 }
 
 #[cfg(test)]

@@ -598,6 +598,17 @@ impl ScriptHost {
         self.log(LogLevel::Warning, &msg, None, time_s);
     }
 
+    /// Whether the last failed decision was stopped by the instruction budget, the time limit
+    /// or the memory limit.
+    pub fn last_call_hit_limit(&self) -> bool {
+        self.last_call_hit_limit
+    }
+
+    /// The behaviour name of module `module`.
+    pub fn module_name(&self, module: ModuleIndex) -> Option<&str> {
+        self.modules.get(module).map(|m| m.name.as_str())
+    }
+
     /// True when module `module` is switched off (see [`ScriptHost::quarantine_of`]).
     pub fn is_switched_off(&self, module: ModuleIndex) -> bool {
         self.modules

@@ -3,11 +3,88 @@
 
 use mlua::{Table, Value};
 
-use super::Simulation;
+use super::{ModuleStats, Simulation};
 use crate::script::log::{LogEntry, LogLevel};
 use crate::world::FishId;
 
+/// What one behaviour module's decisions cost, over every lane (see [`Simulation::profile`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ModuleProfile {
+    /// The behaviour (`forage`).
+    pub module: String,
+    /// Decisions run.
+    pub calls: u64,
+    /// CPU milliseconds of behaviour code (sensor queries not included).
+    pub behavior_ms: f64,
+    /// CPU milliseconds of the sensor queries the decisions made.
+    pub sensing_ms: f64,
+    /// CPU microseconds per decision, behaviour and sensing.
+    pub us_per_call: f64,
+    /// CPU milliseconds per simulated second (behaviour and sensing): what the module costs
+    /// the aquarium.
+    pub ms_per_sim_s: f64,
+    /// Decisions that raised an error.
+    pub errors: u64,
+    /// Decisions stopped by the instruction budget, time limit or memory limit.
+    pub limit_stops: u64,
+}
+
 impl Simulation {
+    /// What each behaviour module's decisions have cost since the simulation started (or since
+    /// [`Simulation::reset_profile`]), summed over the lanes, the most expensive first. Timed per
+    /// decision on the lane's thread, so it is CPU time; no Lua hook is involved.
+    pub fn profile(&self) -> Vec<ModuleProfile> {
+        let mut by_name: Vec<(String, ModuleStats)> = Vec::new();
+        for lane in &self.sim.behavior.lanes {
+            for (i, s) in lane.profile.iter().enumerate() {
+                let Some(name) = lane.host.module_name(i) else {
+                    continue;
+                };
+                if s.calls == 0 {
+                    continue;
+                }
+                match by_name.iter_mut().find(|(n, _)| n == name) {
+                    Some((_, t)) => {
+                        t.calls += s.calls;
+                        t.total_ns += s.total_ns;
+                        t.sense_ns += s.sense_ns;
+                        t.errors += s.errors;
+                        t.limit_stops += s.limit_stops;
+                    }
+                    None => by_name.push((name.to_owned(), *s)),
+                }
+            }
+        }
+        let span = (self.sim.world().time() - self.profile_since_s).max(1e-9);
+        let mut out: Vec<ModuleProfile> = by_name
+            .into_iter()
+            .map(|(module, s)| ModuleProfile {
+                module,
+                calls: s.calls,
+                behavior_ms: s.total_ns.saturating_sub(s.sense_ns) as f64 / 1e6,
+                sensing_ms: s.sense_ns as f64 / 1e6,
+                us_per_call: s.total_ns as f64 / 1e3 / s.calls as f64,
+                ms_per_sim_s: s.total_ns as f64 / 1e6 / span,
+                errors: s.errors,
+                limit_stops: s.limit_stops,
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            (b.behavior_ms + b.sensing_ms)
+                .total_cmp(&(a.behavior_ms + a.sensing_ms))
+                .then_with(|| a.module.cmp(&b.module))
+        });
+        out
+    }
+
+    /// Starts [`Simulation::profile`] afresh from now (e.g. after a warm-up).
+    pub fn reset_profile(&mut self) {
+        for lane in &mut self.sim.behavior.lanes {
+            lane.profile.clear();
+        }
+        self.profile_since_s = self.sim.world().time();
+    }
+
     /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,
     /// root state, the intention and percepts its behaviour produced last, its memory and its
     /// last script error.

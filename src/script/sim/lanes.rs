@@ -55,6 +55,23 @@ pub(super) struct Lane {
     total_ns: u64,
     /// Decisions the lane's last stage ran.
     decided: u64,
+    /// Per behaviour module (by the host's module index): what its decisions cost so far.
+    pub(super) profile: Vec<ModuleStats>,
+}
+
+/// What one behaviour module's decisions cost in one lane (see `Simulation::profile`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ModuleStats {
+    /// Decisions run.
+    pub calls: u64,
+    /// CPU nanoseconds of the decisions, sensor queries included.
+    pub total_ns: u64,
+    /// CPU nanoseconds of the sensor queries they made.
+    pub sense_ns: u64,
+    /// Decisions that raised an error.
+    pub errors: u64,
+    /// Decisions stopped by the instruction budget, the time limit or the memory limit.
+    pub limit_stops: u64,
 }
 
 impl Lane {
@@ -74,6 +91,7 @@ impl Lane {
             perception_ns: 0,
             total_ns: 0,
             decided: 0,
+            profile: Vec::new(),
         })
     }
 
@@ -105,6 +123,7 @@ impl Lane {
         let module_of = &mut self.module_of;
         let decided = &mut self.decided;
         *decided = 0;
+        let profile = &mut self.profile;
         let due = &mut self.due[..self.num_due];
         let claims = &mut self.claims;
         let result = (|| {
@@ -131,9 +150,22 @@ impl Lane {
                     std::mem::swap(&mut c.controls, &mut d.controls);
                 }
                 let species = &world.species(sid).desc.name;
+                let sensed_before = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+                let started = Instant::now();
                 let failed = host
                     .run_fish(module, d.id, species, behavior, time_s)
                     .is_err();
+                let took = started.elapsed().as_nanos() as u64;
+                let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+                if profile.len() <= module {
+                    profile.resize(module + 1, ModuleStats::default());
+                }
+                let stats = &mut profile[module];
+                stats.calls += 1;
+                stats.total_ns += took;
+                stats.sense_ns += sensed.saturating_sub(sensed_before);
+                stats.errors += u64::from(failed);
+                stats.limit_stops += u64::from(failed && host.last_call_hit_limit());
                 host.count_outcome(module, failed, time_s);
                 *decided += 1;
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {

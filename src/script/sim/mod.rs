@@ -49,8 +49,9 @@ mod lanes;
 mod reload;
 mod snapshot;
 
+pub use console::ModuleProfile;
 use lanes::Lane;
-pub use lanes::{Scripts, default_lanes, lane_index};
+pub use lanes::{ModuleStats, Scripts, default_lanes, lane_index};
 pub use reload::ReloadEvent;
 pub use snapshot::SimSnapshot;
 
@@ -79,6 +80,8 @@ pub struct Simulation {
     reload_events: Vec<ReloadEvent>,
     /// Each fish's `fish.params` from its scene group (only fish that have some).
     fish_params: std::collections::HashMap<FishId, Arc<serde_json::Value>>,
+    /// Simulated time [`Simulation::profile`] counts from.
+    profile_since_s: f64,
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
@@ -245,6 +248,7 @@ impl Simulation {
             scene_changed: false,
             reload_events: Vec::new(),
             fish_params: std::collections::HashMap::new(),
+            profile_since_s: 0.0,
         })
     }
 
