@@ -23,7 +23,7 @@ for rep in $(seq 1 "${REPEATS:-3}"); do
     vm=${cfg%%|*}; args=${cfg#*|}
     name=$(echo "$vm $args" | sed 's/ *$//; s/--//g; s/ /_/g')
     "$T/bin-$vm/shoal-vm-eval" --fish "$FISH" --seconds "$SECONDS_MEASURED" $args \
-      > "results/$name-$rep.txt" 2>&1
+      > "results/$name-$rep.txt" 2>&1 || echo "$name-$rep failed: see results/$name-$rep.txt"
   done
 done
 python3 summarize.py results

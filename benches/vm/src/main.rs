@@ -708,6 +708,10 @@ impl Bound {
         let ns = (self.epoch.elapsed() + limit).as_nanos() as u64;
         self.deadline_ns.store(ns, Ordering::Relaxed);
     }
+    /// No deadline: calls outside a decision (staging the tick) are not bounded.
+    fn disarm(&self) {
+        self.deadline_ns.store(0, Ordering::Relaxed);
+    }
     fn expired(&self) -> bool {
         self.checks.fetch_add(1, Ordering::Relaxed);
         let d = self.deadline_ns.load(Ordering::Relaxed);
@@ -948,7 +952,9 @@ fn run(o: &Options, seconds: f64) -> mlua::Result<RunResult> {
             }
             w.borrow_mut().cur = i;
             vm.bound.arm(CALL_LIMIT);
-            if let Err(e) = driver.call::<()>((&module, &fish, i + 1)) {
+            let result = driver.call::<()>((&module, &fish, i + 1));
+            vm.bound.disarm();
+            if let Err(e) = result {
                 if errors == 0 {
                     eprintln!("decision error: {e}");
                 }
