@@ -7,6 +7,10 @@
 //! through `script::Simulation`; `--driver rust` runs the built-in Rust wander/school driver, to
 //! measure the Rust stages alone. Both tick through `world::step` as a `world::Sim`.
 //!
+//! `shoal bench peer --fish 1000,10000 [--engines luajit,luajit-tuned,lua5.4,mlua] [--peer PATH]`
+//! runs `bench sim`'s Lua scene beside the pure-Lua peer of the same workload and prints the
+//! ratios (see [`super::bench_peer`]).
+//!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
 //! real world (black porgies in [`crate::world::bench::bench_world`], the built-in Rust driver,
 //! through the window's adapter [`crate::app::WorldScene`]) offscreen per fish count, with the
@@ -47,6 +51,9 @@ pub enum What {
     Sim(SimArgs),
     /// Offscreen render frame times (median, p99) for several fish counts.
     Render(RenderArgs),
+    /// `bench sim` beside the pure-Lua peer of the same workload (LuaJIT, Lua 5.4, shoal's own
+    /// Lua), same minute, same fish counts, with the ratios.
+    Peer(super::bench_peer::PeerArgs),
 }
 
 /// Arguments of `shoal bench sim`.
@@ -101,7 +108,7 @@ pub enum Driver {
 
 /// The constant-density bench tank populated through the Lua simulation with the shipped
 /// behaviours (see [`Driver::Lua`]).
-fn lua_sim(
+pub(super) fn lua_sim(
     root: &Path,
     fish: usize,
     seed: u64,
@@ -141,9 +148,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.what {
         Some(What::Sim(sim)) => run_sim(sim),
         Some(What::Render(render)) => run_render(render),
+        Some(What::Peer(peer)) => super::bench_peer::run(peer),
         None => anyhow::bail!(
-            "say what to measure: `shoal bench sim --fish 1000,10000` or \
-             `shoal bench render --fish 1,100,1000,10000`"
+            "say what to measure: `shoal bench sim --fish 1000,10000`, \
+             `shoal bench render --fish 1,100,1000,10000` or `shoal bench peer --fish 1000,10000`"
         ),
     }
 }
