@@ -670,6 +670,34 @@ impl ScriptHost {
     /// within the per-load budget. Returns the value converted to JSON.
     pub fn eval(&self, name: &str, code: &str) -> Result<serde_json::Value, String> {
         let env = sandbox::module_env(&self.lua).map_err(|e| describe(&e))?;
+        self.eval_in(env, name, code)
+    }
+
+    /// Like [`ScriptHost::eval`], with the fish's table as `fish` (its `memory`, `intention`,
+    /// `percepts`…): what the console's REPL runs for the selected fish. An expression
+    /// (`fish.memory.hunger * 2`) gives its value; a statement (`fish.memory.hunger = 0`) runs and
+    /// gives null. The sandbox and the per-load budget apply. `shoal.*` sensor and motion calls
+    /// are not available here (they act only inside a decision).
+    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+        let fish = self
+            .existing_fish_table(id)
+            .ok_or_else(|| format!("fish #{} has not decided yet: it has no table", id.index))?;
+        let env = sandbox::module_env(&self.lua).map_err(|e| describe(&e))?;
+        env.raw_set("fish", fish).map_err(|e| describe(&e))?;
+        let name = format!("console (fish #{})", id.index);
+        // An expression first; if it does not parse as one, a statement.
+        let as_expr = format!("return {code}");
+        let compiles = self
+            .lua
+            .load(as_expr.as_str())
+            .set_mode(mlua::chunk::ChunkMode::Text)
+            .into_function()
+            .is_ok();
+        let code = if compiles { as_expr.as_str() } else { code };
+        self.eval_in(env, &name, code)
+    }
+
+    fn eval_in(&self, env: Table, name: &str, code: &str) -> Result<serde_json::Value, String> {
         let f = self
             .lua
             .load(code)

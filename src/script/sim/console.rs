@@ -169,6 +169,15 @@ impl Simulation {
         out
     }
 
+    /// Evaluates Lua in fish `id`'s context (its table as `fish`), in its lane: see
+    /// [`crate::script::ScriptHost::eval_fish`].
+    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+        if !self.sim.world().is_alive(id) {
+            return Err(format!("fish #{} is not in the tank", id.index));
+        }
+        self.lane_of(id).host.eval_fish(id, code)
+    }
+
     /// A fish's memory table as JSON.
     pub fn memory_json(&self, id: FishId) -> serde_json::Value {
         self.lane_of(id).host.memory_json(id)
