@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use glam::Vec3;
-use shoal::app::{AppOptions, Aquarium, SimView};
+use shoal::app::{AppOptions, Aquarium, GHOST_COLOR, NEW_PATH_COLOR, SimView};
 use shoal::script::Simulation;
 use shoal::world::FishId;
 
@@ -146,9 +146,30 @@ fn playing_on_from_a_rewound_moment_with_the_same_scripts_follows_the_ghost_exac
     h.run();
     assert!(h.query_by_label_contains("0 fish left it").is_some());
     assert!(
-        !h.state().overlay_lines().is_empty(),
-        "the ghost paths are drawn"
+        h.state().overlay_lines().is_empty(),
+        "a fish on its ghost draws nothing over itself"
     );
+    // The selected fish shows its ghost ahead (the run before the rewind went on to 4 s).
+    let fish0 = h.state().scene.world().fish_id_slice()[0];
+    let at = h.state().scene.fish_info(fish0).unwrap().center;
+    let px = project(h.state(), at);
+    h.state_mut().click(px, VIEW, false);
+    let picked = h.state().selected().expect("a fish is picked");
+    h.state_mut().advance(0.0);
+    assert!(
+        h.state()
+            .overlay_lines()
+            .iter()
+            .any(|l| l.color == GHOST_COLOR),
+        "the selected fish {picked:?} shows its ghost"
+    );
+}
+
+const VIEW: glam::Vec2 = glam::Vec2::new(960.0, 600.0);
+
+fn project(aq: &Aquarium, p: Vec3) -> glam::Vec2 {
+    let ndc = aq.camera().view_proj(VIEW.x / VIEW.y).project_point3(p);
+    glam::Vec2::new((ndc.x + 1.0) * 0.5 * VIEW.x, (1.0 - ndc.y) * 0.5 * VIEW.y)
 }
 
 #[test]
@@ -185,6 +206,13 @@ fn an_edited_behaviour_replayed_from_a_rewound_moment_leaves_the_ghost() {
         "sorted by divergence time"
     );
     assert!(d.iter().all(|d| d.first_s > 1.0 && d.max_distance > 0.0));
+    let lines = h.state().overlay_lines();
+    for color in [GHOST_COLOR, NEW_PATH_COLOR] {
+        assert!(
+            lines.iter().any(|l| l.color == color),
+            "ghosts and new paths are drawn"
+        );
+    }
     // The first to part is listed and selects its fish on a click.
     h.run();
     let first = d[0];

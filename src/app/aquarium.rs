@@ -279,8 +279,13 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
     }
     if ui.show_ghosts {
         let now = scene.world().time();
-        ui.timeline
-            .ghost_lines(now, GHOST_BEHIND_S, GHOST_AHEAD_S, &mut ui.overlay);
+        ui.timeline.ghost_lines(
+            now,
+            GHOST_BEHIND_S,
+            GHOST_AHEAD_S,
+            ui.selected,
+            &mut ui.overlay,
+        );
     }
     match ui.selected {
         Some(id) => {

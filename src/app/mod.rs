@@ -26,5 +26,7 @@ pub use aquarium::{Aquarium, DynScene, pick_fish};
 pub use pointer::Pointer;
 pub use scene::{FOOD_PELLET_RADIUS, FishInfo, OverlayToggles, WorldScene};
 pub use sim::{LogLine, SimError, SimState, SimView};
-pub use timeline::{DEFAULT_SPAN_S, Divergence, Timeline};
+pub use timeline::{
+    DEFAULT_SPAN_S, Divergence, GHOST_COLOR, NEW_PATH_COLOR, TETHER_COLOR, Timeline,
+};
 pub use window::{AppError, AppOptions, run_window};

@@ -282,18 +282,30 @@ impl Timeline {
         }
     }
 
-    /// Ghost paths (faint) and, for fish that left theirs, the new paths (orange), from
-    /// `before_s` seconds before simulated time `now_s` to `after_s` seconds after it (the
-    /// ghost runs ahead of the new run).
-    pub fn ghost_lines(&self, now_s: f64, before_s: f64, after_s: f64, out: &mut Vec<OverlayLine>) {
-        const GHOST: [f32; 4] = [0.75, 0.9, 1.0, 0.55];
-        const NEW: [f32; 4] = [1.0, 0.55, 0.15, 0.95];
+    /// For each fish that left its ghost, and for `also` (the selected fish): its ghost's path
+    /// (faint), its new path since the rewind (orange), and a tether from where it is to where
+    /// its ghost is now; from `before_s` seconds before simulated time `now_s` to `after_s`
+    /// seconds after it (the ghost runs ahead of the new run). Fish that follow their ghost
+    /// draw nothing: their ghost is their path.
+    pub fn ghost_lines(
+        &self,
+        now_s: f64,
+        before_s: f64,
+        after_s: f64,
+        also: Option<FishId>,
+        out: &mut Vec<OverlayLine>,
+    ) {
         const EVERY: usize = 4;
+        let (Some(first), Some(last)) = (self.ghost.front(), self.ghost.back()) else {
+            return;
+        };
+        let (ghost_start, ghost_end) = (first.tick, last.tick);
+        let now = tick_of(now_s);
         let (from, to) = (
             tick_of((now_s - before_s).max(0.0)),
             tick_of(now_s + after_s),
         );
-        let window = |track: &VecDeque<TickTrack>| -> Vec<usize> {
+        let window = |track: &VecDeque<TickTrack>, to: u64| -> Vec<usize> {
             let start = track.partition_point(|t| t.tick < from);
             let end = track.partition_point(|t| t.tick <= to);
             (start..end)
@@ -301,36 +313,56 @@ impl Timeline {
                 .chain(end.checked_sub(1).filter(|&last| last >= start))
                 .collect()
         };
-        let ghost_rows = window(&self.ghost);
-        let Some(&g0) = ghost_rows.first() else {
-            return;
-        };
-        for (i, &id) in self.ghost[g0].ids.iter().enumerate() {
-            polyline(&self.ghost, &ghost_rows, id, i, GHOST, out);
-        }
-        let ghost_start = self.ghost.front().map_or(u64::MAX, |t| t.tick);
-        let new_rows: Vec<usize> = window(&self.track)
+        let ghost_rows = window(&self.ghost, to);
+        let new_rows: Vec<usize> = window(&self.track, now)
             .into_iter()
             .filter(|&k| self.track[k].tick + 1 >= ghost_start)
             .collect();
-        for d in &self.divergences {
-            polyline(&self.track, &new_rows, d.fish, 0, NEW, out);
+        let ghost_now = (ghost_start..=ghost_end)
+            .contains(&now)
+            .then(|| &self.ghost[(now - ghost_start) as usize]);
+        let fish = self
+            .divergences
+            .iter()
+            .map(|d| d.fish)
+            .chain(also.filter(|id| self.divergences.iter().all(|d| d.fish != *id)));
+        for id in fish {
+            polyline(&self.ghost, &ghost_rows, id, GHOST_COLOR, out);
+            polyline(&self.track, &new_rows, id, NEW_PATH_COLOR, out);
+            let here = self.track.back().filter(|t| t.tick == now);
+            if let (Some(a), Some(b)) = (
+                here.and_then(|t| t.pos_of(id, 0)),
+                ghost_now.and_then(|t| t.pos_of(id, 0)),
+            ) && a != b
+            {
+                out.push(OverlayLine {
+                    a,
+                    b,
+                    color: TETHER_COLOR,
+                });
+            }
         }
     }
 }
+
+/// Colour of a ghost's path (the run before the rewind).
+pub const GHOST_COLOR: [f32; 4] = [0.8, 0.92, 1.0, 0.45];
+/// Colour of a fish's new path since the rewind, where it left its ghost.
+pub const NEW_PATH_COLOR: [f32; 4] = [1.0, 0.55, 0.1, 1.0];
+/// Colour of the tether from a fish to where its ghost is now.
+pub const TETHER_COLOR: [f32; 4] = [1.0, 0.9, 0.2, 0.9];
 
 /// Segments joining fish `id`'s positions at rows `rows` of `track`.
 fn polyline(
     track: &VecDeque<TickTrack>,
     rows: &[usize],
     id: FishId,
-    hint: usize,
     color: [f32; 4],
     out: &mut Vec<OverlayLine>,
 ) {
     let mut prev: Option<Vec3> = None;
     for &k in rows {
-        let p = track[k].pos_of(id, hint);
+        let p = track[k].pos_of(id, 0);
         if let (Some(a), Some(b)) = (prev, p) {
             out.push(OverlayLine { a, b, color });
         }
