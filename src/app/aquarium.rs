@@ -11,6 +11,7 @@ use winit::event::MouseButton;
 use super::pointer::Pointer;
 use super::scene::{OverlayToggles, WorldScene};
 use super::sim::SimView;
+use super::timeline::{Divergence, Timeline};
 use super::window::AppOptions;
 use crate::render::shaders::ShaderWatcher;
 use crate::render::{Camera, OverlayLine, RenderTimings};
@@ -33,6 +34,9 @@ impl Aquarium {
     pub fn new(sim: Box<dyn SimView>, options: AppOptions) -> Self {
         let mut scene = WorldScene::new(sim);
         let mut ui = UiState::new(scene.default_camera());
+        if let Some(line) = ui.timeline.record(scene.sim()) {
+            ui.log(line);
+        }
         ui.toggles = options.overlays;
         if let Some(id) = options.select.filter(|&id| scene.world().is_alive(id)) {
             ui.selected = Some(id);
@@ -93,6 +97,20 @@ impl Aquarium {
     pub fn console(&self) -> impl Iterator<Item = &str> {
         self.ui.log.iter().map(String::as_str)
     }
+    /// The history ring (kept states, per-tick positions, ghost).
+    pub fn timeline(&self) -> &Timeline {
+        &self.ui.timeline
+    }
+    /// The fish that left their ghost since the last rewind, by the time they did.
+    pub fn divergences(&self) -> &[Divergence] {
+        self.ui.timeline.divergences()
+    }
+    /// Goes to simulated time `time_s` of the history (clamped to it) and pauses, as the
+    /// timeline's slider does.
+    pub fn seek(&mut self, time_s: f64) {
+        seek(&mut self.scene, &mut self.ui, time_s);
+        refresh_views(&mut self.scene, &mut self.ui);
+    }
 }
 
 /// One frame's times, milliseconds, for the panel's timing table.
@@ -128,9 +146,23 @@ pub(super) struct UiState {
     pub pace: VecDeque<(f32, f32)>,
     pub watcher: Option<ShaderWatcher>,
     pub shader_error: Option<String>,
-    scratch_log: Vec<String>,
+    scratch_log: Vec<super::sim::LogLine>,
+    /// History messages of this frame's ticks, for the console.
+    scratch_notes: Vec<String>,
     /// Set by the panel's "restart scene" button; handled at the start of the next frame.
     pub restart_requested: bool,
+    /// The history ring, ghost and divergences.
+    pub timeline: Timeline,
+    /// The timeline slider's value, simulated seconds (follows the clock unless dragged).
+    pub scrub_s: f64,
+    /// Set by the timeline's slider and buttons: go to this time at the start of the next
+    /// frame's simulation.
+    pub seek_to: Option<f64>,
+    /// Draw the ghosts of the run before the last rewind.
+    pub show_ghosts: bool,
+    /// The timeline slider was being dragged last frame (its value is the designer's, not
+    /// the clock's).
+    pub scrub_dragging: bool,
     /// `SHOAL_UI_TRACE` is set: console lines, selection changes and the panel's button
     /// rectangles are also printed on stdout, so an end-to-end test can click by label.
     pub trace: bool,
@@ -150,6 +182,11 @@ impl UiState {
             paused: false,
             step_once: false,
             restart_requested: false,
+            timeline: Timeline::default(),
+            scrub_s: 0.0,
+            seek_to: None,
+            show_ghosts: true,
+            scrub_dragging: false,
             speed: 1.0,
             toggles: OverlayToggles::default(),
             overlay: Vec::new(),
@@ -164,6 +201,7 @@ impl UiState {
             watcher: None,
             shader_error: None,
             scratch_log: Vec::new(),
+            scratch_notes: Vec::new(),
             trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
             traced: Vec::new(),
             panel_rect_px: None,
@@ -239,6 +277,16 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
     if ui.toggles.any() {
         scene.overlay_lines(ui.toggles, &mut ui.overlay);
     }
+    if ui.show_ghosts {
+        let now = scene.world().time();
+        ui.timeline.ghost_lines(
+            now,
+            GHOST_BEHIND_S,
+            GHOST_AHEAD_S,
+            ui.selected,
+            &mut ui.overlay,
+        );
+    }
     match ui.selected {
         Some(id) => {
             scene.body_wave(id, &mut ui.wave);
@@ -277,6 +325,29 @@ pub fn pick_fish<S: SimView>(
 /// the aquarium goes on instead of racing to catch up.
 pub(super) const MAX_FRAME_DT_S: f32 = 0.1;
 
+/// Ghost and new paths are drawn from this many seconds before the clock…
+const GHOST_BEHIND_S: f64 = 20.0;
+/// … to this many after it (where the old run went next).
+const GHOST_AHEAD_S: f64 = 10.0;
+
+/// Goes to `time_s` of the history (see [`Timeline::seek`]) and pauses; a failure is a
+/// console line.
+pub(super) fn seek(scene: &mut DynScene, ui: &mut UiState, time_s: f64) {
+    ui.paused = true;
+    ui.step_once = false;
+    let result = match ui.timeline.seek(time_s) {
+        Some((state, ticks)) => scene.rewind_to(state, ticks),
+        None => {
+            ui.log("history: nothing kept to go back to");
+            return;
+        }
+    };
+    if let Err(e) = result {
+        ui.log(format!("history: cannot go back: {e}"));
+    }
+    ui.scrub_s = scene.world().time();
+}
+
 /// The simulation part of a frame: advances the scene by the frame's real time × the speed
 /// slider (all of it: no tick is dropped), by exactly one tick after "step", or not at all while
 /// paused; then moves the scene's new log lines into the console.
@@ -287,21 +358,32 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         0.0
     };
     let before = scene.time_s();
-    if ui.step_once {
-        scene.step(1.0 / crate::world::TICK_HZ as f32);
+    let (timeline, notes) = (&mut ui.timeline, &mut ui.scratch_notes);
+    let mut record = |sim: &dyn SimView| notes.extend(timeline.record(sim));
+    if let Some(t) = ui.seek_to.take() {
+        seek(scene, ui, t);
+    } else if ui.step_once {
+        let tick = 1.0 / crate::world::TICK_HZ as f32;
+        scene.step_observed(tick, |sim| record(sim.as_ref()));
         ui.step_once = false;
     } else if !ui.paused {
         let wanted = frame_dt_s.min(MAX_FRAME_DT_S) * ui.speed;
-        scene.step(wanted);
+        scene.step_observed(wanted, |sim| record(sim.as_ref()));
         ui.pace
             .push_back((scene.time_s() - before, frame_dt_s * ui.speed));
         while ui.pace.len() > 120 {
             ui.pace.pop_front();
         }
     }
+    for line in std::mem::take(&mut ui.scratch_notes) {
+        ui.log(line);
+    }
     scene.drain_log(&mut ui.scratch_log);
     for line in std::mem::take(&mut ui.scratch_log) {
-        ui.log(line);
+        if let Some(t) = line.error_at_s {
+            ui.timeline.note_error(t);
+        }
+        ui.log(line.text);
     }
 }
 

@@ -19,10 +19,14 @@ mod panel;
 mod pointer;
 mod scene;
 pub mod sim;
+mod timeline;
 mod window;
 
 pub use aquarium::{Aquarium, DynScene, pick_fish};
 pub use pointer::Pointer;
 pub use scene::{FOOD_PELLET_RADIUS, FishInfo, OverlayToggles, WorldScene};
-pub use sim::{SimError, SimView};
+pub use sim::{LogLine, SimError, SimState, SimView};
+pub use timeline::{
+    DEFAULT_SPAN_S, Divergence, GHOST_COLOR, NEW_PATH_COLOR, TETHER_COLOR, Timeline,
+};
 pub use window::{AppError, AppOptions, run_window};

@@ -4,6 +4,7 @@
 use std::collections::VecDeque;
 
 use super::aquarium::{DynScene, FrameTimes, MAX_FRAME_DT_S, UiState, pace_ratio};
+use super::timeline::clock;
 use crate::motion::{MotionParams, MotionRequest, Side, TurnKind};
 use crate::world::FishId;
 
@@ -15,6 +16,7 @@ pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     ui.heading("shoal");
     notices(ui, scene, st);
     section(ui, "Time", |ui| time_controls(ui, st));
+    section(ui, "Timeline", |ui| timeline(ui, scene, st));
     section(ui, "Selected fish", |ui| selected_fish(ui, scene, st));
     section(ui, "Motion parameters", |ui| {
         motion_parameters(ui, scene, st)
@@ -84,6 +86,93 @@ fn time_controls(ui: &mut egui::Ui, st: &mut UiState) {
             ),
         );
     }
+}
+
+/// The history: its span and size, a slider to scrub to any moment of it, step back one tick,
+/// jump to the last script error, the ghosts and the fish that left them.
+fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let tl = &st.timeline;
+    let Some((from, to)) = tl.span_s() else {
+        ui.label("history: nothing kept yet");
+        return;
+    };
+    let mb = |b: usize| b as f64 / 1e6;
+    ui.label(format!(
+        "history: {}–{}, {:.1} MB ({} states {:.1} MB, paths {:.1} MB)",
+        clock(from),
+        clock(to),
+        mb(tl.states_bytes() + tl.track_bytes()),
+        tl.num_states(),
+        mb(tl.states_bytes()),
+        mb(tl.track_bytes()),
+    ));
+    let now = scene.world().time();
+    if !st.scrub_dragging {
+        st.scrub_s = now;
+    }
+    let slider = ui.add_enabled(
+        to > from,
+        egui::Slider::new(&mut st.scrub_s, from..=to)
+            .text("time (s)")
+            .fixed_decimals(2),
+    );
+    st.trace_widget(ui, "time (s)", &slider);
+    st.scrub_dragging = slider.dragged();
+    // A change of less than half a tick is the slider rounding the clock, not a scrub.
+    if slider.changed() && (st.scrub_s - now).abs() > 0.5 / crate::world::TICK_HZ {
+        st.seek_to = Some(st.scrub_s);
+    }
+    let last_error = st.timeline.last_error_s();
+    ui.horizontal(|ui| {
+        let back = ui.add_enabled(now > from, egui::Button::new("step back"));
+        st.trace_widget(ui, "step back", &back);
+        if back.clicked() {
+            st.seek_to = Some(now - 1.0 / crate::world::TICK_HZ);
+        }
+        let jump = ui.add_enabled(
+            last_error.is_some(),
+            egui::Button::new("jump to last error"),
+        );
+        st.trace_widget(ui, "jump to last error", &jump);
+        if jump.clicked() {
+            st.seek_to = last_error;
+        }
+        let ghosts = ui.checkbox(&mut st.show_ghosts, "ghosts");
+        st.trace_widget(ui, "ghosts", &ghosts);
+    });
+    if now < to - 1e-9 {
+        ui.colored_label(
+            WARNING,
+            format!(
+                "rewound {:.2} s: play or step to run on from here with the scripts loaded now",
+                to - now
+            ),
+        );
+    }
+    let Some((g0, g1)) = st.timeline.ghost_span_s() else {
+        return;
+    };
+    let divergences = st.timeline.divergences().to_vec();
+    ui.label(format!(
+        "ghost: the run before the rewind, {g0:.2}–{g1:.2} s; {} fish left it",
+        divergences.len()
+    ));
+    egui::ScrollArea::vertical()
+        .id_salt("divergences")
+        .max_height(140.0)
+        .show(ui, |ui| {
+            for d in divergences {
+                let label = format!(
+                    "fish #{} at {:.2} s, up to {:.1} apart",
+                    d.fish.index, d.first_s, d.max_distance
+                );
+                let row = ui.selectable_label(st.selected == Some(d.fish), &label);
+                st.trace_widget(ui, &label, &row);
+                if row.clicked() && scene.world().is_alive(d.fish) {
+                    st.select(scene, Some(d.fish));
+                }
+            }
+        });
 }
 
 /// The selected fish: follow/deselect, motion buttons, body wave plot and inspector.

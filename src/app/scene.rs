@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
-use super::sim::{SimError, SimView};
+use super::sim::{LogLine, SimError, SimState, SimView};
 use crate::motion::RootState;
 use crate::motion::{MotionParams, MotionRequest};
 use crate::render::props::PropMesh;
@@ -79,7 +79,7 @@ pub struct WorldScene<S: SimView> {
     accumulator_s: f64,
     step_ms: f32,
     hot_reload: bool,
-    reload_log: Vec<String>,
+    reload_log: Vec<LogLine>,
 }
 
 impl<S: SimView> std::fmt::Debug for WorldScene<S> {
@@ -216,10 +216,17 @@ impl<S: SimView> WorldScene<S> {
     /// runs, the rest carries over to the next call. Applies edited scripts first when hot
     /// reload is on.
     pub fn step(&mut self, dt_s: f32) {
+        self.step_observed(dt_s, |_| {});
+    }
+
+    /// [`WorldScene::step`], calling `after_tick` with the simulation after every tick (the
+    /// window's history ring records each tick this way).
+    pub fn step_observed(&mut self, dt_s: f32, mut after_tick: impl FnMut(&S)) {
         let start = Instant::now();
         if self.hot_reload {
             let events = self.sim.poll_reload();
-            self.reload_log.extend(events);
+            self.reload_log
+                .extend(events.into_iter().map(LogLine::note));
         }
         if dt_s.is_finite() && dt_s > 0.0 {
             self.accumulator_s += f64::from(dt_s);
@@ -230,6 +237,7 @@ impl<S: SimView> WorldScene<S> {
         let tick = 1.0 / TICK_HZ;
         while self.accumulator_s >= tick - 1e-9 {
             self.sim.tick();
+            after_tick(&self.sim);
             self.accumulator_s -= tick;
         }
         self.rebuild_instances();
@@ -410,8 +418,22 @@ impl<S: SimView> WorldScene<S> {
         self.sim.watch()
     }
 
+    /// Puts the simulation back to `state`, then runs `ticks` more ticks (a scrub lands between
+    /// two kept states this way). Log lines of those ticks are dropped: they were shown when
+    /// the moment was first run. Nothing else carries over (a part-tick of time is dropped).
+    pub fn rewind_to(&mut self, state: &SimState, ticks: u64) -> Result<(), SimError> {
+        self.sim.restore(state)?;
+        for _ in 0..ticks {
+            self.sim.tick();
+        }
+        drop(self.sim.drain_log());
+        self.accumulator_s = 0.0;
+        self.rebuild_instances();
+        Ok(())
+    }
+
     /// Moves log lines (script errors, warnings, reloads) into `out`.
-    pub fn drain_log(&mut self, out: &mut Vec<String>) {
+    pub fn drain_log(&mut self, out: &mut Vec<LogLine>) {
         out.append(&mut self.reload_log);
         out.extend(self.sim.drain_log());
     }

@@ -6,9 +6,10 @@
 //! name the simulation types, so a change of the world's tick API is adapted here.
 
 use crate::motion::MotionError;
-use crate::script::{ScriptError, Simulation};
+use crate::script::log::LogLevel;
+use crate::script::{ScriptError, SimSnapshot, Simulation};
 use crate::world::bench::RustSim;
-use crate::world::{FishId, World, WorldError};
+use crate::world::{FishId, World, WorldError, WorldState};
 
 /// Why the window could not do what the designer asked of the simulation.
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +32,68 @@ pub enum SimError {
     /// The simulation was not loaded from a scene file, so there is nothing to restart from.
     #[error("this simulation has no scene file to restart from")]
     NoSceneFile,
+    /// This simulation cannot be kept and put back (the window has no history for it).
+    #[error("this simulation cannot be rewound")]
+    NoSnapshots,
+    /// A state taken from another kind of simulation.
+    #[error("this state was taken from another kind of simulation")]
+    WrongSnapshot,
+}
+
+/// A simulation at one tick, kept by the window's history ring and put back by
+/// [`SimView::restore`]: opaque to the app, one variant per simulation kind.
+#[derive(Debug)]
+pub enum SimState {
+    /// The Lua host's world and script lanes' fish tables.
+    Script(Box<SimSnapshot>),
+    /// The Rust driver's world.
+    Rust(Box<WorldState>),
+}
+
+impl SimState {
+    /// Simulated time of the state, seconds.
+    pub fn time_s(&self) -> f64 {
+        match self {
+            Self::Script(s) => s.time(),
+            Self::Rust(w) => w.time,
+        }
+    }
+
+    /// Motion steps taken when the state was kept.
+    pub fn tick(&self) -> u64 {
+        match self {
+            Self::Script(s) => s.world().tick,
+            Self::Rust(w) => w.tick,
+        }
+    }
+
+    /// Bytes it holds (see [`WorldState::approx_bytes`]).
+    pub fn approx_bytes(&self) -> usize {
+        match self {
+            Self::Script(s) => s.approx_bytes(),
+            Self::Rust(w) => w.approx_bytes(),
+        }
+    }
+}
+
+/// One console line from a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogLine {
+    /// The text shown.
+    pub text: String,
+    /// For a script error: the simulated time it happened, seconds (the timeline's "jump to
+    /// last error" goes there).
+    pub error_at_s: Option<f64>,
+}
+
+impl LogLine {
+    /// A line that is not a script error.
+    pub fn note(text: impl Into<String>) -> Self {
+        Self {
+            text: text.into(),
+            error_at_s: None,
+        }
+    }
 }
 
 /// A simulation the window and `shoal render` can show: one fixed 60 Hz tick at a time over a
@@ -59,8 +122,20 @@ pub trait SimView {
         out
     }
     /// Log lines (script errors, prints) since the last call.
-    fn drain_log(&mut self) -> Vec<String> {
+    fn drain_log(&mut self) -> Vec<LogLine> {
         Vec::new()
+    }
+    /// The simulation as it is now, to put back later with [`SimView::restore`]. Fails when
+    /// the state cannot be kept (a fish table holds a function: the error names the fish and
+    /// the field), or for a simulation that cannot be rewound.
+    fn snapshot(&self) -> Result<SimState, SimError> {
+        Err(SimError::NoSnapshots)
+    }
+    /// Puts back a state taken by [`SimView::snapshot`] of this simulation; it then runs the
+    /// same future as it did from there (with edited scripts, the new scripts' future).
+    fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
+        let _ = state;
+        Err(SimError::NoSnapshots)
     }
     /// Starts watching script files for edits (see [`SimView::poll_reload`]).
     fn watch(&mut self) -> Result<(), SimError> {
@@ -68,6 +143,12 @@ pub trait SimView {
     }
     /// Applies edited scripts; one console line per reload event.
     fn poll_reload(&mut self) -> Vec<String> {
+        Vec::new()
+    }
+    /// Applies the edits of these files now, without a watcher (what
+    /// [`SimView::poll_reload`] does for the files it saw change); one console line per event.
+    fn reload_changed(&mut self, paths: &[std::path::PathBuf]) -> Vec<String> {
+        let _ = paths;
         Vec::new()
     }
     /// True when the scene file was edited since it was loaded.
@@ -93,14 +174,23 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn inspect(&self, id: FishId) -> Vec<(String, String)> {
         (**self).inspect(id)
     }
-    fn drain_log(&mut self) -> Vec<String> {
+    fn drain_log(&mut self) -> Vec<LogLine> {
         (**self).drain_log()
+    }
+    fn snapshot(&self) -> Result<SimState, SimError> {
+        (**self).snapshot()
+    }
+    fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
+        (**self).restore(state)
     }
     fn watch(&mut self) -> Result<(), SimError> {
         (**self).watch()
     }
     fn poll_reload(&mut self) -> Vec<String> {
         (**self).poll_reload()
+    }
+    fn reload_changed(&mut self, paths: &[std::path::PathBuf]) -> Vec<String> {
+        (**self).reload_changed(paths)
     }
     fn scene_changed(&self) -> bool {
         (**self).scene_changed()
@@ -123,17 +213,35 @@ impl SimView for Simulation {
     fn inspect(&self, id: FishId) -> Vec<(String, String)> {
         Simulation::inspect(self, id)
     }
-    fn drain_log(&mut self) -> Vec<String> {
+    fn drain_log(&mut self) -> Vec<LogLine> {
         Simulation::drain_log(self)
             .into_iter()
-            .map(|e| e.to_string())
+            .map(|e| LogLine {
+                text: e.to_string(),
+                error_at_s: (e.level == LogLevel::Error).then_some(e.time_s),
+            })
             .collect()
+    }
+    fn snapshot(&self) -> Result<SimState, SimError> {
+        Ok(SimState::Script(Box::new(Simulation::snapshot(self)?)))
+    }
+    fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
+        match state {
+            SimState::Script(s) => Ok(Simulation::restore(self, s)?),
+            SimState::Rust(_) => Err(SimError::WrongSnapshot),
+        }
     }
     fn watch(&mut self) -> Result<(), SimError> {
         Ok(Simulation::watch(self)?)
     }
     fn poll_reload(&mut self) -> Vec<String> {
         Simulation::poll_reload(self)
+            .into_iter()
+            .map(|e| e.to_string())
+            .collect()
+    }
+    fn reload_changed(&mut self, paths: &[std::path::PathBuf]) -> Vec<String> {
+        Simulation::reload_changed(self, paths)
             .into_iter()
             .map(|e| e.to_string())
             .collect()
@@ -155,5 +263,14 @@ impl SimView for RustSim {
     }
     fn world_mut(&mut self) -> &mut World {
         RustSim::world_mut(self)
+    }
+    fn snapshot(&self) -> Result<SimState, SimError> {
+        Ok(SimState::Rust(Box::new(RustSim::world(self).snapshot())))
+    }
+    fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
+        match state {
+            SimState::Rust(w) => Ok(RustSim::world_mut(self).restore((**w).clone())?),
+            SimState::Script(_) => Err(SimError::WrongSnapshot),
+        }
     }
 }

@@ -346,6 +346,10 @@ fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
                 }
             }
             aq.ui.select(&mut aq.scene, None);
+            aq.ui.timeline.clear();
+            if let Some(line) = aq.ui.timeline.record(aq.scene.sim()) {
+                aq.ui.log(line);
+            }
             let fish = aq.scene.num_fish();
             aq.ui.log(format!("scene restarted: {fish} fish"));
         }

@@ -95,6 +95,34 @@ impl WorldState {
     pub fn num_foods(&self) -> usize {
         self.foods.len()
     }
+
+    /// Bytes this state holds (its arrays' capacity and behaviour names, not counting
+    /// allocator overhead): what keeping one costs, for the window's history ring.
+    pub fn approx_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        fn vec<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let f = &self.fish;
+        let names: usize = f.behaviors.iter().flatten().map(String::capacity).sum();
+        size_of_val(self)
+            + vec(&f.ids)
+            + vec(&f.roots)
+            + vec(&f.species)
+            + vec(&f.players)
+            + vec(&f.yaw)
+            + vec(&f.lateral)
+            + vec(&f.behaviors)
+            + names
+            + vec(&f.seeds)
+            + vec(&f.rngs)
+            + vec(&f.contact)
+            + vec(&f.steer)
+            + vec(&self.foods)
+            + self.eaten.capacity() * std::mem::size_of::<(FoodId, Food)>()
+            + vec(&self.obstacles)
+            + vec(&self.currents)
+    }
 }
 
 /// A random point of the box `min`..`max` (corners in any order; a flat axis gives its value),

@@ -24,6 +24,31 @@ impl SimSnapshot {
     pub fn time(&self) -> f64 {
         self.world.time
     }
+
+    /// Bytes this snapshot holds (the world's arrays and every fish table's entries, not
+    /// counting allocator overhead): what keeping one costs, for the window's history ring.
+    pub fn approx_bytes(&self) -> usize {
+        use crate::script::fish_state::Datum;
+        let entry = std::mem::size_of::<(Datum, Datum)>();
+        let datum = |d: &Datum| match d {
+            Datum::Str(s) => s.capacity(),
+            _ => 0,
+        };
+        let lanes: usize = self
+            .lanes
+            .iter()
+            .flat_map(|lane| &lane.fish)
+            .flat_map(|(_, data)| &data.tables)
+            .map(|table| {
+                table.capacity() * entry
+                    + table
+                        .iter()
+                        .map(|(k, v)| datum(k) + datum(v))
+                        .sum::<usize>()
+            })
+            .sum();
+        std::mem::size_of::<Self>() + self.world.approx_bytes() + lanes
+    }
 }
 
 impl Simulation {
