@@ -112,7 +112,7 @@ fn fish_color(i: usize) -> RGBColor {
 }
 
 /// Whether plotters can render text with a system font here (its `ttf` feature needs one).
-fn fonts_work() -> bool {
+pub(crate) fn fonts_work() -> bool {
     let mut buffer = vec![0u8; 64 * 32 * 3];
     let area = BitMapBackend::with_buffer(&mut buffer, (64, 32)).into_drawing_area();
     area.draw(&Text::new("Ag", (2, 2), ("sans-serif", 14).into_font()))

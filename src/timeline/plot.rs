@@ -8,6 +8,7 @@ use plotters::prelude::*;
 
 use super::RunDiff;
 use super::run_file::Run;
+use crate::testing::trace::fonts_work;
 
 const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
 const WATER: RGBColor = RGBColor(214, 232, 240);
@@ -23,14 +24,6 @@ const COLORS: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
     RGBColor(188, 189, 34),
 ];
-
-/// Whether plotters can render text with a system font here (its `ttf` feature needs one).
-fn fonts_work() -> bool {
-    let mut buffer = vec![0u8; 64 * 32 * 3];
-    let area = BitMapBackend::with_buffer(&mut buffer, (64, 32)).into_drawing_area();
-    area.draw(&Text::new("Ag", (2, 2), ("sans-serif", 14).into_font()))
-        .is_ok()
-}
 
 /// Each fish's path (x, z) over the first `n` frames, by (index, generation).
 fn paths(run: &Run, n: usize) -> HashMap<(u32, u32), Vec<(f32, f32)>> {
