@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 pub mod asset;
 pub mod bench;
 pub mod bench_peer;
+pub mod compare;
 pub mod kinematics;
 pub mod motion;
 pub mod plot;
@@ -53,6 +54,9 @@ pub enum Command {
     Replay(timeline::ReplayArgs),
     /// Compare two runs fish by fish: when they part and how far.
     Diff(timeline::DiffArgs),
+    /// An A/B experiment: two versions of the scripts over many seeds, with the measures a
+    /// designer tunes for, their 95 % intervals and which differences are significant.
+    Compare(compare::Args),
 }
 
 /// `--scripts DIR` (or `SHOAL_SCRIPTS`): where behaviours, species and scenes come from.
@@ -170,6 +174,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Record(args)) => timeline::record(args),
         Some(Command::Replay(args)) => timeline::replay(args),
         Some(Command::Diff(args)) => timeline::diff(args),
+        Some(Command::Compare(args)) => compare::run(args),
     }
 }
 

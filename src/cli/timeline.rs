@@ -83,7 +83,7 @@ fn check_out(out: &Path) -> anyhow::Result<()> {
 }
 
 /// The scene's path relative to the scripts directory.
-fn scene_in(scripts: &Path, scene: Option<&Path>) -> anyhow::Result<String> {
+pub(super) fn scene_in(scripts: &Path, scene: Option<&Path>) -> anyhow::Result<String> {
     let scene = scene.unwrap_or(Path::new("default"));
     let candidates = [
         scene.to_path_buf(),

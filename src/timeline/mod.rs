@@ -13,6 +13,8 @@
 //! Module-level Lua variables are not part of a fish's state: a replay starts the new scripts'
 //! modules fresh, as a hot reload does.
 
+pub mod compare;
+mod compare_plot;
 pub mod plot;
 pub mod run_file;
 

@@ -1,0 +1,187 @@
+//! `shoal compare`: an A/B experiment between two versions of the scripts over many seeds (see
+//! [`crate::timeline::compare`]).
+//!
+//! ```text
+//! shoal compare --a DIR --b DIR [--scene S] --seeds N --seconds T [--shard i/n] [--json] [--plot PNG]
+//! shoal compare --merge SHARD.json... [--json] [--plot PNG]
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use crate::timeline::compare::{self, CompareSpec, Comparison, Estimate};
+
+/// Arguments of `shoal compare`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Version A: a scripts directory (behaviors/, species/, scenes/).
+    #[arg(long, value_name = "DIR", required_unless_present = "merge")]
+    pub a: Option<PathBuf>,
+    /// Version B: a scripts directory.
+    #[arg(long, value_name = "DIR", required_unless_present = "merge")]
+    pub b: Option<PathBuf>,
+    /// The scene, by name in each version's `scenes/` (default: `default`) or as a path inside
+    /// A's scripts directory.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Seeds to run each version with (1, 2, … N).
+    #[arg(long, required_unless_present = "merge")]
+    pub seeds: Option<u64>,
+    /// Simulated seconds per run.
+    #[arg(long, required_unless_present = "merge")]
+    pub seconds: Option<f64>,
+    /// Run only this shard of the seeds (`i/n`, 1-based: seeds i, i+n, i+2n…); merge the
+    /// shards' `--json` outputs with `--merge`.
+    #[arg(long, value_parser = parse_shard)]
+    pub shard: Option<(u32, u32)>,
+    /// Merge the JSON of shards of one experiment instead of running one.
+    #[arg(long, num_args = 1.., value_name = "SHARD.json", conflicts_with_all = ["a", "b", "seeds", "seconds", "shard", "scene"])]
+    pub merge: Vec<PathBuf>,
+    /// Print the comparison as JSON (every run's measures and the summary).
+    #[arg(long)]
+    pub json: bool,
+    /// Also draw the comparison into this PNG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+fn parse_shard(text: &str) -> Result<(u32, u32), String> {
+    compare::parse_shard(text)
+}
+
+/// Runs `shoal compare`.
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if let Some(plot) = &args.plot
+        && plot.extension().is_none_or(|e| e != "png")
+    {
+        anyhow::bail!(
+            "--plot {}: the plot is written as a .png file",
+            plot.display()
+        );
+    }
+    let c = if args.merge.is_empty() {
+        run_experiment(&args)?
+    } else {
+        merge(&args.merge)?
+    };
+    if let Some(plot) = &args.plot {
+        compare::write_plot(&c, plot).map_err(anyhow::Error::msg)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&c)?);
+    } else {
+        print_table(&c);
+        if let Some(plot) = &args.plot {
+            println!("plot: {}", plot.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn version_dir(flag: &str, dir: &Path) -> anyhow::Result<PathBuf> {
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "--{flag} {}: no such directory (a version is a scripts directory holding behaviors/, \
+             species/ and scenes/)",
+            dir.display()
+        );
+    }
+    Ok(dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf()))
+}
+
+fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
+    let (Some(a), Some(b), Some(seeds), Some(seconds)) =
+        (&args.a, &args.b, args.seeds, args.seconds)
+    else {
+        anyhow::bail!("--a, --b, --seeds and --seconds are needed to run an experiment");
+    };
+    let (a, b) = (version_dir("a", a)?, version_dir("b", b)?);
+    let scene = super::timeline::scene_in(&a, args.scene.as_deref())?;
+    let root = super::ScriptsArg {
+        scripts: Some(a.clone()),
+    }
+    .resolve()?
+    .root;
+    let seeds_here = compare::shard_seeds(seeds, args.shard);
+    let threads = rayon::current_num_threads();
+    let shard = args
+        .shard
+        .map_or(String::new(), |(i, n)| format!(" (shard {i}/{n})"));
+    if !args.json {
+        println!(
+            "comparing A = {} and B = {} on {scene}: {} seeds{shard} × {seconds} s, {} runs on {threads} threads",
+            a.display(),
+            b.display(),
+            seeds_here.len(),
+            2 * seeds_here.len()
+        );
+    }
+    Ok(compare::compare(&CompareSpec {
+        root: &root,
+        a: &a,
+        b: &b,
+        scene: &scene,
+        seeds,
+        shard: args.shard,
+        seconds,
+    })?)
+}
+
+fn merge(files: &[PathBuf]) -> anyhow::Result<Comparison> {
+    let parts = files
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(f).with_context(|| format!("{}", f.display()))?;
+            let c: Comparison = serde_json::from_str(&text).with_context(|| {
+                format!(
+                    "{}: not the JSON of `shoal compare --json` (or of a newer shoal)",
+                    f.display()
+                )
+            })?;
+            Ok((f.display().to_string(), c))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    compare::merge(parts).map_err(anyhow::Error::msg)
+}
+
+fn fmt_estimate(e: &Estimate) -> String {
+    match (e.mean, e.low, e.high) {
+        (Some(m), Some(l), Some(h)) => format!("{m:>9.3} [{l:.3}, {h:.3}]"),
+        (Some(m), _, _) => format!("{m:>9.3}"),
+        _ => "—".to_owned(),
+    }
+}
+
+fn print_table(c: &Comparison) {
+    if c.changed.is_empty() {
+        println!(
+            "A and B have the same scripts: every measure but decision cost (a timing) should be \
+             the same"
+        );
+    } else {
+        println!("files that differ: {}", c.changed.join(", "));
+    }
+    println!(
+        "{} seeds per version; mean [95 % interval]; B − A paired by seed",
+        c.a.runs.len()
+    );
+    println!(
+        "  {:<24} {:>30} {:>30} {:>30}",
+        "measure", "A", "B", "B − A"
+    );
+    for m in &c.summary {
+        let verdict = if m.significant { "  significant" } else { "" };
+        println!(
+            "  {:<24} {:>30} {:>30} {:>30}{verdict}",
+            m.label,
+            fmt_estimate(&m.a),
+            fmt_estimate(&m.b),
+            fmt_estimate(&m.b_minus_a)
+        );
+    }
+    if c.a.runs.len() < 2 {
+        println!("(intervals need 2 seeds or more)");
+    }
+}
