@@ -287,3 +287,98 @@ fn a_function_in_fish_memory_is_reported_once_and_the_aquarium_goes_on() {
         lines[0]
     );
 }
+
+/// `shoal run --open RUN --at T` as the window does it: the recording's moment, live, paused,
+/// with its future as the ghost.
+fn open_recording(root: &Path, run: &shoal::timeline::run_file::Run, at_s: f64) -> Aquarium {
+    let (sim, tick) = shoal::timeline::resume(run, root, &root.join("scripts"), at_s).unwrap();
+    let ghost = run.frames[tick..]
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            (
+                (tick + k) as u64,
+                f.iter()
+                    .map(|p| FishId {
+                        index: p.index,
+                        generation: p.generation,
+                    })
+                    .collect(),
+                f.iter().map(|p| p.pos).collect(),
+            )
+        })
+        .collect();
+    let mut aq = Aquarium::new(Box::new(sim), AppOptions::default());
+    aq.open_recording(ghost, "opened");
+    aq
+}
+
+#[test]
+fn a_recording_opens_at_its_moment_and_playing_on_follows_or_leaves_it() {
+    let (_dir, root) = common::scratch_repo();
+    let run = shoal::timeline::record(&shoal::timeline::RecordSpec {
+        root: &root,
+        scripts: &root.join("scripts"),
+        scene: "scenes/default.lua",
+        seed: 3,
+        lanes: 2,
+        seconds: 4.0,
+    })
+    .unwrap();
+    let mut h = harness(open_recording(&root, &run, 1.5));
+    h.run();
+    assert!(h.state().paused(), "a recording opens paused");
+    assert_eq!(h.state().scene.world().tick_count(), 90);
+    let bits_of = |k: usize| -> Vec<(FishId, [u32; 3])> {
+        run.frames[k]
+            .iter()
+            .map(|p| {
+                (
+                    FishId {
+                        index: p.index,
+                        generation: p.generation,
+                    },
+                    bits(p.pos),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(
+        moment(h.state()).fish,
+        bits_of(90),
+        "the recording's moment"
+    );
+    click(&mut h, "play");
+    let went = play(&mut h, 60);
+    let last = went.last().unwrap();
+    assert_eq!(
+        last.fish,
+        bits_of(last.tick as usize),
+        "playing on follows the recording"
+    );
+    assert!(h.state().divergences().is_empty());
+
+    // Edited scripts: the same moment, then the fish part from the recording's ghost.
+    let school = root.join("scripts/behaviors/school.lua");
+    let src = std::fs::read_to_string(&school).unwrap();
+    std::fs::write(
+        &school,
+        src.replace(
+            "M.COHESION, M.COHESION_RADIUS = 1.0, 6.0",
+            "M.COHESION, M.COHESION_RADIUS = 6.0, 6.0",
+        ),
+    )
+    .unwrap();
+    let mut h = harness(open_recording(&root, &run, 1.5));
+    h.run();
+    assert_eq!(
+        moment(h.state()).fish,
+        bits_of(90),
+        "the moment is the recording's"
+    );
+    click(&mut h, "play");
+    play(&mut h, 120);
+    let d = h.state().divergences();
+    assert!(!d.is_empty(), "the edited school leaves the recording");
+    assert!(d.iter().all(|d| d.first_s > 1.5), "{d:?}");
+}

@@ -47,6 +47,19 @@ impl Aquarium {
         Self { scene, ui }
     }
 
+    /// Opens a recording at the moment the simulation stands at: pauses, and makes the
+    /// recording's positions from here on (`ghost`, as [`Timeline::set_ghost`] takes them) the
+    /// ghost that playing on is compared with; `note` goes to the console.
+    pub fn open_recording(
+        &mut self,
+        ghost: Vec<(u64, Vec<FishId>, Vec<glam::Vec3>)>,
+        note: impl Into<String>,
+    ) {
+        self.ui.timeline.set_ghost(ghost);
+        self.ui.paused = true;
+        self.ui.log(note);
+    }
+
     /// Draws the tuning panel into `ui` (inspector and plot as of the last [`Aquarium::advance`]).
     pub fn panel(&mut self, ui: &mut egui::Ui) {
         super::panel::panel(ui, &mut self.scene, &mut self.ui);

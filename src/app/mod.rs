@@ -29,4 +29,4 @@ pub use sim::{LogLine, SimError, SimState, SimView};
 pub use timeline::{
     DEFAULT_SPAN_S, Divergence, GHOST_COLOR, NEW_PATH_COLOR, TETHER_COLOR, Timeline,
 };
-pub use window::{AppError, AppOptions, run_window};
+pub use window::{AppError, AppOptions, run_aquarium, run_window};

@@ -235,6 +235,18 @@ impl Timeline {
         self.divergences.clear();
     }
 
+    /// Makes `ticks` — `(tick, fish, positions)`, contiguous, from the current tick on — the
+    /// ghost: a recording opened at this moment (`shoal run --open`). Playing on compares each
+    /// new tick with the recording's, bit for bit, as after a rewind, and lists the fish that
+    /// leave it.
+    pub fn set_ghost(&mut self, ticks: impl IntoIterator<Item = (u64, Vec<FishId>, Vec<Vec3>)>) {
+        self.ghost = ticks
+            .into_iter()
+            .map(|(tick, ids, pos)| TickTrack { tick, ids, pos })
+            .collect();
+        self.divergences.clear();
+    }
+
     fn compare_with_ghost(&mut self, now: &TickTrack) {
         let Some(first) = self.ghost.front() else {
             return;

@@ -50,6 +50,13 @@ pub struct AppOptions {
 /// Opens the aquarium window on `sim` and runs until it is closed (or `options.frames` are
 /// presented). Returns the number of frames presented.
 pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, AppError> {
+    run_aquarium(Aquarium::new(sim, options), options)
+}
+
+/// Opens the aquarium window on an [`Aquarium`] already set up (a recording opened in it, say)
+/// and runs until it is closed (or `options.frames` are presented). Returns the number of
+/// frames presented.
+pub fn run_aquarium(aq: Aquarium, options: AppOptions) -> Result<u64, AppError> {
     let has_display = ["DISPLAY", "WAYLAND_DISPLAY"]
         .iter()
         .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
@@ -61,7 +68,7 @@ pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, App
     let event_loop = EventLoop::new().map_err(|e| AppError::NoDisplay(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App {
-        aq: Aquarium::new(sim, options),
+        aq,
         options,
         window: None,
         error: None,

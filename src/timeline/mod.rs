@@ -163,44 +163,12 @@ pub struct ReplaySpec<'a> {
 pub fn replay(spec: &ReplaySpec<'_>) -> Result<Run, TimelineError> {
     let run = spec.run;
     let total = run.frames.len() - 1;
-    let from = ticks_of(spec.from_s)?;
-    if from > total {
-        return Err(TimelineError::Invalid(format!(
-            "--from {} s is after the end of the recording ({:.2} s)",
-            spec.from_s,
-            run.seconds()
-        )));
-    }
+    let (mut now, from) = resume(run, spec.root, spec.scripts, spec.from_s)?;
     let after = match spec.seconds {
         Some(s) => ticks_of(s)?,
         None => total - from,
     };
-    let old = tempfile::tempdir().map_err(|source| TimelineError::Io {
-        path: std::env::temp_dir(),
-        source,
-    })?;
-    write_scripts(old.path(), &run.header.scripts)?;
-    let load_with = |scripts: &Path| {
-        load(&RecordSpec {
-            root: spec.root,
-            scripts,
-            scene: &run.header.scene,
-            seed: run.header.seed,
-            lanes: run.header.lanes,
-            seconds: 0.0,
-        })
-    };
-    let mut past = load_with(old.path())?;
-    check_frame(run, 0, &poses(past.world()))?;
-    let mut frames = vec![run.frames[0].clone()];
-    run_frames(&mut past, from, &mut frames);
-    if let Some(k) = (1..=from).find(|&k| !same_frame(&run.frames[k], &frames[k])) {
-        return Err(not_reproduced(run, k));
-    }
-    let snapshot = past.snapshot()?;
-    drop(past);
-    let mut now = load_with(spec.scripts)?;
-    now.restore(&snapshot)?;
+    let mut frames = run.frames[..=from].to_vec();
     run_frames(&mut now, after, &mut frames);
     let scripts = read_scripts(spec.scripts).map_err(|source| TimelineError::Io {
         path: spec.scripts.to_path_buf(),
@@ -220,6 +188,52 @@ pub fn replay(spec: &ReplaySpec<'_>) -> Result<Run, TimelineError> {
         },
         frames,
     })
+}
+
+/// The moment `at_s` of `run`, live: the recording's own scripts run up to it (each tick
+/// checked against the recording), and that state — the world and every fish's script table —
+/// moved into a simulation of the scripts in `scripts` (which may be edited). Returns the
+/// simulation and the tick it stands at (an index into `run.frames`).
+pub fn resume(
+    run: &Run,
+    root: &Path,
+    scripts: &Path,
+    at_s: f64,
+) -> Result<(Simulation, usize), TimelineError> {
+    let total = run.frames.len() - 1;
+    let at = ticks_of(at_s)?;
+    if at > total {
+        return Err(TimelineError::Invalid(format!(
+            "{at_s} s is after the end of the recording ({:.2} s)",
+            run.seconds()
+        )));
+    }
+    let old = tempfile::tempdir().map_err(|source| TimelineError::Io {
+        path: std::env::temp_dir(),
+        source,
+    })?;
+    write_scripts(old.path(), &run.header.scripts)?;
+    let load_with = |scripts: &Path| {
+        load(&RecordSpec {
+            root,
+            scripts,
+            scene: &run.header.scene,
+            seed: run.header.seed,
+            lanes: run.header.lanes,
+            seconds: 0.0,
+        })
+    };
+    let mut past = load_with(old.path())?;
+    check_frame(run, 0, &poses(past.world()))?;
+    for k in 1..=at {
+        past.step();
+        check_frame(run, k, &poses(past.world()))?;
+    }
+    let snapshot = past.snapshot()?;
+    drop(past);
+    let mut now = load_with(scripts)?;
+    now.restore(&snapshot)?;
+    Ok((now, at))
 }
 
 fn same_frame(a: &[Pose], b: &[Pose]) -> bool {
