@@ -438,7 +438,8 @@ test("forager", function(t)
 end)
 "#;
     let outcomes = run_source("csv_test.lua", source, Some(dir.path()));
-    assert_eq!(outcomes[0].trace_files.len(), 2, "{:?}", outcomes[0]);
+    // CSV, top view and the recording to reopen it.
+    assert_eq!(outcomes[0].trace_files.len(), 3, "{:?}", outcomes[0]);
     let mut reader = csv::Reader::from_path(dir.path().join("csv_test-forager.csv")).unwrap();
     let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(
@@ -491,5 +492,75 @@ fn test_filter_matching_nothing_lists_tests() {
     assert!(
         err.contains("named_test.lua :: first") && err.contains("named_test.lua :: second"),
         "{err}"
+    );
+}
+
+/// A failing test's `--trace` writes a recording (`.shoalrun`) of its world — setup, the test's
+/// actions by tick, every tick's poses — that opens again at any moment exactly as it was
+/// (`shoal run --open`), including things the test did halfway through.
+#[test]
+fn test_a_failing_test_writes_a_recording_that_reopens_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace");
+    std::fs::create_dir_all(&trace).unwrap();
+    let file = write(
+        dir.path(),
+        "rec_test.lua",
+        r#"test("late arrivals", function(t)
+  local w = t:world{ seed = 4, tank = { min = {-400, 0, -300}, max = {400, 400, 300} } }
+  local a = w:spawn{ species = "black_porgy", pos = {-100, 200, 0}, behavior = "forage" }
+  w:food{ pos = {100, 200, 30} }
+  w:run(1)
+  local b = w:spawn{ species = "black_porgy", pos = {100, 150, 0}, heading = 3, behavior = "school" }
+  b:turn("quick", 90, "left")
+  w:obstacle{ pos = {0, 100, 100}, radius = 40 }
+  w:run(1.5)
+  a:set_behavior("wander")
+  w:run(0.5)
+  t:expect(false, "forced failure at 3 s")
+end)
+"#,
+    );
+    let opts = RunOptions {
+        trace_dir: Some(trace.clone()),
+        ..options()
+    };
+    let outcomes = testing::run_files(std::slice::from_ref(&file), &opts, |_| {});
+    let path = trace.join("rec_test-late_arrivals.shoalrun");
+    assert!(
+        outcomes[0].trace_files.contains(&path),
+        "{:?}",
+        outcomes[0].trace_files
+    );
+    let report = testing::format_outcome(&outcomes[0]);
+    assert!(
+        report.contains("shoal run --open") && report.contains("--at 3.00"),
+        "{report}"
+    );
+    let run = shoal::timeline::run_file::Run::read(&path).unwrap();
+    assert_eq!(run.frames.len(), 181, "3 s of ticks and the first frame");
+    assert_eq!(run.header.scene, "scenes/empty_tank.lua");
+    assert!(run.header.inputs.len() >= 7, "{:?}", run.header.inputs);
+    assert_eq!(run.frames[0].len(), 1, "the first fish only at the start");
+    assert_eq!(run.frames[180].len(), 2);
+    // Opened at 2 s (after the second spawn), 2.5 s (after the behaviour switch) and the end:
+    // the recording's own poses, and playing on with its inputs reproduces the rest.
+    for at in [0.0, 2.0, 2.5, 3.0] {
+        let (sim, tick) = shoal::timeline::resume(&run, &root(), &root().join("scripts"), at)
+            .unwrap_or_else(|e| panic!("at {at} s: {e}"));
+        assert_eq!(shoal::timeline::poses(sim.world()), run.frames[tick]);
+    }
+    let again = shoal::timeline::replay(&shoal::timeline::ReplaySpec {
+        run: &run,
+        run_name: "rec",
+        root: &root(),
+        scripts: &root().join("scripts"),
+        from_s: 0.5,
+        seconds: None,
+    })
+    .unwrap();
+    assert_eq!(
+        again.frames, run.frames,
+        "a replay applies the test's actions too"
     );
 }

@@ -54,6 +54,9 @@ pub enum What {
     /// `bench sim` beside the pure-Lua peer of the same workload (LuaJIT, Lua 5.4, shoal's own
     /// Lua), same minute, same fish counts, with the ratios.
     Peer(super::bench_peer::PeerArgs),
+    /// What the window's time travel costs: the history's share of the tick at several fish
+    /// counts, its memory per fish, and seeking in five minutes of the default aquarium.
+    History(super::bench_history::HistoryArgs),
 }
 
 /// Arguments of `shoal bench sim`.
@@ -149,6 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Some(What::Sim(sim)) => run_sim(sim),
         Some(What::Render(render)) => run_render(render),
         Some(What::Peer(peer)) => super::bench_peer::run(peer),
+        Some(What::History(history)) => super::bench_history::run(history),
         None => anyhow::bail!(
             "say what to measure: `shoal bench sim --fish 1000,10000`, \
              `shoal bench render --fish 1,100,1000,10000` or `shoal bench peer --fish 1000,10000`"

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 pub mod asset;
 pub mod bench;
+pub mod bench_history;
 pub mod bench_peer;
 pub mod compare;
 pub mod kinematics;

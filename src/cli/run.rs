@@ -113,6 +113,20 @@ fn open(args: &Args, source: &super::ScriptSource, path: &Path) -> anyhow::Resul
             changed.join(", ")
         )
     };
+    let later = run
+        .header
+        .inputs
+        .iter()
+        .filter(|i| i.tick > tick as u64)
+        .count();
+    let note = if later > 0 {
+        format!(
+            "{note}. The test did {later} more things to its world after this moment (spawns, \
+             food, motions); the window runs on without them, the ghost has them"
+        )
+    } else {
+        note
+    };
     println!("{note}");
     let options = options(args, select);
     let mut aq = Aquarium::new(Box::new(sim), options);

@@ -309,6 +309,13 @@ pub fn format_outcome(outcome: &TestOutcome) -> String {
     }
     for path in &outcome.trace_files {
         line.push_str(&format!("\n    trace: {}", path.display()));
+        if path.extension().is_some_and(|e| e == "shoalrun") {
+            let at = outcome.failures.first().map_or(0.0, |f| f.sim_time);
+            line.push_str(&format!(
+                "\n      open the failing moment: shoal run --open {} --at {at:.2}",
+                path.display()
+            ));
+        }
     }
     line
 }

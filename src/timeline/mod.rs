@@ -15,6 +15,7 @@
 
 pub mod compare;
 mod compare_plot;
+pub mod inputs;
 pub mod plot;
 pub mod run_file;
 
@@ -98,12 +99,29 @@ fn load(spec: &RecordSpec<'_>) -> Result<Simulation, TimelineError> {
     Ok(sim)
 }
 
-/// Runs `sim` for `ticks` ticks, appending a frame after each.
-fn run_frames(sim: &mut Simulation, ticks: usize, frames: &mut Vec<Vec<Pose>>) {
+/// Runs `sim` for `ticks` ticks, appending a frame after each, and applying the recorded
+/// `inputs` of each tick after its frame.
+fn run_frames(
+    sim: &mut Simulation,
+    ticks: usize,
+    frames: &mut Vec<Vec<Pose>>,
+    inputs: &[inputs::TimedInput],
+) -> Result<(), TimelineError> {
     for _ in 0..ticks {
         sim.step();
         frames.push(poses(sim.world()));
+        apply_inputs(sim, inputs)?;
     }
+    Ok(())
+}
+
+/// Applies the recorded inputs of the tick `sim` stands at.
+fn apply_inputs(sim: &mut Simulation, inputs: &[inputs::TimedInput]) -> Result<(), TimelineError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    let tick = sim.world().tick_count();
+    inputs::apply_at(sim, inputs, tick).map_err(TimelineError::Invalid)
 }
 
 /// Records `spec.seconds` of the scene.
@@ -124,7 +142,7 @@ pub fn record(spec: &RecordSpec<'_>) -> Result<Run, TimelineError> {
     let mut sim = load(spec)?;
     let tank = *sim.world().tank();
     let mut frames = vec![poses(sim.world())];
-    run_frames(&mut sim, ticks, &mut frames);
+    run_frames(&mut sim, ticks, &mut frames, &[])?;
     Ok(Run {
         header: RunHeader {
             shoal_version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -135,6 +153,7 @@ pub fn record(spec: &RecordSpec<'_>) -> Result<Run, TimelineError> {
             tank: [tank.min.to_array(), tank.max.to_array()],
             scripts,
             replay_of: None,
+            inputs: Vec::new(),
         },
         frames,
     })
@@ -169,7 +188,7 @@ pub fn replay(spec: &ReplaySpec<'_>) -> Result<Run, TimelineError> {
         None => total - from,
     };
     let mut frames = run.frames[..=from].to_vec();
-    run_frames(&mut now, after, &mut frames);
+    run_frames(&mut now, after, &mut frames, &run.header.inputs)?;
     let scripts = read_scripts(spec.scripts).map_err(|source| TimelineError::Io {
         path: spec.scripts.to_path_buf(),
         source,
@@ -224,14 +243,29 @@ pub fn resume(
         })
     };
     let mut past = load_with(old.path())?;
+    let inputs = &run.header.inputs;
+    // Inputs of tick 0 (a test's tank and first spawns) come before the first frame.
+    apply_inputs(&mut past, inputs)?;
     check_frame(run, 0, &poses(past.world()))?;
     for k in 1..=at {
         past.step();
         check_frame(run, k, &poses(past.world()))?;
+        apply_inputs(&mut past, inputs)?;
     }
     let snapshot = past.snapshot()?;
-    drop(past);
     let mut now = load_with(scripts)?;
+    // Species a test spawned load on first use: load the same ones, in the same order, so
+    // the state's species ids mean the same.
+    let w = past.world();
+    for k in now.world().num_species()..w.num_species() {
+        let name = w
+            .species(crate::world::SpeciesId(k as u16))
+            .desc
+            .name
+            .clone();
+        now.species_id(&name)?;
+    }
+    drop(past);
     now.restore(&snapshot)?;
     Ok((now, at))
 }

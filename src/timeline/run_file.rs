@@ -1,10 +1,13 @@
-//! The recording format (`.shoalrun`), version 1: self-describing, checked, written atomically.
+//! The recording format (`.shoalrun`), version 2: self-describing, checked, written atomically.
+//! Version 2 adds the header's `inputs` (a behaviour test's actions on its world); version 1
+//! files still read.
 //!
 //! ```text
 //! "SHOALRUN"              8 bytes, the magic
-//! format                  u32 little-endian (1)
+//! format                  u32 little-endian (2)
 //! header length           u64, then the header as JSON (RunHeader: scene, seed, lanes, shoal
-//!                         version, every script's text and checksum, where a replay came from)
+//!                         version, every script's text and checksum, where a replay came from,
+//!                         the inputs from outside the scripts by tick)
 //! frames length           u64, then the frames: per recorded tick, u32 fish count and per fish
 //!                         u32 slot index, u32 generation, f32 x, y, z, f32 heading
 //! checksum                u32, CRC-32 of everything before it
@@ -21,7 +24,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 /// The format this shoal writes and reads.
-pub const FORMAT: u32 = 1;
+pub const FORMAT: u32 = 2;
 
 const MAGIC: &[u8; 8] = b"SHOALRUN";
 
@@ -68,6 +71,10 @@ pub struct RunHeader {
     pub scripts: BTreeMap<String, ScriptFile>,
     /// Set when this recording is a replay of another with other scripts.
     pub replay_of: Option<ReplayOf>,
+    /// What was done to the world from outside the scripts, by tick (a behaviour test's
+    /// spawns, food, rocks, motion requests); empty for a scene simply run. Format 2.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inputs: Vec<super::inputs::TimedInput>,
 }
 
 /// One fish's pose in a frame.

@@ -3,6 +3,7 @@
 
 use super::{FishHandle, FoodHandle, json_to_lua, located, vec3_to};
 use crate::motion::MotionRequest;
+use crate::timeline::inputs::{Applied, Input};
 use mlua::{Lua, LuaSerdeExt, UserData, UserDataFields, UserDataMethods, Value};
 
 /// A side or turn kind named by a test, parsed by the motion layer's one parser; the error lists
@@ -19,9 +20,12 @@ impl FishHandle {
     fn request(&self, lua: &Lua, request: MotionRequest) -> mlua::Result<()> {
         self.world
             .borrow_mut()
-            .sim
-            .world_mut()
-            .request(self.id, request, true)
+            .input(Input::Motion {
+                index: self.id.index,
+                generation: self.id.generation,
+                request,
+            })
+            .map(|_| ())
             .map_err(|e| located(lua, e))
     }
 }
@@ -124,9 +128,18 @@ impl UserData for FishHandle {
         methods.add_method("descend", |lua, this, depth: f32| {
             this.request(lua, MotionRequest::Descend { depth })
         });
-        methods.add_method("set_behavior", |_, this, name: Option<String>| {
+        methods.add_method("set_behavior", |lua, this, name: Option<String>| {
             let mut world = this.world.borrow_mut();
-            Ok(world.sim.world_mut().set_behavior(this.id, name))
+            let switched = world.input(Input::SetBehavior {
+                index: this.id.index,
+                generation: this.id.generation,
+                behavior: name,
+            });
+            match switched {
+                Ok(Applied::Switched(alive)) => Ok(alive),
+                Ok(_) => Ok(false),
+                Err(e) => Err(located(lua, e)),
+            }
         });
     }
 }

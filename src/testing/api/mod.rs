@@ -53,6 +53,7 @@ use super::Failure;
 use super::trace::{Sample, Trace};
 use crate::script::Simulation;
 use crate::script::log::LogEntry;
+use crate::timeline::inputs::{Applied, Input, TimedInput};
 use crate::world::{FishId, FoodId};
 
 mod fish_handle;
@@ -75,6 +76,18 @@ struct TestState {
     sim_seconds: f64,
     last_time: f64,
     worlds: Vec<Cell<WorldState>>,
+    /// Keep what a recording of each world needs (`--trace`): every tick's poses.
+    record_runs: bool,
+}
+
+/// What a `.shoalrun` of a test world needs: how the world was made, what the test did to it
+/// and when, and every tick's poses (kept only under `--trace`).
+struct TestRecording {
+    /// The scene, relative to the scripts directory, or why the world cannot be recorded.
+    scene: Result<String, String>,
+    seed: u64,
+    scripts: std::collections::BTreeMap<String, crate::timeline::run_file::ScriptFile>,
+    frames: Vec<Vec<crate::timeline::run_file::Pose>>,
 }
 
 struct WorldState {
@@ -90,6 +103,10 @@ struct WorldState {
     trace: Vec<Sample>,
     fish: Vec<FishId>,
     foods: Vec<FoodId>,
+    /// Everything the test did to the world from outside the scripts, by tick.
+    inputs: Vec<TimedInput>,
+    /// Poses and setup for a recording (`--trace`).
+    recording: Option<TestRecording>,
 }
 
 /// A script value from [`Simulation::script_field_json`] for a CSV cell: a string as it is,
@@ -103,6 +120,45 @@ fn cell_text(value: serde_json::Value) -> String {
 }
 
 impl WorldState {
+    /// Applies a test's action on the world and keeps it (with its tick) for a recording.
+    fn input(&mut self, input: Input) -> Result<Applied, String> {
+        let applied = crate::timeline::inputs::apply(&mut self.sim, &input)?;
+        self.inputs.push(TimedInput {
+            tick: self.sim.world().tick_count(),
+            input,
+        });
+        Ok(applied)
+    }
+
+    /// The world as a recording (`.shoalrun`): `Err` says why it cannot be one.
+    fn to_run(&self) -> Result<crate::timeline::run_file::Run, String> {
+        use crate::timeline::run_file::{Run, RunHeader};
+        let rec = self
+            .recording
+            .as_ref()
+            .ok_or("no recording was kept (run with --trace)")?;
+        let scene = rec.scene.clone()?;
+        let mut frames = rec.frames.clone();
+        if frames.is_empty() {
+            frames.push(crate::timeline::poses(self.sim.world()));
+        }
+        let tank = self.sim.world().tank();
+        Ok(Run {
+            header: RunHeader {
+                shoal_version: env!("CARGO_PKG_VERSION").to_owned(),
+                scene,
+                seed: rec.seed,
+                lanes: self.sim.num_lanes(),
+                tick_hz: crate::world::TICK_HZ,
+                tank: [tank.min.to_array(), tank.max.to_array()],
+                scripts: rec.scripts.clone(),
+                replay_of: None,
+                inputs: self.inputs.clone(),
+            },
+            frames,
+        })
+    }
+
     /// Records every fish's state.
     fn record(&mut self) {
         for i in 0..self.fish.len() {
@@ -135,7 +191,16 @@ impl WorldState {
     }
 
     fn step(&mut self) {
+        if let Some(rec) = &mut self.recording
+            && rec.frames.is_empty()
+        {
+            // Frame 0: the world as the first tick finds it (after the test's setup).
+            rec.frames.push(crate::timeline::poses(self.sim.world()));
+        }
         self.sim.step();
+        if let Some(rec) = &mut self.recording {
+            rec.frames.push(crate::timeline::poses(self.sim.world()));
+        }
         if self
             .sim
             .world()

@@ -178,6 +178,7 @@ pub(super) fn run_one(
         sim_seconds: 0.0,
         last_time: 0.0,
         worlds: Vec::new(),
+        record_runs: options.trace_dir.is_some(),
     });
     let result = lua
         .create_userdata(TestHandle(state.clone()))
@@ -207,6 +208,7 @@ pub(super) fn run_one(
                 sim_seconds: s.sim_seconds,
                 last_time: s.last_time,
                 worlds: s.worlds.clone(),
+                record_runs: s.record_runs,
             }
         });
     // Script errors first: they are usually why a check failed.
@@ -248,6 +250,24 @@ pub(super) fn run_one(
                     line: None,
                     message: format!("trace not written: {e}"),
                     sim_time: state.last_time,
+                }),
+            }
+            // The recording, to open the failing moment in the window (`shoal run --open`).
+            let run_path = dir.join(format!("{base}.shoalrun"));
+            let written = world
+                .borrow()
+                .to_run()
+                .and_then(|run| run.write(&run_path).map_err(|e| e.to_string()));
+            match written {
+                Ok(()) => trace_files.push(run_path),
+                Err(why) => output.push(ScriptLine {
+                    world: i,
+                    time_s: state.last_time,
+                    fish: None,
+                    message: format!("no recording of this world: {why}"),
+                    error: false,
+                    repeats: 0,
+                    warning: true,
                 }),
             }
         }

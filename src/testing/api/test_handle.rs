@@ -1,13 +1,53 @@
 //! `t`, the handle a test function receives: `t:world{…}` and the checks.
 
+use super::TestRecording;
 use super::{
     Cell, TANK_KEYS, TestHandle, WORLD_KEYS, WorldHandle, WorldState, caller_line, check_keys,
     located, make_scratch, vec3_from,
 };
 use crate::script::Simulation;
 use crate::testing::Failure;
+use crate::timeline::inputs::Input;
 use mlua::{Lua, Table, UserData, UserDataMethods, Value};
 use std::path::Path;
+
+/// What a recording of a test world made from `scene` (or the empty tank) needs, read now: the
+/// scene relative to the scripts directory and every script's text.
+fn recording_of(root: &Path, scene: Option<&str>, seed: u64) -> TestRecording {
+    let scripts_dir = root.join("scripts");
+    let base = scripts_dir.canonicalize().unwrap_or(scripts_dir.clone());
+    let scene = match scene {
+        None if scripts_dir.join("scenes/empty_tank.lua").is_file() => {
+            Ok("scenes/empty_tank.lua".to_owned())
+        }
+        None => Err("the world has no scene file (no scripts/scenes/empty_tank.lua)".to_owned()),
+        Some(s) => [
+            Path::new(s).to_path_buf(),
+            root.join(s),
+            scripts_dir.join(s),
+            scripts_dir.join("scenes").join(s),
+        ]
+        .into_iter()
+        .find(|p| p.is_file())
+        .and_then(|p| p.canonicalize().ok())
+        .and_then(|p| {
+            p.strip_prefix(&base).ok().map(|rel| {
+                rel.components()
+                    .map(|c| c.as_os_str().to_string_lossy())
+                    .collect::<Vec<_>>()
+                    .join("/")
+            })
+        })
+        .ok_or_else(|| format!("its scene {s} is not inside {}", scripts_dir.display())),
+    };
+    let scripts = crate::timeline::run_file::read_scripts(&scripts_dir).unwrap_or_default();
+    TestRecording {
+        scene,
+        seed,
+        scripts,
+        frames: Vec::new(),
+    }
+}
 
 impl TestHandle {
     pub(super) fn fail(&self, lua: &Lua, message: String) {
@@ -64,19 +104,17 @@ impl UserData for TestHandle {
             } else {
                 None
             };
-            let mut sim = match &scene {
+            let sim = match &scene {
                 Some(scene) => Simulation::from_scene(&root, Path::new(scene), seed),
                 None => Simulation::empty(&root, seed),
             }
             .map_err(|e| located(lua, format!("t:world: {e}")))?;
-            if let Some(tank) = opts.get::<Option<Table>>("tank")? {
-                check_keys(lua, &tank, "t:world tank", TANK_KEYS)?;
-                let min = vec3_from(&tank.get("min")?, "tank.min")?;
-                let max = vec3_from(&tank.get("max")?, "tank.max")?;
-                sim.set_tank(min, max)
-                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
-            }
-            let world = Cell::new(WorldState {
+            let recording = this
+                .0
+                .borrow()
+                .record_runs
+                .then(|| recording_of(&root, scene.as_deref(), seed));
+            let mut state = WorldState {
                 sim,
                 scratch,
                 allow_errors,
@@ -85,7 +123,18 @@ impl UserData for TestHandle {
                 trace: Vec::new(),
                 fish: Vec::new(),
                 foods: Vec::new(),
-            });
+                inputs: Vec::new(),
+                recording,
+            };
+            if let Some(tank) = opts.get::<Option<Table>>("tank")? {
+                check_keys(lua, &tank, "t:world tank", TANK_KEYS)?;
+                let min = vec3_from(&tank.get("min")?, "tank.min")?;
+                let max = vec3_from(&tank.get("max")?, "tank.max")?;
+                state
+                    .input(Input::Tank { min, max })
+                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            }
+            let world = Cell::new(state);
             this.0.borrow_mut().worlds.push(world.clone());
             Ok(WorldHandle {
                 world,

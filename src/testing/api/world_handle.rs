@@ -4,6 +4,7 @@ use super::{
     FOOD_KEYS, FishHandle, FoodHandle, OBSTACLE_KEYS, SPAWN_KEYS, WorldHandle, check_keys, located,
     vec3_from, vec3_to,
 };
+use crate::timeline::inputs::{Applied, Input};
 use crate::world::FishId;
 use glam::Vec3;
 use mlua::{Table, UserData, UserDataFields, UserDataMethods};
@@ -77,10 +78,19 @@ fn add_population_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
         let speed: Option<f32> = opts.get("speed")?;
         let behavior: Option<String> = opts.get("behavior")?;
         let mut world = this.world.borrow_mut();
-        let id = world
-            .sim
-            .spawn(&species, pos, heading, pitch, speed, behavior.as_deref())
-            .map_err(|e| located(lua, format!("w:spawn: {e}")))?;
+        let made = world.input(Input::Spawn {
+            species,
+            pos,
+            heading,
+            pitch,
+            speed,
+            behavior,
+        });
+        let id = match made {
+            Ok(Applied::Fish(id)) => id,
+            Ok(_) => return Err(located(lua, "w:spawn: no fish was made")),
+            Err(e) => return Err(located(lua, format!("w:spawn: {e}"))),
+        };
         world.fish.push(id);
         world.record_fish(id);
         Ok(FishHandle {
@@ -92,7 +102,9 @@ fn add_population_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
         check_keys(lua, &opts, "w:food", FOOD_KEYS)?;
         let pos = vec3_from(&opts.get("pos")?, "pos")?;
         let mut world = this.world.borrow_mut();
-        let id = world.sim.world_mut().add_food(pos);
+        let Ok(Applied::Food(id)) = world.input(Input::Food { pos }) else {
+            return Err(located(lua, "w:food: no pellet was made"));
+        };
         world.foods.push(id);
         Ok(FoodHandle {
             world: this.world.clone(),
@@ -110,9 +122,8 @@ fn add_population_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
         }
         this.world
             .borrow_mut()
-            .sim
-            .world_mut()
-            .add_obstacle(pos, radius);
+            .input(Input::Obstacle { pos, radius })
+            .map_err(|e| located(lua, format!("w:obstacle: {e}")))?;
         Ok(())
     });
 }
