@@ -94,8 +94,8 @@ fn a_function_in_fish_memory_is_refused_naming_the_fish_and_field() {
     assert!(
         err.contains(&format!("fish #{}", id.index))
             && err.contains("memory.plan.next")
-            && err.contains("function"),
-        "{err}"
+            && err.contains("function (defined at scripts/behaviors/probe.lua:2)"),
+        "the error names the fish, the field, and where the function comes from: {err}"
     );
 }
 

@@ -65,8 +65,8 @@ pub enum FishStateError {
         fish: u32,
         /// Where in its table, e.g. `memory.plan.next`.
         path: String,
-        /// The Lua type found.
-        what: &'static str,
+        /// The Lua type found (a function says where it was defined).
+        what: String,
     },
     /// Lua failed (out of memory).
     #[error("copying fish state: {0}")]
@@ -174,13 +174,20 @@ impl Saver {
             Value::Number(n) => Datum::Num(n),
             Value::String(s) => Datum::Str(s.as_bytes().to_vec()),
             Value::Table(t) => Datum::Table(self.table(&t, path, false)?),
-            Value::Function(_) => return Err(self.not_data(path, "function")),
-            Value::Thread(_) => return Err(self.not_data(path, "coroutine")),
-            _ => return Err(self.not_data(path, "userdata")),
+            Value::Function(f) => {
+                let info = f.info();
+                let what = match (info.short_src, info.line_defined) {
+                    (Some(src), Some(line)) => format!("function (defined at {src}:{line})"),
+                    _ => "function".to_owned(),
+                };
+                return Err(self.not_data(path, what));
+            }
+            Value::Thread(_) => return Err(self.not_data(path, "coroutine".into())),
+            _ => return Err(self.not_data(path, "userdata".into())),
         })
     }
 
-    fn not_data(&self, path: &str, what: &'static str) -> FishStateError {
+    fn not_data(&self, path: &str, what: String) -> FishStateError {
         FishStateError::NotData {
             fish: self.fish,
             path: path.to_owned(),
