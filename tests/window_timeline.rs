@@ -328,6 +328,11 @@ fn a_recording_opens_at_its_moment_and_playing_on_follows_or_leaves_it() {
     let mut h = harness(open_recording(&root, &run, 1.5));
     h.run();
     assert!(h.state().paused(), "a recording opens paused");
+    assert!(
+        h.query_by_label_contains("ghost: the recording opened, 1.50–4.00 s")
+            .is_some(),
+        "the panel says the ghost is the recording's future"
+    );
     assert_eq!(h.state().scene.world().tick_count(), 90);
     let bits_of = |k: usize| -> Vec<(FishId, [u32; 3])> {
         run.frames[k]

@@ -154,7 +154,8 @@ fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     };
     let divergences = st.timeline.divergences().to_vec();
     ui.label(format!(
-        "ghost: the run before the rewind, {g0:.2}–{g1:.2} s; {} fish left it",
+        "ghost: {}, {g0:.2}–{g1:.2} s; {} fish left it",
+        st.timeline.ghost_source(),
         divergences.len()
     ));
     egui::ScrollArea::vertical()

@@ -16,6 +16,9 @@ use super::sim::{SimState, SimView};
 use crate::render::OverlayLine;
 use crate::world::{FishId, TICK_HZ};
 
+/// What the panel calls a ghost made by rewinding.
+const GHOST_OF_REWIND: &str = "the run before the rewind";
+
 /// Default history span: the last five minutes of simulated time.
 pub const DEFAULT_SPAN_S: f64 = 300.0;
 
@@ -88,6 +91,8 @@ pub struct Timeline {
     error_times: Vec<f64>,
     /// The last "cannot keep the state" message, shown once.
     last_keep_error: Option<String>,
+    /// Where the ghost comes from, as the panel says it.
+    ghost_source: &'static str,
 }
 
 impl Default for Timeline {
@@ -109,6 +114,7 @@ impl Timeline {
             divergences: Vec::new(),
             error_times: Vec::new(),
             last_keep_error: None,
+            ghost_source: GHOST_OF_REWIND,
         }
     }
 
@@ -203,6 +209,11 @@ impl Timeline {
         &self.divergences
     }
 
+    /// Where the ghost comes from: the run before a rewind, or a recording opened.
+    pub fn ghost_source(&self) -> &'static str {
+        self.ghost_source
+    }
+
     /// Simulated times the ghost covers, seconds.
     pub fn ghost_span_s(&self) -> Option<(f64, f64)> {
         Some((
@@ -224,6 +235,7 @@ impl Timeline {
     /// Makes the history after `tick - 1` the ghost: the simulation was rewound there and a
     /// new run starts.
     fn branch(&mut self, tick: u64) {
+        self.ghost_source = GHOST_OF_REWIND;
         let keep = self.track.partition_point(|t| t.tick < tick);
         self.ghost = self.track.split_off(keep);
         self.track_bytes = self.track.iter().map(TickTrack::bytes).sum();
@@ -240,6 +252,7 @@ impl Timeline {
     /// new tick with the recording's, bit for bit, as after a rewind, and lists the fish that
     /// leave it.
     pub fn set_ghost(&mut self, ticks: impl IntoIterator<Item = (u64, Vec<FishId>, Vec<Vec3>)>) {
+        self.ghost_source = "the recording opened";
         self.ghost = ticks
             .into_iter()
             .map(|(tick, ids, pos)| TickTrack { tick, ids, pos })
