@@ -110,6 +110,10 @@ impl Aquarium {
     pub fn console(&self) -> impl Iterator<Item = &str> {
         self.ui.log.iter().map(String::as_str)
     }
+    /// The Scripts section's state (profile, watches).
+    pub fn scripts(&self) -> &super::scripts_panel::ScriptsPanel {
+        &self.ui.scripts
+    }
     /// The history ring (kept states, per-tick positions, ghost).
     pub fn timeline(&self) -> &Timeline {
         &self.ui.timeline
@@ -183,6 +187,8 @@ pub(super) struct UiState {
     traced: Vec<(String, String)>,
     /// The panel's rectangle in the last frame, physical pixels.
     pub panel_rect_px: Option<egui::Rect>,
+    /// The Scripts section: module profile, console, watches.
+    pub scripts: super::scripts_panel::ScriptsPanel,
 }
 
 impl UiState {
@@ -213,6 +219,7 @@ impl UiState {
             pace: VecDeque::new(),
             watcher: None,
             shader_error: None,
+            scripts: Default::default(),
             scratch_log: Vec::new(),
             scratch_notes: Vec::new(),
             trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
@@ -300,6 +307,7 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
             &mut ui.overlay,
         );
     }
+    ui.scripts.refresh(scene, ui.selected);
     match ui.selected {
         Some(id) => {
             scene.body_wave(id, &mut ui.wave);

@@ -18,6 +18,7 @@ mod aquarium;
 mod panel;
 mod pointer;
 mod scene;
+pub mod scripts_panel;
 pub mod sim;
 mod timeline;
 mod window;

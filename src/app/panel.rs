@@ -18,6 +18,13 @@ pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     section(ui, "Time", |ui| time_controls(ui, st));
     section(ui, "Timeline", |ui| timeline(ui, scene, st));
     section(ui, "Selected fish", |ui| selected_fish(ui, scene, st));
+    section(ui, "Scripts", |ui| {
+        let mut lines = Vec::new();
+        super::scripts_panel::show(ui, scene, &mut st.scripts, st.selected, &mut lines);
+        for line in lines {
+            st.log(line);
+        }
+    });
     section(ui, "Motion parameters", |ui| {
         motion_parameters(ui, scene, st)
     });

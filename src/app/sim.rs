@@ -159,6 +159,17 @@ pub trait SimView {
     fn restart_scene(&mut self) -> Result<(), SimError> {
         Err(SimError::NoSceneFile)
     }
+    /// What each behaviour module's decisions have cost (none without scripts).
+    fn profile(&self) -> Vec<crate::script::sim::ModuleProfile> {
+        Vec::new()
+    }
+    /// Starts the profile over.
+    fn reset_profile(&mut self) {}
+    /// Evaluates Lua in fish `id`'s context (the console and watches).
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+        let _ = (id, code);
+        Err("this simulation runs no scripts".into())
+    }
 }
 
 impl<S: SimView + ?Sized> SimView for Box<S> {
@@ -198,11 +209,29 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn restart_scene(&mut self) -> Result<(), SimError> {
         (**self).restart_scene()
     }
+    fn profile(&self) -> Vec<crate::script::sim::ModuleProfile> {
+        (**self).profile()
+    }
+    fn reset_profile(&mut self) {
+        (**self).reset_profile();
+    }
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+        (**self).eval_fish(id, code)
+    }
 }
 
 impl SimView for Simulation {
     fn tick(&mut self) {
         self.step();
+    }
+    fn profile(&self) -> Vec<crate::script::sim::ModuleProfile> {
+        Simulation::profile(self)
+    }
+    fn reset_profile(&mut self) {
+        Simulation::reset_profile(self);
+    }
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+        Simulation::eval_fish(self, id, code)
     }
     fn world(&self) -> &World {
         Simulation::world(self)

@@ -1,0 +1,339 @@
+//! The panel's **Scripts** section (issue 17): what each behaviour module costs (sortable, with
+//! bars), a Lua console evaluated in the selected fish's context, and watches — expressions over
+//! the selected fish (`memory.hunger`, `percepts.food_distance`, `speed`) plotted over
+//! simulated time, several at once.
+//!
+//! Watches and the console run in the fish's own lane with the sandbox and the budget of a
+//! decision; a watch is evaluated once per new tick shown, never by the simulation itself, so
+//! watching changes nothing about the run.
+
+use std::collections::VecDeque;
+
+use super::aquarium::DynScene;
+use super::sim::SimView;
+use crate::script::sim::ModuleProfile;
+use crate::world::FishId;
+
+/// Points kept per watch (at one per frame: a couple of minutes at 60 frames a second).
+const WATCH_POINTS: usize = 8192;
+
+/// How the module table is sorted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SortBy {
+    /// CPU milliseconds per simulated second, most first.
+    #[default]
+    Cost,
+    /// Decisions, most first.
+    Calls,
+    /// Errors and limit stops, most first.
+    Errors,
+    /// Module name.
+    Name,
+}
+
+/// One watch expression and what it has shown.
+#[derive(Debug, Clone)]
+pub struct Watch {
+    /// The expression, as typed (`memory.hunger`).
+    pub expr: String,
+    /// (simulated time, value) of its numeric values (booleans as 0 and 1).
+    pub points: VecDeque<[f64; 2]>,
+    /// Its last value as text, or why it could not be evaluated.
+    pub last: Result<String, String>,
+}
+
+/// The Scripts section's state.
+#[derive(Debug, Default)]
+pub struct ScriptsPanel {
+    /// The module table's order.
+    pub sort: SortBy,
+    /// The profile as of the last frame.
+    pub profile: Vec<ModuleProfile>,
+    /// The console's input line.
+    pub repl_input: String,
+    /// The new watch's input line.
+    pub watch_input: String,
+    /// The watches.
+    pub watches: Vec<Watch>,
+    /// The fish and tick the watches were last evaluated for.
+    sampled: Option<(FishId, u64)>,
+}
+
+/// A watch expression as Lua run in the fish's context: the fish's script fields and its body's
+/// state under short names.
+fn watch_code(expr: &str, sim: &dyn SimView, fish: FishId) -> String {
+    let w = sim.world();
+    let (speed, heading, pitch, depth, x, y, z) =
+        w.root(fish)
+            .map_or((0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), |r| {
+                (
+                    r.speed,
+                    r.heading,
+                    r.pitch,
+                    w.tank().depth_of(r.pos.y),
+                    r.pos.x,
+                    r.pos.y,
+                    r.pos.z,
+                )
+            });
+    let num = |v: f32| {
+        if v.is_finite() {
+            format!("{v:?}")
+        } else {
+            "(0/0)".to_owned()
+        }
+    };
+    format!(
+        "local memory, percepts, intention, params = fish.memory, fish.percepts, fish.intention, \
+         fish.params\nlocal speed, heading, pitch, depth = {}, {}, {}, {}\nlocal pos = {{ {}, {}, \
+         {} }}\nreturn ({expr}\n)",
+        num(speed),
+        num(heading),
+        num(pitch),
+        num(depth),
+        num(x),
+        num(y),
+        num(z)
+    )
+}
+
+/// A watch value as a plot point: numbers as they are, booleans as 0 and 1.
+fn as_number(v: &serde_json::Value) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) => n.as_f64(),
+        serde_json::Value::Bool(b) => Some(f64::from(u8::from(*b))),
+        _ => None,
+    }
+}
+
+impl ScriptsPanel {
+    /// Adds a watch on `expr` (ignored when blank or already watched).
+    pub fn add_watch(&mut self, expr: &str) {
+        let expr = expr.trim();
+        if expr.is_empty() || self.watches.iter().any(|w| w.expr == expr) {
+            return;
+        }
+        self.watches.push(Watch {
+            expr: expr.to_owned(),
+            points: VecDeque::new(),
+            last: Ok(String::new()),
+        });
+        self.sampled = None;
+    }
+
+    /// After a frame: the profile, and each watch's value for the selected fish at the new
+    /// tick. A new fish, or a rewind, starts the plots over from there.
+    pub fn refresh(&mut self, scene: &DynScene, selected: Option<FishId>) {
+        let sim: &dyn SimView = &**scene.sim();
+        self.profile = sim.profile();
+        self.sort_profile();
+        let Some(fish) = selected else {
+            self.sampled = None;
+            return;
+        };
+        let tick = sim.world().tick_count();
+        let now = sim.world().time();
+        if self.sampled == Some((fish, tick)) {
+            return;
+        }
+        let new_fish = self.sampled.is_none_or(|(f, _)| f != fish);
+        self.sampled = Some((fish, tick));
+        for w in &mut self.watches {
+            if new_fish {
+                w.points.clear();
+            }
+            while w.points.back().is_some_and(|p| p[0] >= now) {
+                w.points.pop_back();
+            }
+            let value = sim.eval_fish(fish, &watch_code(&w.expr, sim, fish));
+            w.last = match &value {
+                Ok(v) => Ok(v.to_string()),
+                Err(e) => Err(e.clone()),
+            };
+            if let Some(y) = value.ok().as_ref().and_then(as_number) {
+                w.points.push_back([now, y]);
+                if w.points.len() > WATCH_POINTS {
+                    w.points.pop_front();
+                }
+            }
+        }
+    }
+
+    fn sort_profile(&mut self) {
+        let p = &mut self.profile;
+        match self.sort {
+            SortBy::Cost => p.sort_by(|a, b| b.ms_per_sim_s.total_cmp(&a.ms_per_sim_s)),
+            SortBy::Calls => p.sort_by(|a, b| b.calls.cmp(&a.calls)),
+            SortBy::Errors => {
+                p.sort_by(|a, b| (b.errors + b.limit_stops).cmp(&(a.errors + a.limit_stops)))
+            }
+            SortBy::Name => p.sort_by(|a, b| a.module.cmp(&b.module)),
+        }
+    }
+}
+
+/// Draws the Scripts section. Console lines (the REPL's input and answer) go to `log`.
+pub(super) fn show(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut ScriptsPanel,
+    selected: Option<FishId>,
+    log: &mut Vec<String>,
+) {
+    module_table(ui, scene, st);
+    ui.separator();
+    repl(ui, scene, st, selected, log);
+    ui.separator();
+    watches(ui, st, selected);
+}
+
+fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) {
+    if st.profile.is_empty() {
+        ui.label("no behaviour has decided yet");
+        return;
+    }
+    ui.horizontal(|ui| {
+        ui.label("sort by");
+        for (label, by) in [
+            ("cost", SortBy::Cost),
+            ("calls", SortBy::Calls),
+            ("errors", SortBy::Errors),
+            ("name", SortBy::Name),
+        ] {
+            if ui.selectable_label(st.sort == by, label).clicked() {
+                st.sort = by;
+                st.sort_profile();
+            }
+        }
+    });
+    let total: f64 = st.profile.iter().map(|p| p.ms_per_sim_s).sum();
+    egui::Grid::new("script profile")
+        .striped(true)
+        .num_columns(5)
+        .show(ui, |ui| {
+            for h in ["module", "CPU ms / sim s", "calls", "µs / call", "errors"] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for p in &st.profile {
+                ui.label(&p.module);
+                let share = if total > 0.0 {
+                    (p.ms_per_sim_s / total) as f32
+                } else {
+                    0.0
+                };
+                ui.add(
+                    egui::ProgressBar::new(share)
+                        .desired_width(110.0)
+                        .text(format!("{:.2}", p.ms_per_sim_s)),
+                );
+                ui.label(p.calls.to_string());
+                ui.label(format!("{:.1}", p.us_per_call));
+                let bad = p.errors + p.limit_stops;
+                if bad > 0 {
+                    ui.colored_label(
+                        egui::Color32::from_rgb(255, 110, 90),
+                        format!("{} + {} limits", p.errors, p.limit_stops),
+                    );
+                } else {
+                    ui.label("0");
+                }
+                ui.end_row();
+            }
+        });
+    if ui.button("reset profile").clicked() {
+        scene.sim_mut().reset_profile();
+        st.profile.clear();
+    }
+}
+
+fn repl(
+    ui: &mut egui::Ui,
+    scene: &DynScene,
+    st: &mut ScriptsPanel,
+    selected: Option<FishId>,
+    log: &mut Vec<String>,
+) {
+    let Some(fish) = selected else {
+        ui.label("select a fish to evaluate Lua in its context");
+        return;
+    };
+    ui.label(format!(
+        "Lua in fish #{}'s context (fish, fish.memory …)",
+        fish.index
+    ));
+    let mut run = false;
+    ui.horizontal(|ui| {
+        let label = ui.label("lua");
+        let edit = ui
+            .add(
+                egui::TextEdit::singleline(&mut st.repl_input)
+                    .hint_text("fish.memory.hunger")
+                    .desired_width(200.0),
+            )
+            .labelled_by(label.id);
+        run |= edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        run |= ui.button("eval").clicked();
+    });
+    let code = st.repl_input.trim().to_owned();
+    if run && !code.is_empty() {
+        log.push(format!("> {code}  (fish #{})", fish.index));
+        log.push(match scene.sim().eval_fish(fish, &code) {
+            Ok(v) => format!("= {v}"),
+            Err(e) => format!("error: {e}"),
+        });
+    }
+}
+
+fn watches(ui: &mut egui::Ui, st: &mut ScriptsPanel, selected: Option<FishId>) {
+    ui.label("watches on the selected fish (memory, percepts, intention, params, speed, depth…)");
+    ui.horizontal(|ui| {
+        let label = ui.label("watch");
+        let edit = ui
+            .add(
+                egui::TextEdit::singleline(&mut st.watch_input)
+                    .hint_text("memory.hunger")
+                    .desired_width(200.0),
+            )
+            .labelled_by(label.id);
+        let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if ui.button("add watch").clicked() || enter {
+            let expr = std::mem::take(&mut st.watch_input);
+            st.add_watch(&expr);
+        }
+    });
+    let mut remove = None;
+    for (i, w) in st.watches.iter().enumerate() {
+        ui.horizontal(|ui| {
+            match (&w.last, selected) {
+                (_, None) => ui.label(format!("{} (no fish selected)", w.expr)),
+                (Ok(v), _) => ui.label(format!("{} = {v}", w.expr)),
+                (Err(e), _) => ui.colored_label(
+                    egui::Color32::from_rgb(255, 110, 90),
+                    format!("{}: {e}", w.expr),
+                ),
+            };
+            if ui.small_button("remove").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        st.watches.remove(i);
+    }
+    if st.watches.iter().any(|w| !w.points.is_empty()) {
+        egui_plot::Plot::new("watches")
+            .height(150.0)
+            .legend(egui_plot::Legend::default())
+            .x_axis_label("simulated time, s")
+            .show(ui, |plot| {
+                for w in &st.watches {
+                    let pts: Vec<[f64; 2]> = w.points.iter().copied().collect();
+                    plot.line(egui_plot::Line::new(
+                        w.expr.clone(),
+                        egui_plot::PlotPoints::from(pts),
+                    ));
+                }
+            });
+    }
+}

@@ -1,0 +1,176 @@
+//! The panel's Scripts section (issue 17), driven by widget label (`egui_kittest`) over the real
+//! default aquarium: the per-module profile, the Lua console in the selected fish's context, and
+//! watches plotted over time.
+
+mod common;
+
+use std::path::Path;
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use shoal::app::{AppOptions, Aquarium, SimView};
+use shoal::script::Simulation;
+use shoal::world::FishId;
+
+const DT: f32 = 1.0 / 60.0;
+
+/// The default aquarium with its first forager selected.
+fn aquarium() -> (Aquarium, FishId) {
+    let sim = Simulation::from_scene(common::repo(), Path::new("scenes/default.lua"), 5).unwrap();
+    let forager = sim
+        .world()
+        .fish_ids()
+        .find(|&id| sim.world().behavior_of(id) == Some("forage"))
+        .expect("the default scene has foragers");
+    let options = AppOptions {
+        select: Some(forager),
+        ..AppOptions::default()
+    };
+    (Aquarium::new(Box::new(sim), options), forager)
+}
+
+fn harness(aq: Aquarium) -> Harness<'static, Aquarium> {
+    Harness::builder()
+        .with_size(egui::vec2(560.0, 2600.0))
+        .build_ui_state(|ui, aq: &mut Aquarium| aq.panel(ui), aq)
+}
+
+fn play(h: &mut Harness<'static, Aquarium>, ticks: usize) {
+    for _ in 0..ticks {
+        h.state_mut().advance(DT);
+    }
+    h.run();
+}
+
+fn type_into(h: &mut Harness<'static, Aquarium>, label: &str, text: &str) {
+    h.get_by_role_and_label(egui::accesskit::Role::TextInput, label)
+        .click();
+    h.run();
+    h.get_by_role_and_label(egui::accesskit::Role::TextInput, label)
+        .type_text(text);
+    h.run();
+}
+
+#[test]
+fn the_profile_lists_each_behaviour_module_and_sorts() {
+    let (aq, _) = aquarium();
+    let mut h = harness(aq);
+    play(&mut h, 120);
+    let modules: Vec<String> = h
+        .state()
+        .scripts()
+        .profile
+        .iter()
+        .map(|p| p.module.clone())
+        .collect();
+    for m in ["school", "forage", "wander", "predator"] {
+        assert!(modules.iter().any(|x| x == m), "{m} in {modules:?}");
+        assert!(
+            h.query_all_by_label(m).next().is_some(),
+            "the table shows {m}"
+        );
+    }
+    let cost: Vec<f64> = h
+        .state()
+        .scripts()
+        .profile
+        .iter()
+        .map(|p| p.ms_per_sim_s)
+        .collect();
+    assert!(
+        cost.windows(2).all(|w| w[0] >= w[1]),
+        "most expensive first: {cost:?}"
+    );
+    h.get_by_label("name").click();
+    h.run();
+    h.state_mut().advance(0.0);
+    let names: Vec<String> = h
+        .state()
+        .scripts()
+        .profile
+        .iter()
+        .map(|p| p.module.clone())
+        .collect();
+    let mut sorted = names.clone();
+    sorted.sort();
+    assert_eq!(names, sorted);
+    // The school (30 fish) costs more per simulated second than the two wandering eels.
+    let p = &h.state().scripts().profile;
+    let of = |m: &str| p.iter().find(|x| x.module == m).unwrap().ms_per_sim_s;
+    assert!(of("school") > of("wander"), "{p:?}");
+}
+
+#[test]
+fn the_console_evaluates_lua_in_the_selected_fishs_context() {
+    let (aq, fish) = aquarium();
+    let mut h = harness(aq);
+    play(&mut h, 60);
+    type_into(&mut h, "lua", "fish.memory.hunger ~= nil and 42 or -1");
+    h.get_by_label("eval").click();
+    h.run();
+    let console: Vec<String> = h.state().console().map(str::to_owned).collect();
+    assert!(
+        console
+            .iter()
+            .any(|l| l.contains("> fish.memory.hunger ~= nil and 42 or -1")
+                && l.contains(&format!("fish #{}", fish.index))),
+        "{console:?}"
+    );
+    assert!(console.iter().any(|l| l == "= 42"), "{console:?}");
+    // The sandbox applies: no os library.
+    let err = h
+        .state()
+        .scene
+        .sim()
+        .eval_fish(fish, "os.execute('true')")
+        .unwrap_err();
+    assert!(err.contains("execute"), "{err}");
+}
+
+#[test]
+fn watches_plot_expressions_over_the_selected_fish() {
+    let (aq, _) = aquarium();
+    let mut h = harness(aq);
+    play(&mut h, 30);
+    type_into(&mut h, "watch", "memory.hunger");
+    h.get_by_label("add watch").click();
+    h.run();
+    type_into(&mut h, "watch", "speed");
+    h.get_by_label("add watch").click();
+    h.run();
+    type_into(&mut h, "watch", "percepts.no_such_field.x");
+    h.get_by_label("add watch").click();
+    h.run();
+    let exprs: Vec<String> = h
+        .state()
+        .scripts()
+        .watches
+        .iter()
+        .map(|w| w.expr.clone())
+        .collect();
+    assert_eq!(
+        exprs,
+        ["memory.hunger", "speed", "percepts.no_such_field.x"]
+    );
+    play(&mut h, 300);
+    let w = &h.state().scripts().watches;
+    let hunger = &w[0].points;
+    assert!(hunger.len() >= 290, "a point a tick: {}", hunger.len());
+    let (first, last) = (hunger.front().unwrap(), hunger.back().unwrap());
+    assert!(last[0] > first[0] + 4.5, "over simulated time");
+    assert!(last[1] > first[1], "hunger rises: {first:?} → {last:?}");
+    assert!(w[1].points.iter().all(|p| p[1] > 0.0), "the fish swims");
+    assert!(
+        w[2].last
+            .as_ref()
+            .is_err_and(|e| e.contains("no_such_field")),
+        "a failing watch says why: {:?}",
+        w[2].last
+    );
+    assert!(h.query_by_label_contains("memory.hunger = ").is_some());
+    // Removing one keeps the others.
+    h.get_all_by_label("remove").next().unwrap().click();
+    h.run();
+    h.state_mut().advance(0.0);
+    assert_eq!(h.state().scripts().watches.len(), 2);
+}
