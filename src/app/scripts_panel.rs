@@ -163,10 +163,8 @@ impl ScriptsPanel {
         let p = &mut self.profile;
         match self.sort {
             SortBy::Cost => p.sort_by(|a, b| b.ms_per_sim_s.total_cmp(&a.ms_per_sim_s)),
-            SortBy::Calls => p.sort_by(|a, b| b.calls.cmp(&a.calls)),
-            SortBy::Errors => {
-                p.sort_by(|a, b| (b.errors + b.limit_stops).cmp(&(a.errors + a.limit_stops)))
-            }
+            SortBy::Calls => p.sort_by_key(|m| std::cmp::Reverse(m.calls)),
+            SortBy::Errors => p.sort_by_key(|m| std::cmp::Reverse(m.errors + m.limit_stops)),
             SortBy::Name => p.sort_by(|a, b| a.module.cmp(&b.module)),
         }
     }
