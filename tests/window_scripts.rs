@@ -174,3 +174,72 @@ fn watches_plot_expressions_over_the_selected_fish() {
     h.state_mut().advance(0.0);
     assert_eq!(h.state().scripts().watches.len(), 2);
 }
+
+#[test]
+fn pause_when_stops_at_the_tick_a_fish_meets_the_condition_and_selects_it() {
+    let (aq, forager) = aquarium();
+    let mut h = harness(aq);
+    play(&mut h, 60);
+    let hunger = |h: &Harness<'static, Aquarium>, id: FishId| {
+        h.state()
+            .scene
+            .sim()
+            .eval_fish(id, "fish.memory.hunger")
+            .unwrap()
+            .as_f64()
+            .unwrap()
+    };
+    let now = hunger(&h, forager);
+    let threshold = now + 0.015;
+    type_into(
+        &mut h,
+        "pause when",
+        &format!("fish == fish and memory.hunger ~= nil and memory.hunger > {threshold}"),
+    );
+    h.get_by_label("set").click();
+    h.run();
+    // Frames of 0.1 s (6 ticks each): the pause lands on the very tick, mid-frame.
+    let mut frames = 0;
+    while !h.state().paused() && frames < 100 {
+        h.state_mut().advance(0.1);
+        frames += 1;
+    }
+    h.run();
+    assert!(h.state().paused(), "the condition was met within 10 s");
+    let fish = h
+        .state()
+        .selected()
+        .expect("the fish that met it is selected");
+    let after = hunger(&h, fish);
+    assert!(after > threshold, "{after} > {threshold}");
+    // One tick earlier it did not hold: step back and look.
+    h.get_by_label("step back").click();
+    h.run();
+    h.state_mut().advance(0.0);
+    assert!(
+        hunger(&h, fish) <= threshold,
+        "it started to hold at the tick paused at"
+    );
+    let console: Vec<String> = h.state().console().map(str::to_owned).collect();
+    assert!(
+        console.iter().any(
+            |l| l.starts_with("paused at ") && l.contains(&format!("fish #{} met", fish.index))
+        ),
+        "{console:?}"
+    );
+    // A condition that cannot run says why and is cleared.
+    let (aq, _) = aquarium();
+    let mut h = harness(aq);
+    play(&mut h, 60);
+    type_into(&mut h, "pause when", "memory.hunger +");
+    h.get_by_label("set").click();
+    h.run();
+    h.state_mut().advance(DT);
+    assert!(
+        h.state().scripts().pause_when.is_none(),
+        "{:?} {:?}",
+        h.state().scripts().pause_when,
+        h.state().console().collect::<Vec<_>>()
+    );
+    assert!(h.state().console().any(|l| l.contains("condition cleared")));
+}

@@ -379,17 +379,23 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         0.0
     };
     let before = scene.time_s();
-    let (timeline, notes) = (&mut ui.timeline, &mut ui.scratch_notes);
-    let mut record = |sim: &dyn SimView| notes.extend(timeline.record(sim));
+    let (timeline, notes, scripts) = (&mut ui.timeline, &mut ui.scratch_notes, &mut ui.scripts);
+    let mut pause = None;
+    // After each tick: the history, then the "pause when" condition (stop at the tick it is met).
+    let mut after_tick = |sim: &Box<dyn SimView>| {
+        notes.extend(timeline.record(sim.as_ref()));
+        pause = scripts.check_pause(sim.as_ref());
+        pause.is_none()
+    };
     if let Some(t) = ui.seek_to.take() {
         seek(scene, ui, t);
     } else if ui.step_once {
         let tick = 1.0 / crate::world::TICK_HZ as f32;
-        scene.step_observed(tick, |sim| record(sim.as_ref()));
+        scene.step_until(tick, &mut after_tick);
         ui.step_once = false;
     } else if !ui.paused {
         let wanted = frame_dt_s.min(MAX_FRAME_DT_S) * ui.speed;
-        scene.step_observed(wanted, |sim| record(sim.as_ref()));
+        scene.step_until(wanted, &mut after_tick);
         ui.pace
             .push_back((scene.time_s() - before, frame_dt_s * ui.speed));
         while ui.pace.len() > 120 {
@@ -398,6 +404,15 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     }
     for line in std::mem::take(&mut ui.scratch_notes) {
         ui.log(line);
+    }
+    match pause {
+        Some(Ok((fish, line))) => {
+            ui.paused = true;
+            ui.log(line);
+            ui.select(scene, Some(fish));
+        }
+        Some(Err(line)) => ui.log(line),
+        None => {}
     }
     scene.drain_log(&mut ui.scratch_log);
     for line in std::mem::take(&mut ui.scratch_log) {

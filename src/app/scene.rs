@@ -222,6 +222,15 @@ impl<S: SimView> WorldScene<S> {
     /// [`WorldScene::step`], calling `after_tick` with the simulation after every tick (the
     /// window's history ring records each tick this way).
     pub fn step_observed(&mut self, dt_s: f32, mut after_tick: impl FnMut(&S)) {
+        self.step_until(dt_s, |sim| {
+            after_tick(sim);
+            true
+        });
+    }
+
+    /// Like [`WorldScene::step_observed`], but stops after a tick for which `after_tick` returns
+    /// false (a "pause when" condition met): the rest of the frame's time is dropped.
+    pub fn step_until(&mut self, dt_s: f32, mut after_tick: impl FnMut(&S) -> bool) {
         let start = Instant::now();
         if self.hot_reload {
             let events = self.sim.poll_reload();
@@ -237,8 +246,11 @@ impl<S: SimView> WorldScene<S> {
         let tick = 1.0 / TICK_HZ;
         while self.accumulator_s >= tick - 1e-9 {
             self.sim.tick();
-            after_tick(&self.sim);
             self.accumulator_s -= tick;
+            if !after_tick(&self.sim) {
+                self.accumulator_s = 0.0;
+                break;
+            }
         }
         self.rebuild_instances();
         self.step_ms = start.elapsed().as_secs_f32() * 1e3;

@@ -57,6 +57,12 @@ pub struct ScriptsPanel {
     pub watches: Vec<Watch>,
     /// The fish and tick the watches were last evaluated for.
     sampled: Option<(FishId, u64)>,
+    /// The "pause when" input line.
+    pub pause_input: String,
+    /// The "pause when" condition set, evaluated for every fish after every tick.
+    pub pause_when: Option<String>,
+    /// Fish for which the condition held after the last tick (it pauses when it starts to hold).
+    holding: std::collections::HashSet<FishId>,
 }
 
 /// A watch expression as Lua run in the fish's context: the fish's script fields and its body's
@@ -159,6 +165,55 @@ impl ScriptsPanel {
         }
     }
 
+    /// Sets (or with `None` clears) the "pause when" condition.
+    pub fn set_pause_when(&mut self, condition: Option<&str>) {
+        self.pause_when = condition
+            .map(str::trim)
+            .filter(|c| !c.is_empty())
+            .map(str::to_owned);
+        self.holding.clear();
+    }
+
+    /// After a tick: the first fish (in the world's order) for which the "pause when" condition
+    /// has just started to hold, with the console line saying so; or an error line (and the
+    /// condition is cleared) when it cannot be evaluated.
+    pub fn check_pause(&mut self, sim: &dyn SimView) -> Option<Result<(FishId, String), String>> {
+        let cond = self.pause_when.clone()?;
+        let w = sim.world();
+        let mut met = None;
+        let ids: Vec<FishId> = w.fish_ids().collect();
+        for id in ids {
+            let holds = match sim.eval_fish(id, &watch_code(&cond, sim, id)) {
+                Ok(v) => !matches!(v, serde_json::Value::Null | serde_json::Value::Bool(false)),
+                // A fish that has not decided yet has no table: not an error of the condition.
+                Err(e) if e.contains("has not decided yet") => false,
+                Err(e) => {
+                    self.set_pause_when(None);
+                    return Some(Err(format!("pause when `{cond}`: {e} (condition cleared)")));
+                }
+            };
+            let was = if holds {
+                !self.holding.insert(id)
+            } else {
+                self.holding.remove(&id);
+                true
+            };
+            if holds && !was && met.is_none() {
+                met = Some(id);
+            }
+        }
+        met.map(|id| {
+            Ok((
+                id,
+                format!(
+                    "paused at {:.2} s: fish #{} met `{cond}`",
+                    w.time(),
+                    id.index
+                ),
+            ))
+        })
+    }
+
     fn sort_profile(&mut self) {
         let p = &mut self.profile;
         match self.sort {
@@ -183,6 +238,34 @@ pub(super) fn show(
     repl(ui, scene, st, selected, log);
     ui.separator();
     watches(ui, st, selected);
+    ui.separator();
+    pause_when(ui, st);
+}
+
+fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
+    ui.horizontal(|ui| {
+        let label = ui.label("pause when");
+        let edit = ui
+            .add(
+                egui::TextEdit::singleline(&mut st.pause_input)
+                    .hint_text("memory.hunger > 0.9")
+                    .desired_width(200.0),
+            )
+            .labelled_by(label.id);
+        let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if ui.button("set").clicked() || enter {
+            let cond = st.pause_input.clone();
+            st.set_pause_when(Some(&cond));
+        }
+    });
+    if let Some(cond) = st.pause_when.clone() {
+        ui.horizontal(|ui| {
+            ui.label(format!("pauses when a fish starts to meet `{cond}`"));
+            if ui.small_button("clear").clicked() {
+                st.set_pause_when(None);
+            }
+        });
+    }
 }
 
 fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) {
