@@ -382,6 +382,8 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     let (timeline, notes, scripts) = (&mut ui.timeline, &mut ui.scratch_notes, &mut ui.scripts);
     let mut pause = None;
     // After each tick: the history, then the "pause when" condition (stop at the tick it is met).
+    // The scene's simulation is a `Box<dyn SimView>`, and `step_until` hands it as it is.
+    #[allow(clippy::borrowed_box)]
     let mut after_tick = |sim: &Box<dyn SimView>| {
         notes.extend(timeline.record(sim.as_ref()));
         pause = scripts.check_pause(sim.as_ref());
