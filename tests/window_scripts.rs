@@ -243,3 +243,77 @@ fn pause_when_stops_at_the_tick_a_fish_meets_the_condition_and_selects_it() {
     );
     assert!(h.state().console().any(|l| l.contains("condition cleared")));
 }
+
+#[test]
+fn a_logpoint_prints_its_message_where_the_line_runs_without_pausing() {
+    let (_dir, root) = common::scratch_repo();
+    let sim = Simulation::from_scene(&root, Path::new("scenes/default.lua"), 5).unwrap();
+    let mut h = harness(Aquarium::new(Box::new(sim), AppOptions::default()));
+    play(&mut h, 30);
+    let forage = std::fs::read_to_string(root.join("scripts/behaviors/forage.lua")).unwrap();
+    let line = forage
+        .lines()
+        .position(|l| l.trim() == "if intention == \"flee\" then")
+        .expect("forage.lua's behave starts with the flee branch")
+        + 1;
+    type_into(
+        &mut h,
+        "logpoint",
+        &format!("behaviors/forage.lua:{line} {{intention}} hunger={{fish.memory.hunger > 0}}"),
+    );
+    h.get_by_label("add logpoint").click();
+    h.run();
+    play(&mut h, 120);
+    assert!(!h.state().paused(), "a logpoint does not pause");
+    let console: Vec<String> = h.state().console().map(str::to_owned).collect();
+    let hits: Vec<&String> = console
+        .iter()
+        .filter(|l| l.contains(&format!("forage.lua:{line}: logpoint: ")))
+        .collect();
+    assert!(
+        hits.iter()
+            .any(|l| l.contains("hunger=true") && l.contains("fish #")),
+        "the foragers' decisions print, with the fish, the line's locals and expressions: {console:?}"
+    );
+    // The file itself is unchanged on disk.
+    assert_eq!(
+        std::fs::read_to_string(root.join("scripts/behaviors/forage.lua")).unwrap(),
+        forage
+    );
+    // Removed: no more lines.
+    h.get_by_label("remove logpoint").click();
+    h.run();
+    let before = h.state().console().count();
+    play(&mut h, 120);
+    assert!(
+        h.state()
+            .console()
+            .skip(before)
+            .all(|l| !l.contains("logpoint: ")),
+        "{:?}",
+        h.state().console().skip(before).collect::<Vec<_>>()
+    );
+
+    // A line that does not start a statement, and a bad place, are refused with the reason.
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/default.lua"), 5).unwrap();
+    let table_line = std::fs::read_to_string(root.join("scripts/scenes/default.lua"))
+        .unwrap()
+        .lines()
+        .position(|l| l.contains("count = 4, behavior = \"forage\""))
+        .unwrap()
+        + 2;
+    let e = sim
+        .set_logpoints(
+            "scenes/default.lua",
+            vec![shoal::script::logpoints::Logpoint {
+                line: table_line,
+                message: "x".into(),
+            }],
+        )
+        .unwrap_err();
+    assert!(e.contains("where a statement starts"), "{e}");
+    let e = sim
+        .set_logpoints("behaviors/nowhere.lua", vec![])
+        .unwrap_err();
+    assert!(e.contains("no such script"), "{e}");
+}

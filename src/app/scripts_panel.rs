@@ -63,6 +63,10 @@ pub struct ScriptsPanel {
     pub pause_when: Option<String>,
     /// Fish for which the condition held after the last tick (it pauses when it starts to hold).
     holding: std::collections::HashSet<FishId>,
+    /// The logpoint input line (`behaviors/forage.lua:34 hunger {fish.memory.hunger}`).
+    pub logpoint_input: String,
+    /// The logpoints set: file, line, message.
+    pub logpoints: Vec<(String, usize, String)>,
 }
 
 /// A watch expression as Lua run in the fish's context: the fish's script fields and its body's
@@ -225,6 +229,105 @@ impl ScriptsPanel {
     }
 }
 
+/// Parses `file:line message`.
+fn parse_logpoint(text: &str) -> Result<(String, usize, String), String> {
+    let text = text.trim();
+    let (place, message) = text.split_once(char::is_whitespace).unwrap_or((text, ""));
+    let (file, line) = place
+        .rsplit_once(':')
+        .ok_or_else(|| format!("`{text}`: expected file:line message, such as behaviors/forage.lua:34 hunger {{fish.memory.hunger}}"))?;
+    let line: usize = line
+        .parse()
+        .map_err(|_| format!("`{place}`: the line must be a number"))?;
+    let message = message.trim();
+    if message.is_empty() {
+        return Err(format!(
+            "`{text}`: a logpoint needs a message after file:line"
+        ));
+    }
+    Ok((file.to_owned(), line, message.to_owned()))
+}
+
+impl ScriptsPanel {
+    /// Sets every logpoint of `file` as the list holds them.
+    fn apply_logpoints(&self, scene: &mut DynScene, file: &str) -> Result<(), String> {
+        let points = self
+            .logpoints
+            .iter()
+            .filter(|(f, _, _)| f == file)
+            .map(|(_, line, message)| crate::script::logpoints::Logpoint {
+                line: *line,
+                message: message.clone(),
+            })
+            .collect();
+        scene.sim_mut().set_logpoints(file, points)
+    }
+
+    /// Adds a logpoint from `file:line message`; the console line says what happened.
+    pub fn add_logpoint(&mut self, scene: &mut DynScene, text: &str) -> String {
+        let (file, line, message) = match parse_logpoint(text) {
+            Ok(p) => p,
+            Err(e) => return format!("logpoint: {e}"),
+        };
+        self.logpoints.push((file.clone(), line, message.clone()));
+        match self.apply_logpoints(scene, &file) {
+            Ok(()) => format!("logpoint set at {file}:{line}: {message}"),
+            Err(e) => {
+                self.logpoints.pop();
+                let _ = self.apply_logpoints(scene, &file);
+                format!("logpoint not set: {e}")
+            }
+        }
+    }
+
+    /// Removes logpoint `i`.
+    pub fn remove_logpoint(&mut self, scene: &mut DynScene, i: usize) -> String {
+        if i >= self.logpoints.len() {
+            return "logpoint: nothing to remove".into();
+        }
+        let (file, line, _) = self.logpoints.remove(i);
+        match self.apply_logpoints(scene, &file) {
+            Ok(()) => format!("logpoint removed from {file}:{line}"),
+            Err(e) => format!("logpoint: {e}"),
+        }
+    }
+}
+
+fn logpoints(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut ScriptsPanel,
+    log: &mut Vec<String>,
+) {
+    ui.horizontal(|ui| {
+        let label = ui.label("logpoint");
+        let edit = ui
+            .add(
+                egui::TextEdit::singleline(&mut st.logpoint_input)
+                    .hint_text("behaviors/forage.lua:34 hunger {fish.memory.hunger}")
+                    .desired_width(260.0),
+            )
+            .labelled_by(label.id);
+        let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if ui.button("add logpoint").clicked() || enter {
+            let text = std::mem::take(&mut st.logpoint_input);
+            log.push(st.add_logpoint(scene, &text));
+        }
+    });
+    let mut remove = None;
+    for (i, (file, line, message)) in st.logpoints.iter().enumerate() {
+        ui.horizontal(|ui| {
+            ui.label(format!("{file}:{line}  {message}"));
+            if ui.small_button("remove logpoint").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        log.push(st.remove_logpoint(scene, i));
+    }
+}
+
 /// Draws the Scripts section. Console lines (the REPL's input and answer) go to `log`.
 pub(super) fn show(
     ui: &mut egui::Ui,
@@ -240,6 +343,8 @@ pub(super) fn show(
     watches(ui, st, selected);
     ui.separator();
     pause_when(ui, st);
+    ui.separator();
+    logpoints(ui, scene, st, log);
 }
 
 fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {

@@ -170,6 +170,15 @@ pub trait SimView {
         let _ = (id, code);
         Err("this simulation runs no scripts".into())
     }
+    /// Sets one script file's logpoints (see [`Simulation::set_logpoints`]).
+    fn set_logpoints(
+        &mut self,
+        file: &str,
+        points: Vec<crate::script::logpoints::Logpoint>,
+    ) -> Result<(), String> {
+        let _ = (file, points);
+        Err("this simulation runs no scripts".into())
+    }
 }
 
 impl<S: SimView + ?Sized> SimView for Box<S> {
@@ -218,6 +227,13 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         (**self).eval_fish(id, code)
     }
+    fn set_logpoints(
+        &mut self,
+        file: &str,
+        points: Vec<crate::script::logpoints::Logpoint>,
+    ) -> Result<(), String> {
+        (**self).set_logpoints(file, points)
+    }
 }
 
 impl SimView for Simulation {
@@ -232,6 +248,13 @@ impl SimView for Simulation {
     }
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         Simulation::eval_fish(self, id, code)
+    }
+    fn set_logpoints(
+        &mut self,
+        file: &str,
+        points: Vec<crate::script::logpoints::Logpoint>,
+    ) -> Result<(), String> {
+        Simulation::set_logpoints(self, file, points)
     }
     fn world(&self) -> &World {
         Simulation::world(self)

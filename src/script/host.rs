@@ -673,6 +673,29 @@ impl ScriptHost {
         self.eval_in(env, name, code)
     }
 
+    /// This state's logpoints.
+    pub fn logpoints(&self) -> Option<super::logpoints::Logpoints> {
+        self.lua
+            .app_data_ref::<super::logpoints::Logpoints>()
+            .map(|l| l.clone())
+    }
+
+    /// Sets this state's logpoints (they apply when a file is next loaded).
+    pub fn set_logpoints(&self, points: super::logpoints::Logpoints) {
+        self.lua.set_app_data(points);
+    }
+
+    /// Whether `source` compiles as Lua (the error says why not).
+    pub fn check_compiles(&self, name: &str, source: &str) -> Result<(), String> {
+        self.lua
+            .load(source)
+            .set_name(format!("@{name}"))
+            .set_mode(mlua::chunk::ChunkMode::Text)
+            .into_function()
+            .map(|_| ())
+            .map_err(|e| describe(&e))
+    }
+
     /// Like [`ScriptHost::eval`], with the fish's table as `fish` (its `memory`, `intention`,
     /// `percepts`…): what the console's REPL runs for the selected fish. An expression
     /// (`fish.memory.hunger * 2`) gives its value; a statement (`fish.memory.hunger = 0`) runs and

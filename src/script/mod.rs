@@ -24,6 +24,7 @@ pub mod error;
 pub mod fish_state;
 pub mod host;
 pub mod log;
+pub mod logpoints;
 pub mod reload;
 pub mod sandbox;
 pub mod scene;

@@ -351,6 +351,7 @@ fn install(lua: &Lua, root: &ScriptRoot, budget: &Arc<Budget>, limits: Limits) -
     restrict_libraries(lua, &g, budget, limits)?;
     restrict_globals(lua, &g)?;
     install_print(lua, &g)?;
+    super::logpoints::install(lua, &g)?;
     // require: per module (see `module_env`); the set of every file loaded through it.
     lua.set_named_registry_value(LOADED_KEY, lua.create_table()?)?;
     g.set("require", Value::Nil)?;
@@ -740,6 +741,8 @@ fn load_in_family(lua: &Lua, path: &Path, cache: &Table) -> Result<Function, Scr
         path: path.to_path_buf(),
         source,
     })?;
+    let source = super::logpoints::source_for(lua, path, source)
+        .map_err(|e| ScriptError::Lua(format!("{display}: logpoint: {e}")))?;
     let env = family_env(lua, cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.load(source)
         .set_name(format!("@{display}"))

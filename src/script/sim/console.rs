@@ -178,6 +178,55 @@ impl Simulation {
         self.lane_of(id).host.eval_fish(id, code)
     }
 
+    /// Sets the logpoints of one script file (`behaviors/forage.lua`, relative to the scripts
+    /// directory, or as the console names it, `scripts/behaviors/forage.lua`), replacing that
+    /// file's earlier ones; an empty list removes them. The file is reloaded with the logpoints'
+    /// calls in it (see [`crate::script::logpoints`]): fish keep their memory, as on a save.
+    /// Refused, naming the line, when a logpoint's line does not start a statement or its
+    /// message does not parse.
+    pub fn set_logpoints(
+        &mut self,
+        file: &str,
+        points: Vec<crate::script::logpoints::Logpoint>,
+    ) -> Result<(), String> {
+        let root = self.host().root().clone();
+        let rel = file
+            .strip_prefix(&format!("{}/", root.display))
+            .unwrap_or(file);
+        let path = root.dir.join(rel);
+        let real = path
+            .canonicalize()
+            .map_err(|_| format!("{file}: no such script under {}", root.dir.display()))?;
+        if !real.starts_with(&root.dir) {
+            return Err(format!("{file}: not inside the scripts directory"));
+        }
+        let name = root.display_of(&real);
+        let text = std::fs::read_to_string(&real).map_err(|e| format!("{name}: {e}"))?;
+        let injected =
+            crate::script::logpoints::inject(&text, &points).map_err(|e| format!("{name}: {e}"))?;
+        if self.host().check_compiles(&name, &text).is_ok() {
+            self.host().check_compiles(&name, &injected).map_err(|_| {
+                let lines: Vec<String> = points.iter().map(|p| p.line.to_string()).collect();
+                format!(
+                    "{name}: a logpoint must sit on a line where a statement starts (line {} \
+                     continues one, or its message is not Lua)",
+                    lines.join(", ")
+                )
+            })?;
+        }
+        for lane in &mut self.sim.behavior.lanes {
+            let mut all = lane.host.logpoints().unwrap_or_default();
+            if points.is_empty() {
+                all.0.remove(&real);
+            } else {
+                all.0.insert(real.clone(), points.clone());
+            }
+            lane.host.set_logpoints(all);
+        }
+        self.reload_changed(&[real]);
+        Ok(())
+    }
+
     /// A fish's memory table as JSON.
     pub fn memory_json(&self, id: FishId) -> serde_json::Value {
         self.lane_of(id).host.memory_json(id)

@@ -1,0 +1,176 @@
+//! Logpoints (issue 17): `file:line` plus a message with `{expressions}`, printed to the console
+//! each time a fish's decision reaches that line, without pausing.
+//!
+//! No debug hook is involved: a file that holds logpoints is reloaded with a call injected at the
+//! start of each logpoint's line (`do __shoal_logpoint("hunger ", (fish.memory.hunger)) end …`), so
+//! the expressions see the line's locals and upvalues, the line numbers stay the same, and only
+//! fish running that file pay anything. A logpoint on a line that does not start a statement (the
+//! middle of a table or of a long expression) is refused, naming the line.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use mlua::{Lua, Table, Value};
+
+use super::log::{LogLevel, ScriptLog};
+
+/// The global the injected calls use.
+pub const LOGPOINT_FN: &str = "__shoal_logpoint";
+
+/// One logpoint.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Logpoint {
+    /// 1-based line.
+    pub line: usize,
+    /// The message: text with `{expressions}` evaluated where the line runs.
+    pub message: String,
+}
+
+/// The logpoints of each file (canonical path), kept as a Lua state's app data.
+#[derive(Debug, Default, Clone)]
+pub struct Logpoints(pub HashMap<PathBuf, Vec<Logpoint>>);
+
+/// The message as Lua call arguments: literal text as strings, `{expr}` as `(expr)`.
+fn message_args(message: &str) -> Result<String, String> {
+    let mut args = Vec::new();
+    let mut rest = message;
+    while let Some(open) = rest.find('{') {
+        if open > 0 {
+            args.push(format!("{:?}", &rest[..open]));
+        }
+        let after = &rest[open + 1..];
+        let close = after
+            .find('}')
+            .ok_or_else(|| format!("`{message}`: a `{{` without its `}}`"))?;
+        let expr = after[..close].trim();
+        if expr.is_empty() {
+            return Err(format!("`{message}`: an empty `{{}}`"));
+        }
+        args.push(format!("({expr})"));
+        rest = &after[close + 1..];
+    }
+    if !rest.is_empty() || args.is_empty() {
+        args.push(format!("{rest:?}"));
+    }
+    Ok(args.join(", "))
+}
+
+/// `source` with each logpoint's call put at the start of its line.
+pub fn inject(source: &str, points: &[Logpoint]) -> Result<String, String> {
+    let lines: Vec<&str> = source.split('\n').collect();
+    let mut by_line: HashMap<usize, Vec<&Logpoint>> = HashMap::new();
+    for p in points {
+        if p.line == 0 || p.line > lines.len() {
+            return Err(format!(
+                "line {}: the file has {} lines",
+                p.line,
+                lines.len()
+            ));
+        }
+        by_line.entry(p.line).or_default().push(p);
+    }
+    let mut out = String::with_capacity(source.len() + 64 * points.len());
+    for (i, line) in lines.iter().enumerate() {
+        if i > 0 {
+            out.push('\n');
+        }
+        for p in by_line.get(&(i + 1)).into_iter().flatten() {
+            // `do … end` is a statement only: inside a table constructor or an expression it
+            // does not compile, so a misplaced logpoint is refused instead of becoming data.
+            out.push_str(&format!(
+                "do {LOGPOINT_FN}({}) end ",
+                message_args(&p.message)?
+            ));
+        }
+        out.push_str(line);
+    }
+    Ok(out)
+}
+
+/// The source to compile for `path`: the file as it is, or with its logpoints injected. The
+/// error names the logpoint's line when the injection does not compile.
+pub fn source_for(lua: &Lua, path: &Path, source: Vec<u8>) -> Result<Vec<u8>, String> {
+    let real = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    let points = match lua.app_data_ref::<Logpoints>() {
+        Some(lp) => match lp.0.get(&real) {
+            Some(p) if !p.is_empty() => p.clone(),
+            _ => return Ok(source),
+        },
+        None => return Ok(source),
+    };
+    let text = String::from_utf8(source).map_err(|_| "not UTF-8 text".to_owned())?;
+    Ok(inject(&text, &points)?.into_bytes())
+}
+
+/// Installs the function the injected calls use: into the console, with the line's file:line,
+/// the deciding fish and the time.
+pub fn install(lua: &Lua, globals: &Table) -> mlua::Result<()> {
+    globals.set(
+        LOGPOINT_FN,
+        lua.create_function(|lua, args: mlua::Variadic<Value>| {
+            let mut text = super::sandbox::caller_location(lua);
+            text.push_str(" logpoint: ");
+            for v in args.iter() {
+                text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
+            }
+            let (fish, time_s) = lua
+                .app_data_ref::<super::api::Ctx>()
+                .map_or((None, 0.0), |c| {
+                    (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
+                });
+            if let Some(mut log) = lua.app_data_mut::<ScriptLog>() {
+                log.push(LogLevel::Info, &text, fish, time_s);
+            }
+            Ok(())
+        })?,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_message_becomes_text_and_expressions() {
+        assert_eq!(
+            message_args("hunger {m.hunger} at {fish.id}").unwrap(),
+            r#""hunger ", (m.hunger), " at ", (fish.id)"#
+        );
+        assert_eq!(message_args("plain").unwrap(), r#""plain""#);
+        assert_eq!(message_args("{x}").unwrap(), "(x)");
+        assert!(message_args("open {x").is_err());
+        assert!(message_args("empty {}").is_err());
+        // Quotes and backslashes stay text.
+        assert_eq!(
+            message_args(r#"say "hi" \ "#).unwrap(),
+            r#""say \"hi\" \\ ""#
+        );
+    }
+
+    #[test]
+    fn the_call_goes_at_the_start_of_its_line_and_lines_keep_their_numbers() {
+        let src = "local a = 1\nlocal b = a + 1\nreturn b";
+        let out = inject(
+            src,
+            &[Logpoint {
+                line: 2,
+                message: "a is {a}".into(),
+            }],
+        )
+        .unwrap();
+        assert_eq!(
+            out,
+            "local a = 1\ndo __shoal_logpoint(\"a is \", (a)) end local b = a + 1\nreturn b"
+        );
+        assert!(
+            inject(
+                src,
+                &[Logpoint {
+                    line: 9,
+                    message: "x".into()
+                }]
+            )
+            .is_err()
+        );
+    }
+}
