@@ -8,10 +8,12 @@ use plotters::prelude::*;
 use super::compare::{Comparison, Estimate, value};
 use crate::testing::trace::fonts_work;
 
-const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
+use super::plot::{BACKGROUND, COLORS};
+
 const PAIR: RGBColor = RGBColor(175, 175, 175);
-const A_COLOR: RGBColor = RGBColor(31, 119, 180);
-const B_COLOR: RGBColor = RGBColor(255, 127, 14);
+/// Version A in the diff plot's first colour (blue), B in its orange.
+const A_COLOR: RGBColor = COLORS[0];
+const B_COLOR: RGBColor = COLORS[4];
 const SIGNIFICANT: RGBColor = RGBColor(180, 30, 30);
 
 /// Draws the comparison into a PNG at `path`.

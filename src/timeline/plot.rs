@@ -10,11 +10,11 @@ use super::RunDiff;
 use super::run_file::Run;
 use crate::testing::trace::fonts_work;
 
-const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
+pub(super) const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
 const WATER: RGBColor = RGBColor(214, 232, 240);
 const TANK_EDGE: RGBColor = RGBColor(60, 90, 110);
 const GHOST: RGBColor = RGBColor(150, 150, 150);
-const COLORS: [RGBColor; 8] = [
+pub(super) const COLORS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
