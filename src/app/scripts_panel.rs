@@ -157,6 +157,9 @@ impl ScriptsPanel {
             }
             let value = sim.eval_fish(fish, &watch_code(&w.expr, sim, fish));
             w.last = match &value {
+                Ok(serde_json::Value::Number(n)) => Ok(n
+                    .as_f64()
+                    .map_or_else(|| n.to_string(), |f| format!("{f:.4}"))),
                 Ok(v) => Ok(v.to_string()),
                 Err(e) => Err(e.clone()),
             };
