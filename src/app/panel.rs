@@ -105,12 +105,13 @@ fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     };
     let mb = |b: usize| b as f64 / 1e6;
     ui.label(format!(
-        "history: {}–{}, {:.1} MB ({} states {:.1} MB, paths {:.1} MB)",
+        "history: {}–{}, {:.1} MB ({} states {:.1} MB, one every {:.0} s; paths {:.1} MB)",
         clock(from),
         clock(to),
         mb(tl.states_bytes() + tl.track_bytes()),
         tl.num_states(),
         mb(tl.states_bytes()),
+        tl.keep_every_s(),
         mb(tl.track_bytes()),
     ));
     let now = scene.world().time();

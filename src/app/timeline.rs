@@ -22,8 +22,17 @@ const GHOST_OF_REWIND: &str = "the run before the rewind";
 /// Default history span: the last five minutes of simulated time.
 pub const DEFAULT_SPAN_S: f64 = 300.0;
 
-/// Ticks between kept states (one second).
+/// Ticks between kept states at the least (one second).
 const KEEP_EVERY_TICKS: u64 = TICK_HZ as u64;
+
+/// Fish from which a state is kept every [`KEEP_LARGE_TICKS`] instead of every second. Taking
+/// a state (the world and every fish's script table) costs about as much as 13 ticks, whatever
+/// the number of fish (`shoal bench history`); every 3 s that is about 7 % of the ticks' time.
+/// A small aquarium keeps one every second, so a scrub re-runs at most a second of ticks.
+const LARGE_AQUARIUM_FISH: usize = 500;
+
+/// Ticks between kept states in a large aquarium (three seconds).
+const KEEP_LARGE_TICKS: u64 = 3 * KEEP_EVERY_TICKS;
 
 /// Every fish's position at one tick.
 #[derive(Debug, Clone)]
@@ -78,7 +87,7 @@ pub struct Divergence {
 #[derive(Debug)]
 pub struct Timeline {
     span_ticks: u64,
-    /// Kept states, oldest first, one per [`KEEP_EVERY_TICKS`].
+    /// Kept states, oldest first, one per `keep_every` ticks.
     states: VecDeque<SimState>,
     states_bytes: usize,
     /// Positions at every tick from the first kept state's tick on, contiguous.
@@ -93,6 +102,8 @@ pub struct Timeline {
     last_keep_error: Option<String>,
     /// Where the ghost comes from, as the panel says it.
     ghost_source: &'static str,
+    /// Ticks between kept states now (see [`LARGE_AQUARIUM_FISH`]).
+    keep_every: u64,
 }
 
 impl Default for Timeline {
@@ -115,6 +126,7 @@ impl Timeline {
             error_times: Vec::new(),
             last_keep_error: None,
             ghost_source: GHOST_OF_REWIND,
+            keep_every: KEEP_EVERY_TICKS,
         }
     }
 
@@ -135,8 +147,14 @@ impl Timeline {
             self.branch(tick);
         }
         let mut message = None;
-        if self.states.is_empty() || tick.is_multiple_of(KEEP_EVERY_TICKS) {
-            match sim.snapshot() {
+        self.keep_every = if now.ids.len() >= LARGE_AQUARIUM_FISH {
+            KEEP_LARGE_TICKS
+        } else {
+            KEEP_EVERY_TICKS
+        };
+        if self.states.is_empty() || tick.is_multiple_of(self.keep_every) {
+            let taken = sim.snapshot();
+            match taken {
                 Ok(state) => {
                     self.states_bytes += state.approx_bytes();
                     self.states.push_back(state);
@@ -162,6 +180,11 @@ impl Timeline {
         }
         self.evict();
         message
+    }
+
+    /// Seconds between kept states now: 1, or 3 from [`LARGE_AQUARIUM_FISH`] fish.
+    pub fn keep_every_s(&self) -> f64 {
+        self.keep_every as f64 / TICK_HZ
     }
 
     /// Remembers a script error's simulated time (for "jump to last error").

@@ -49,6 +49,7 @@ struct CostRow {
     overhead_percent: f64,
     state_bytes_per_fish: f64,
     track_bytes_per_fish_per_tick: f64,
+    snapshot_ms: f64,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -94,11 +95,12 @@ pub fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
                 );
             }
             println!(
-                "{:>7} {:>14.3} {:>18.3} {:>8.1}% {:>16.0} {:>22.1}",
+                "{:>7} {:>14.3} {:>18.3} {:>8.1}% {:>12.2} {:>16.0} {:>22.1}",
                 row.fish,
                 row.plain_ms_per_tick,
                 row.with_history_ms_per_tick,
                 row.overhead_percent,
+                row.snapshot_ms,
                 row.state_bytes_per_fish,
                 row.track_bytes_per_fish_per_tick
             );
@@ -147,6 +149,13 @@ fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<Cost
         with.push(start.elapsed().as_secs_f64() * 1e3 / second as f64);
     }
     let (p, w) = (median(plain), median(with));
+    let snaps: Vec<f64> = (0..5)
+        .map(|_| {
+            let start = Instant::now();
+            let _ = crate::app::SimView::snapshot(&sim);
+            start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
     let states = timeline.num_states().max(1);
     let ticks = (timeline.span_s().map_or(0.0, |(a, b)| b - a) * TICK_HZ).max(1.0);
     Ok(CostRow {
@@ -156,6 +165,7 @@ fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<Cost
         overhead_percent: 100.0 * (w - p) / p,
         state_bytes_per_fish: timeline.states_bytes() as f64 / states as f64 / fish as f64,
         track_bytes_per_fish_per_tick: timeline.track_bytes() as f64 / ticks / fish as f64,
+        snapshot_ms: median(snaps),
     })
 }
 
