@@ -267,7 +267,8 @@ fn shoal_run(args: &[&str]) -> (bool, String) {
         .env_remove("SHOAL_SCRIPTS")
         .output()
         .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     (out.status.success(), text)
 }
 
@@ -275,7 +276,14 @@ fn git(dir: &Path, args: &[&str]) {
     let ok = Command::new("git")
         .arg("-C")
         .arg(dir)
-        .args(["-c", "user.name=t", "-c", "user.email=t@t", "-c", "commit.gpgsign=false"])
+        .args([
+            "-c",
+            "user.name=t",
+            "-c",
+            "user.email=t@t",
+            "-c",
+            "commit.gpgsign=false",
+        ])
         .args(args)
         .status()
         .unwrap()
@@ -303,6 +311,18 @@ fn bad_split_input_is_a_clear_error() {
         text.contains("--split git:HEAD") && text.contains("inside a git repository"),
         "{text}"
     );
+
+    // No git to run.
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["run", "--scripts", s, "--split", "git:HEAD"])
+        .env("PATH", "")
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(text.contains("--split git:HEAD: cannot run git"), "{text}");
 
     git(&root, &["init", "-q"]);
     git(&root, &["add", "scripts"]);

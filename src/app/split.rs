@@ -162,7 +162,10 @@ impl Split {
     pub(super) fn seek(&mut self, a_history: &Timeline, tick: u64) -> Result<(), String> {
         let time_s = tick as f64 / TICK_HZ;
         let result = match self.timeline.seek(time_s) {
-            Some((state, ticks)) => self.scene.rewind_to(state, ticks).map_err(|e| e.to_string()),
+            Some((state, ticks)) => self
+                .scene
+                .rewind_to(state, ticks)
+                .map_err(|e| e.to_string()),
             None => Err("B has kept no state to go back to".to_owned()),
         };
         self.divergences.clear();
@@ -188,8 +191,9 @@ impl Split {
         self.timeline.record(self.scene.sim())
     }
 
-    /// B's overlays: `toggles`' segments of B's fish, and for each fish that differs from A
-    /// (and `selected`), A's path faint and B's orange over the last `before_s` seconds.
+    /// B's overlays: `toggles`' segments of B's fish, and A's path (faint) beside B's (orange)
+    /// over the last `before_s` seconds — for `selected` alone when a fish is selected (its A
+    /// path only if it differs), else for every fish that differs from A.
     pub(super) fn refresh_overlay(
         &mut self,
         a_history: &Timeline,
@@ -203,14 +207,16 @@ impl Split {
         }
         let now = self.scene.world().tick_count();
         let from = now.saturating_sub((before_s * TICK_HZ) as u64);
-        let fish: Vec<FishId> = self
-            .divergences
+        let fish: Vec<FishId> = match selected {
+            Some(id) => vec![id],
+            None => self.divergences.iter().map(|d| d.fish).collect(),
+        };
+        let differing: Vec<FishId> = fish
             .iter()
-            .map(|d| d.fish)
-            .chain(selected.filter(|id| self.divergences.iter().all(|d| d.fish != *id)))
+            .copied()
+            .filter(|id| self.divergences.iter().any(|d| d.fish == *id))
             .collect();
-        a_history.path_lines(fish.iter().copied(), from, now, GHOST_COLOR, &mut self.overlay);
-        let differing = self.divergences.iter().map(|d| d.fish);
+        a_history.path_lines(fish, from, now, GHOST_COLOR, &mut self.overlay);
         self.timeline
             .path_lines(differing, from, now, NEW_PATH_COLOR, &mut self.overlay);
     }

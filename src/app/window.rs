@@ -200,9 +200,7 @@ impl App {
         if let Some(split) = &mut self.aq.ui.split
             && let Err(e) = split.scene.enable_hot_reload()
         {
-            self.aq
-                .ui
-                .log(format!("B: script hot reload is off: {e}"));
+            self.aq.ui.log(format!("B: script hot reload is off: {e}"));
         }
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
@@ -332,7 +330,13 @@ impl App {
             });
         let size = (ws.config.width, ws.config.height);
         let rt = if self.aq.ui.split.is_some() {
-            encode_split(ws, &mut self.aq, &mut encoder, &surface_texture.texture, &view)?
+            encode_split(
+                ws,
+                &mut self.aq,
+                &mut encoder,
+                &surface_texture.texture,
+                &view,
+            )?
         } else {
             let mut input = self.aq.scene.frame_input();
             input.camera = self.aq.ui.camera;
@@ -410,8 +414,7 @@ fn encode_split(
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
                     format: ws.config.format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::COPY_SRC,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
                     view_formats: &[],
                 })
             })

@@ -195,7 +195,12 @@ pub fn split_source(spec: &str, a_scripts: &Path) -> anyhow::Result<SplitSource>
     let commit = git(
         spec,
         &top,
-        &["rev-parse", "--verify", "--quiet", &format!("{rev}^{{commit}}")],
+        &[
+            "rev-parse",
+            "--verify",
+            "--quiet",
+            &format!("{rev}^{{commit}}"),
+        ],
     )
     .map_err(|_| {
         anyhow::anyhow!(
