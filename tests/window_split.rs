@@ -382,3 +382,54 @@ fn git_rev_materialises_that_revision_of_the_scripts() {
     drop(b);
     assert!(!dir.exists(), "the temporary copy goes with it");
 }
+
+#[test]
+fn saving_a_script_of_b_reloads_b_alone_and_lists_the_file_that_differs() {
+    let (_dir, root) = common::scratch_repo();
+    let (_dir_b, root_b) = common::scratch_repo();
+    let (a, b) = (root.join("scripts"), root_b.join("scripts"));
+    let mut aq = split(&root, &a, &b);
+    aq.scene
+        .enable_hot_reload()
+        .expect("A's scripts are watched");
+    aq.split_scene_mut()
+        .unwrap()
+        .enable_hot_reload()
+        .expect("B's scripts are watched");
+    aq.advance(DT);
+    assert!(aq.split_changed_files().is_empty());
+    std::thread::sleep(std::time::Duration::from_millis(100));
+
+    let forage = b.join("behaviors/forage.lua");
+    let src = std::fs::read_to_string(&forage).unwrap();
+    std::fs::write(
+        &forage,
+        src.replace("common.wander(fish, 1.2)", "common.wander(fish, 2.5)"),
+    )
+    .unwrap();
+    let start = std::time::Instant::now();
+    while aq.split_changed_files().is_empty() && start.elapsed().as_secs() < 10 {
+        aq.advance(DT);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!(aq.split_changed_files(), ["behaviors/forage.lua"]);
+    assert!(
+        aq.console()
+            .any(|l| l.starts_with("B: ") && l.contains("reloaded behaviour forage")),
+        "B's reload is in the console: {:?}",
+        aq.console().collect::<Vec<_>>()
+    );
+    assert!(
+        !aq.console()
+            .any(|l| !l.starts_with("B: ") && l.contains("reloaded")),
+        "A did not reload: {:?}",
+        aq.console().collect::<Vec<_>>()
+    );
+    for _ in 0..8 * 60 {
+        aq.advance(DT);
+    }
+    assert!(
+        !aq.split_divergences().is_empty(),
+        "B's foragers now search wider than A's"
+    );
+}
