@@ -11,6 +11,7 @@ use winit::event::MouseButton;
 use super::pointer::Pointer;
 use super::scene::{OverlayToggles, WorldScene};
 use super::sim::SimView;
+use super::split::{Split, SplitError, SplitVersions};
 use super::timeline::{Divergence, Timeline};
 use super::window::AppOptions;
 use crate::render::shaders::ShaderWatcher;
@@ -60,6 +61,26 @@ impl Aquarium {
         self.ui.log(note);
     }
 
+    /// A split tank: `a` and `b` (two versions of the scripts, the same scene and seed) side
+    /// by side, time-locked. Fails when they do not start at the same
+    /// tick or have different species.
+    pub fn new_split(
+        a: Box<dyn SimView>,
+        b: Box<dyn SimView>,
+        versions: SplitVersions,
+        options: AppOptions,
+    ) -> Result<Self, SplitError> {
+        let mut aq = Self::new(a, options);
+        let (mut split, note) = Split::new(&aq.scene, b, versions)?;
+        split.scene.set_selected(aq.ui.selected);
+        aq.ui.split = Some(split);
+        if let Some(line) = note {
+            aq.ui.log(format!("B: {line}"));
+        }
+        refresh_views(&mut aq.scene, &mut aq.ui);
+        Ok(aq)
+    }
+
     /// Draws the tuning panel into `ui` (inspector and plot as of the last [`Aquarium::advance`]).
     pub fn panel(&mut self, ui: &mut egui::Ui) {
         super::panel::panel(ui, &mut self.scene, &mut self.ui);
@@ -80,6 +101,32 @@ impl Aquarium {
         if let Some(at) = self.ui.pointer.released(MouseButton::Left) {
             select_at(&mut self.scene, &mut self.ui, at, size);
         }
+    }
+
+    /// The split tank's version B (its scene), when this is a split tank.
+    pub fn split_scene(&self) -> Option<&DynScene> {
+        self.ui.split.as_ref().map(|s| &s.scene)
+    }
+    /// The split tank's version B, mutably (tests apply edits through it).
+    pub fn split_scene_mut(&mut self) -> Option<&mut DynScene> {
+        self.ui.split.as_mut().map(|s| &mut s.scene)
+    }
+    /// The fish whose positions differ between the split tank's A and B, by the time they
+    /// first did (empty without a split).
+    pub fn split_divergences(&self) -> &[Divergence] {
+        self.ui.split.as_ref().map_or(&[], |s| &s.divergences)
+    }
+    /// Script files (relative paths) that differ between the split tank's A and B.
+    pub fn split_changed_files(&self) -> &[String] {
+        self.ui.split.as_ref().map_or(&[], |s| &s.changed)
+    }
+    /// B's overlay segments of the last [`Aquarium::advance`] (empty without a split).
+    pub fn split_overlay_lines(&self) -> &[OverlayLine] {
+        self.ui.split.as_ref().map_or(&[], |s| &s.overlay)
+    }
+    /// B's inspector lines for the selected fish (empty without a split).
+    pub fn split_inspect(&self) -> &[(String, String)] {
+        self.ui.split.as_ref().map_or(&[], |s| &s.inspect)
     }
 
     /// The selected fish.
@@ -183,6 +230,8 @@ pub(super) struct UiState {
     /// `SHOAL_UI_TRACE` is set: console lines, selection changes and the panel's button
     /// rectangles are also printed on stdout, so an end-to-end test can click by label.
     pub trace: bool,
+    /// The split tank's version B, when `shoal run --split` shows two versions.
+    pub split: Option<Split>,
     /// The last line printed for each traced button.
     traced: Vec<(String, String)>,
     /// The panel's rectangle in the last frame, physical pixels.
@@ -224,6 +273,7 @@ impl UiState {
             scratch_notes: Vec::new(),
             trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
             traced: Vec::new(),
+            split: None,
             panel_rect_px: None,
         }
     }
@@ -271,6 +321,9 @@ impl UiState {
             println!("selected: {:?}", fish.map(|id| id.index));
         }
         scene.set_selected(fish);
+        if let Some(split) = &mut self.split {
+            split.scene.set_selected(fish);
+        }
         match fish {
             Some(id) => self.species = scene.species_of(id).unwrap_or(0),
             None => self.follow = false,
@@ -317,6 +370,13 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
             ui.wave.clear();
             ui.inspect.clear();
         }
+    }
+    if let Some(split) = &mut ui.split {
+        split.inspect = ui
+            .selected
+            .map_or_else(Vec::new, |id| split.scene.inspect(id));
+        let selected = ui.selected.filter(|_| ui.show_ghosts);
+        split.refresh_overlay(&ui.timeline, ui.toggles, selected, GHOST_BEHIND_S);
     }
 }
 
@@ -366,6 +426,11 @@ pub(super) fn seek(scene: &mut DynScene, ui: &mut UiState, time_s: f64) {
     if let Err(e) = result {
         ui.log(format!("history: cannot go back: {e}"));
     }
+    if let Some(split) = &mut ui.split
+        && let Err(e) = split.seek(&ui.timeline, scene.world().tick_count())
+    {
+        ui.log(format!("history: B: {e}"));
+    }
     ui.scrub_s = scene.world().time();
 }
 
@@ -379,6 +444,8 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         0.0
     };
     let before = scene.time_s();
+    let before_tick = scene.world().tick_count();
+    let seeking = ui.seek_to.is_some();
     let (timeline, notes, scripts) = (&mut ui.timeline, &mut ui.scratch_notes, &mut ui.scripts);
     let mut pause = None;
     // After each tick: the history, then the "pause when" condition (stop at the tick it is met).
@@ -404,6 +471,17 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
             ui.pace.pop_front();
         }
     }
+    // The split tank's B runs as many ticks as A just did (none after a seek: `seek` took it
+    // to A's moment).
+    let ran = scene.world().tick_count().saturating_sub(before_tick);
+    if let Some(split) = &mut ui.split
+        && ran > 0
+        && !seeking
+    {
+        let notes = split.follow(&ui.timeline, ran);
+        ui.scratch_notes
+            .extend(notes.into_iter().map(|n| format!("B: {n}")));
+    }
     for line in std::mem::take(&mut ui.scratch_notes) {
         ui.log(line);
     }
@@ -417,11 +495,24 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         None => {}
     }
     scene.drain_log(&mut ui.scratch_log);
-    for line in std::mem::take(&mut ui.scratch_log) {
+    let a_lines = ui.scratch_log.len();
+    if let Some(split) = &mut ui.split {
+        split.scene.drain_log(&mut ui.scratch_log);
+    }
+    for (k, line) in std::mem::take(&mut ui.scratch_log).into_iter().enumerate() {
         if let Some(t) = line.error_at_s {
             ui.timeline.note_error(t);
         }
-        ui.log(line.text);
+        if k < a_lines {
+            ui.log(line.text);
+        } else {
+            ui.log(format!("B: {}", line.text));
+        }
+    }
+    if let Some(split) = &mut ui.split
+        && scene.take_reloaded()
+    {
+        split.refresh_changed();
     }
 }
 
@@ -439,8 +530,21 @@ pub(super) fn pace_ratio(pace: &VecDeque<(f32, f32)>) -> f32 {
 
 /// Selects the fish under `at` (see [`pick_fish`]), or none on open water, and shows its species'
 /// parameters in the panel.
+///
+/// In a split tank `size` is both views side by side (A left, B right, each half as wide): a
+/// click in B's half picks among B's fish, and the fish (by [`FishId`]) is selected in both.
 pub(super) fn select_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: Vec2) {
-    let picked = pick_fish(&ui.camera, at, size, scene);
+    let picked = match &ui.split {
+        None => pick_fish(&ui.camera, at, size, scene),
+        Some(split) => {
+            let half = Vec2::new((size.x * 0.5).max(1.0), size.y);
+            if at.x < half.x {
+                pick_fish(&ui.camera, at, half, scene)
+            } else {
+                pick_fish(&ui.camera, at - Vec2::new(half.x, 0.0), half, &split.scene)
+            }
+        }
+    };
     ui.select(scene, picked);
 }
 

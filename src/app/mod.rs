@@ -8,6 +8,8 @@
 //! - [`WorldScene`] turns a [`SimView`] into what [`crate::render::Renderer`] draws (meshes,
 //!   palettes, instances, props, overlays) and answers the panel's questions about a fish, by
 //!   [`crate::world::FishId`].
+//! - `split` holds the split tank's second version of the scripts (`shoal run --split`),
+//!   time-locked with the first.
 //! - [`Aquarium`] is the window's state and per-frame logic without a window (selection,
 //!   camera, time controls, console, panel), so UI tests drive what `shoal run` does;
 //!   [`run_window`] puts it in a winit window.
@@ -20,6 +22,7 @@ mod pointer;
 mod scene;
 pub mod scripts_panel;
 pub mod sim;
+mod split;
 mod timeline;
 mod window;
 
@@ -27,6 +30,7 @@ pub use aquarium::{Aquarium, DynScene, pick_fish};
 pub use pointer::Pointer;
 pub use scene::{FOOD_PELLET_RADIUS, FishInfo, OverlayToggles, WorldScene};
 pub use sim::{LogLine, SimError, SimState, SimView};
+pub use split::{SplitError, SplitVersions};
 pub use timeline::{
     DEFAULT_SPAN_S, Divergence, GHOST_COLOR, NEW_PATH_COLOR, TETHER_COLOR, Timeline,
 };

@@ -4,7 +4,7 @@
 use std::collections::VecDeque;
 
 use super::aquarium::{DynScene, FrameTimes, MAX_FRAME_DT_S, UiState, pace_ratio};
-use super::timeline::clock;
+use super::timeline::{Divergence, clock};
 use crate::motion::{MotionParams, MotionRequest, Side, TurnKind};
 use crate::world::FishId;
 
@@ -17,6 +17,9 @@ pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     notices(ui, scene, st);
     section(ui, "Time", |ui| time_controls(ui, st));
     section(ui, "Timeline", |ui| timeline(ui, scene, st));
+    if st.split.is_some() {
+        section(ui, "Split tank", |ui| split_tank(ui, scene, st));
+    }
     section(ui, "Selected fish", |ui| selected_fish(ui, scene, st));
     section(ui, "Scripts", |ui| {
         let mut lines = Vec::new();
@@ -166,8 +169,20 @@ fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
         st.timeline.ghost_source(),
         divergences.len()
     ));
+    divergence_list(ui, scene, st, "divergences", &divergences);
+}
+
+/// Fish that parted from another run (the ghost, or the split tank's other version), by when
+/// they first differed and how far apart they got; a click selects the fish.
+fn divergence_list(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut UiState,
+    id_salt: &str,
+    divergences: &[Divergence],
+) {
     egui::ScrollArea::vertical()
-        .id_salt("divergences")
+        .id_salt(id_salt)
         .max_height(140.0)
         .show(ui, |ui| {
             for d in divergences {
@@ -182,6 +197,27 @@ fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
                 }
             }
         });
+}
+
+/// The split tank: which version is where, the script files that differ, and the fish whose
+/// positions differ between A and B.
+fn split_tank(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let Some(split) = &st.split else { return };
+    ui.label(format!("A (left): {}", split.versions.a));
+    ui.label(format!("B (right): {}", split.versions.b));
+    if split.versions.dirs.is_some() {
+        if split.changed.is_empty() {
+            ui.label("no script file differs");
+        } else {
+            ui.label(format!("files that differ: {}", split.changed.join(", ")));
+        }
+    }
+    let divergences = split.divergences.clone();
+    ui.label(format!(
+        "{} fish differ between A and B (first tick they differed, largest distance)",
+        divergences.len()
+    ));
+    divergence_list(ui, scene, st, "split divergences", &divergences);
 }
 
 /// The selected fish: follow/deselect, motion buttons, body wave plot and inspector.
@@ -205,10 +241,41 @@ fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     }
     motion_buttons(ui, scene, st, fish);
     body_wave_plot(ui, st);
+    let Some(split) = &st.split else {
+        egui::Grid::new("inspector").striped(true).show(ui, |ui| {
+            for (k, v) in &st.inspect {
+                ui.label(k);
+                ui.label(v);
+                ui.end_row();
+            }
+        });
+        return;
+    };
+    // Split tank: A's and B's lines side by side, by key (A's order, then B's own keys).
     egui::Grid::new("inspector").striped(true).show(ui, |ui| {
-        for (k, v) in &st.inspect {
+        ui.label("");
+        ui.strong("A");
+        ui.strong("B");
+        ui.end_row();
+        let b_only = split
+            .inspect
+            .iter()
+            .filter(|(k, _)| st.inspect.iter().all(|(ka, _)| ka != k));
+        for (k, _) in st.inspect.iter().chain(b_only) {
+            let find = |lines: &[(String, String)]| {
+                lines
+                    .iter()
+                    .find(|(kk, _)| kk == k)
+                    .map_or("—".to_owned(), |(_, v)| v.clone())
+            };
+            let (a, b) = (find(&st.inspect), find(&split.inspect));
             ui.label(k);
-            ui.label(v);
+            ui.label(&a);
+            if a == b {
+                ui.label(b);
+            } else {
+                ui.colored_label(WARNING, b);
+            }
             ui.end_row();
         }
     });
@@ -253,6 +320,12 @@ fn motion_buttons(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState, fis
                 match scene.request_motion(fish, request) {
                     Ok(()) => st.log(format!("fish #{n}: {label} requested")),
                     Err(e) => st.log(format!("fish #{n}: {label}: {e}")),
+                }
+                // The split tank's B gets the same request, so the two stay comparable.
+                if let Some(split) = &mut st.split
+                    && let Err(e) = split.scene.request_motion(fish, request)
+                {
+                    st.log(format!("B: fish #{n}: {label}: {e}"));
                 }
             }
         }
@@ -308,10 +381,16 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
     let mut deg = p.turn_angle.to_degrees();
     ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
     p.turn_angle = deg.to_radians();
-    if p != before
-        && let Err(e) = scene.set_motion_params(st.species, p)
-    {
-        st.log(e.to_string());
+    if p != before {
+        if let Err(e) = scene.set_motion_params(st.species, p) {
+            st.log(e.to_string());
+        }
+        // The split tank's B gets the same parameters (a live tweak, not a script version).
+        if let Some(split) = &mut st.split
+            && let Err(e) = split.scene.set_motion_params(st.species, p)
+        {
+            st.log(format!("B: {e}"));
+        }
     }
 }
 

@@ -79,6 +79,8 @@ pub struct WorldScene<S: SimView> {
     accumulator_s: f64,
     step_ms: f32,
     hot_reload: bool,
+    /// Hot reload applied edits since [`WorldScene::take_reloaded`].
+    reloaded: bool,
     reload_log: Vec<LogLine>,
 }
 
@@ -111,6 +113,7 @@ impl<S: SimView> WorldScene<S> {
             accumulator_s: 0.0,
             step_ms: 0.0,
             hot_reload: false,
+            reloaded: false,
             reload_log: Vec::new(),
         };
         scene.rebuild_instances();
@@ -232,11 +235,7 @@ impl<S: SimView> WorldScene<S> {
     /// false (a "pause when" condition met): the rest of the frame's time is dropped.
     pub fn step_until(&mut self, dt_s: f32, mut after_tick: impl FnMut(&S) -> bool) {
         let start = Instant::now();
-        if self.hot_reload {
-            let events = self.sim.poll_reload();
-            self.reload_log
-                .extend(events.into_iter().map(LogLine::note));
-        }
+        self.poll_hot_reload();
         if dt_s.is_finite() && dt_s > 0.0 {
             self.accumulator_s += f64::from(dt_s);
         }
@@ -254,6 +253,35 @@ impl<S: SimView> WorldScene<S> {
         }
         self.rebuild_instances();
         self.step_ms = start.elapsed().as_secs_f32() * 1e3;
+    }
+
+    /// Runs exactly `ticks` ticks (applying edited scripts first when hot reload is on),
+    /// calling `after_tick` after each: the split tank's second version follows the first's
+    /// tick count this way.
+    pub fn step_ticks(&mut self, ticks: u64, mut after_tick: impl FnMut(&S)) {
+        let start = Instant::now();
+        self.poll_hot_reload();
+        for _ in 0..ticks {
+            self.sim.tick();
+            after_tick(&self.sim);
+        }
+        self.rebuild_instances();
+        self.step_ms = start.elapsed().as_secs_f32() * 1e3;
+    }
+
+    /// Applies edited scripts when hot reload is on.
+    fn poll_hot_reload(&mut self) {
+        if self.hot_reload {
+            let events = self.sim.poll_reload();
+            self.reloaded |= !events.is_empty();
+            self.reload_log
+                .extend(events.into_iter().map(LogLine::note));
+        }
+    }
+
+    /// True (once) when hot reload applied edited scripts since the last call.
+    pub fn take_reloaded(&mut self) -> bool {
+        std::mem::take(&mut self.reloaded)
     }
 
     /// This frame's palettes, instances, props, tank and time, seen from
@@ -317,6 +345,11 @@ impl<S: SimView> WorldScene<S> {
         for (inst, id) in self.instances.iter_mut().zip(ids) {
             inst.selected = fish == Some(*id);
         }
+    }
+
+    /// The highlighted fish.
+    pub fn selected(&self) -> Option<FishId> {
+        self.selected
     }
 
     /// Species names, in species order.

@@ -294,21 +294,64 @@ impl Timeline {
         else {
             return;
         };
-        for (i, (&id, &p)) in now.ids.iter().zip(&now.pos).enumerate() {
-            let Some(g) = ghost.pos_of(id, i) else {
-                continue;
-            };
-            let same = p.to_array().map(f32::to_bits) == g.to_array().map(f32::to_bits);
-            let found = self.divergences.iter_mut().find(|d| d.fish == id);
-            match (found, same) {
-                (Some(d), _) => d.max_distance = d.max_distance.max(p.distance(g)),
-                (None, false) => self.divergences.push(Divergence {
-                    fish: id,
-                    first_s: now_s(now.tick),
-                    max_distance: p.distance(g),
-                }),
-                (None, true) => {}
+        note_divergences(now, ghost, &mut self.divergences);
+    }
+
+    /// The recorded positions of `tick`, if the history holds it.
+    fn track_at(&self, tick: u64) -> Option<&TickTrack> {
+        let first = self.track.front()?.tick;
+        let k = usize::try_from(tick.checked_sub(first)?).ok()?;
+        match self.track.get(k) {
+            Some(t) if t.tick == tick => Some(t),
+            // Not contiguous (never expected): look it up.
+            _ => {
+                let i = self.track.partition_point(|t| t.tick < tick);
+                self.track.get(i).filter(|t| t.tick == tick)
             }
+        }
+    }
+
+    /// Compares this history with `other`'s (another version of the scripts run in lockstep,
+    /// the split tank) over ticks `from..=to`, tick by tick and bit for bit, as a new run is
+    /// compared with its ghost: adds each fish whose position first differs to `out`, with the
+    /// time it did, and grows the largest distance of those already listed. Ticks either
+    /// history lacks are skipped.
+    pub fn compare_with(&self, other: &Timeline, from: u64, to: u64, out: &mut Vec<Divergence>) {
+        if from > to {
+            return;
+        }
+        let start = self.track.partition_point(|t| t.tick < from);
+        for now in self.track.range(start..).take_while(|t| t.tick <= to) {
+            if let Some(reference) = other.track_at(now.tick) {
+                note_divergences(now, reference, out);
+            }
+        }
+    }
+
+    /// Tick of the first recorded positions (the start of the history), if any.
+    pub fn first_tick(&self) -> Option<u64> {
+        self.track.front().map(|t| t.tick)
+    }
+
+    /// Fish `ids`' paths in this history from tick `from` to tick `to` (every fourth tick), in
+    /// `color`: the split tank draws the other version's path beside a fish that left it.
+    pub fn path_lines(
+        &self,
+        ids: impl IntoIterator<Item = FishId>,
+        from: u64,
+        to: u64,
+        color: [f32; 4],
+        out: &mut Vec<OverlayLine>,
+    ) {
+        const EVERY: usize = 4;
+        let start = self.track.partition_point(|t| t.tick < from);
+        let end = self.track.partition_point(|t| t.tick <= to);
+        let rows: Vec<usize> = (start..end)
+            .step_by(EVERY)
+            .chain(end.checked_sub(1).filter(|&last| last >= start))
+            .collect();
+        for id in ids {
+            polyline(&self.track, &rows, id, color, out);
         }
     }
 
@@ -389,6 +432,29 @@ impl Timeline {
                     color: TETHER_COLOR,
                 });
             }
+        }
+    }
+}
+
+/// Adds each fish whose position in `now` differs, bit for bit, from its position in
+/// `reference` (the same tick of another run: the ghost, or the other version of the split
+/// tank) to `out` with that tick's time, and grows the largest distance of every fish already
+/// listed. Fish missing from `reference` are skipped.
+fn note_divergences(now: &TickTrack, reference: &TickTrack, out: &mut Vec<Divergence>) {
+    for (i, (&id, &p)) in now.ids.iter().zip(&now.pos).enumerate() {
+        let Some(g) = reference.pos_of(id, i) else {
+            continue;
+        };
+        let same = p.to_array().map(f32::to_bits) == g.to_array().map(f32::to_bits);
+        let found = out.iter_mut().find(|d| d.fish == id);
+        match (found, same) {
+            (Some(d), _) => d.max_distance = d.max_distance.max(p.distance(g)),
+            (None, false) => out.push(Divergence {
+                fish: id,
+                first_s: now_s(now.tick),
+                max_distance: p.distance(g),
+            }),
+            (None, true) => {}
         }
     }
 }

@@ -53,9 +53,9 @@ pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, App
     run_aquarium(Aquarium::new(sim, options), options)
 }
 
-/// Opens the aquarium window on an [`Aquarium`] already set up (a recording opened in it, say)
-/// and runs until it is closed (or `options.frames` are presented). Returns the number of
-/// frames presented.
+/// Opens the aquarium window on an [`Aquarium`] already set up (a recording opened in it, or a
+/// split tank: [`Aquarium::new_split`]) and runs until it is closed (or `options.frames` are
+/// presented). Returns the number of frames presented.
 pub fn run_aquarium(aq: Aquarium, options: AppOptions) -> Result<u64, AppError> {
     let has_display = ["DISPLAY", "WAYLAND_DISPLAY"]
         .iter()
@@ -92,6 +92,8 @@ struct WindowState {
     egui_ctx: egui::Context,
     egui_state: egui_winit::State,
     egui_renderer: egui_wgpu::Renderer,
+    /// The split tank's two views' textures (A, B), each half the view wide.
+    split_targets: Vec<wgpu::Texture>,
 }
 
 struct App {
@@ -135,8 +137,22 @@ impl App {
             .or_else(|| caps.formats.first().copied())
             .ok_or_else(|| GpuError::Surface("the surface supports no format".into()))?;
         let size = window.inner_size();
+        // The split tank copies its two views onto the surface; a single view draws straight
+        // into it.
+        let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        if self.aq.ui.split.is_some() {
+            if !caps.usages.contains(wgpu::TextureUsages::COPY_DST) {
+                return Err(GpuError::Surface(
+                    "this window surface cannot be copied to, which the split tank's two views \
+                     need"
+                        .into(),
+                )
+                .into());
+            }
+            usage |= wgpu::TextureUsages::COPY_DST;
+        }
         let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            usage,
             format,
             width: size.width.max(1),
             height: size.height.max(1),
@@ -181,6 +197,11 @@ impl App {
         if let Err(e) = self.aq.scene.enable_hot_reload() {
             self.aq.ui.log(format!("script hot reload is off: {e}"));
         }
+        if let Some(split) = &mut self.aq.ui.split
+            && let Err(e) = split.scene.enable_hot_reload()
+        {
+            self.aq.ui.log(format!("B: script hot reload is off: {e}"));
+        }
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),
@@ -206,6 +227,7 @@ impl App {
             egui_ctx,
             egui_state,
             egui_renderer,
+            split_targets: Vec::new(),
         });
         Ok(())
     }
@@ -213,6 +235,10 @@ impl App {
     fn pick(&mut self, at: Vec2) {
         let Some(ws) = &self.window else { return };
         let size = Vec2::new(ws.config.width as f32, ws.config.height as f32);
+        let size = match self.aq.ui.split {
+            Some(_) => Vec2::new(split_width(ws, &self.aq) as f32, size.y),
+            None => size,
+        };
         select_at(&mut self.aq.scene, &mut self.aq.ui, at, size);
     }
 
@@ -303,14 +329,22 @@ impl App {
                 label: Some("window frame encoder"),
             });
         let size = (ws.config.width, ws.config.height);
-        {
+        let rt = if self.aq.ui.split.is_some() {
+            encode_split(
+                ws,
+                &mut self.aq,
+                &mut encoder,
+                &surface_texture.texture,
+                &view,
+            )?
+        } else {
             let mut input = self.aq.scene.frame_input();
             input.camera = self.aq.ui.camera;
             input.overlay = &self.aq.ui.overlay;
             ws.renderer
                 .encode(&ws.gpu, &mut encoder, &view, size, &input)?;
-        }
-        let rt = ws.renderer.timings();
+            ws.renderer.timings()
+        };
         self.aq.ui.render_counts = rt;
         let extra = draw_panel(ws, &mut self.aq, &mut encoder, &view);
 
@@ -339,6 +373,116 @@ impl App {
     }
 }
 
+/// Width of the split tank's two views together, physical pixels: the window left of the panel
+/// (as it was last frame).
+fn split_width(ws: &WindowState, aq: &Aquarium) -> u32 {
+    let left = aq
+        .ui
+        .panel_rect_px
+        .map_or(ws.config.width as f32, |r| r.left());
+    (left.round() as u32).clamp(2, ws.config.width.max(2))
+}
+
+/// The split tank's views: A into the left texture and B into the right one, each half the view
+/// wide and submitted on its own (the renderer's buffers hold one frame at a time, and queued
+/// writes land before the next submission), then cleared and copied side by side into the
+/// surface by `encoder`. Returns A's render timings.
+fn encode_split(
+    ws: &mut WindowState,
+    aq: &mut Aquarium,
+    encoder: &mut wgpu::CommandEncoder,
+    surface: &wgpu::Texture,
+    surface_view: &wgpu::TextureView,
+) -> Result<crate::render::RenderTimings, AppError> {
+    let Some(split) = &aq.ui.split else {
+        return Ok(ws.renderer.timings());
+    };
+    let half = (split_width(ws, aq) / 2).max(1);
+    let height = ws.config.height.max(1);
+    let extent = wgpu::Extent3d {
+        width: half,
+        height,
+        depth_or_array_layers: 1,
+    };
+    if ws.split_targets.first().is_none_or(|t| t.size() != extent) {
+        ws.split_targets = ["split view A", "split view B"]
+            .map(|label| {
+                ws.gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: extent,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: ws.config.format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                })
+            })
+            .into();
+    }
+    let mut timings = None;
+    for (k, target) in ws.split_targets.iter().enumerate() {
+        let (scene, overlay) = if k == 0 {
+            (&aq.scene, aq.ui.overlay.as_slice())
+        } else {
+            (&split.scene, split.overlay.as_slice())
+        };
+        let mut input = scene.frame_input();
+        input.camera = aq.ui.camera;
+        input.overlay = overlay;
+        let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+        let mut own = ws
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("split view encoder"),
+            });
+        ws.renderer
+            .encode(&ws.gpu, &mut own, &view, (half, height), &input)?;
+        ws.gpu.queue.submit([own.finish()]);
+        timings.get_or_insert(ws.renderer.timings());
+    }
+    // Under the panel and in an odd pixel column nothing is drawn: clear the surface first.
+    drop(encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("split clear"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: surface_view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color {
+                    r: 0.01,
+                    g: 0.02,
+                    b: 0.03,
+                    a: 1.0,
+                }),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    }));
+    for (k, target) in ws.split_targets.iter().enumerate() {
+        encoder.copy_texture_to_texture(
+            target.as_image_copy(),
+            wgpu::TexelCopyTextureInfo {
+                texture: surface,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: half * k as u32,
+                    y: 0,
+                    z: 0,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            extent,
+        );
+    }
+    Ok(timings.unwrap_or_default())
+}
+
 /// The scene file was edited and the designer asked for a restart: reload it and upload its
 /// meshes again.
 fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
@@ -356,6 +500,15 @@ fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
             aq.ui.timeline.clear();
             if let Some(line) = aq.ui.timeline.record(aq.scene.sim()) {
                 aq.ui.log(line);
+            }
+            if let Some(split) = &mut aq.ui.split {
+                let line = match split.scene.restart_scene() {
+                    Ok(_) => split.restarted().map(|l| format!("B: {l}")),
+                    Err(e) => Some(format!("B: scene restart failed: {e}")),
+                };
+                if let Some(line) = line {
+                    aq.ui.log(line);
+                }
             }
             let fish = aq.scene.num_fish();
             aq.ui.log(format!("scene restarted: {fish} fish"));
@@ -407,6 +560,9 @@ fn draw_panel(
         // Where the panel is, in physical pixels: a press there is the panel's even when
         // it comes before egui has seen the pointer arrive (a fast click).
         aq.ui.panel_rect_px = Some(shown.response.rect * ui.ctx().pixels_per_point());
+        if let Some(split) = &aq.ui.split {
+            split_labels(ui.ctx(), split, shown.response.rect.left());
+        }
     });
     ws.egui_state
         .handle_platform_output(&ws.window, full.platform_output);
@@ -449,6 +605,33 @@ fn draw_panel(
         ws.egui_renderer.free_texture(&id);
     }
     extra
+}
+
+/// Over each view of the split tank, its version and the script files that differ.
+fn split_labels(ctx: &egui::Context, split: &super::split::Split, views_width: f32) {
+    let changed = if split.changed.is_empty() {
+        "no script file differs".to_owned()
+    } else {
+        format!("differs in {}", split.changed.join(", "))
+    };
+    let diverged = split.divergences.len();
+    let sides = [
+        ("A", &split.versions.a, 0.0),
+        ("B", &split.versions.b, (views_width * 0.5).round()),
+    ];
+    for (name, version, x) in sides {
+        egui::Area::new(egui::Id::unique(("split label", name)))
+            .fixed_pos(egui::pos2(x + 8.0, 8.0))
+            .interactable(false)
+            .show(ctx, |ui| {
+                egui::Frame::popup(ui.style()).show(ui, |ui| {
+                    ui.set_max_width((views_width * 0.5 - 24.0).max(80.0));
+                    ui.strong(format!("{name}: {version}"));
+                    ui.label(&changed);
+                    ui.label(format!("{diverged} fish differ"));
+                });
+            });
+    }
 }
 
 impl ApplicationHandler for App {
