@@ -103,11 +103,18 @@ pub struct MeshUpload<'a> {
     pub weights: &'a [[f32; 4]],
     /// Triangle list, counter-clockwise front faces.
     pub indices: &'a [u32],
-    /// Base-colour texture coordinates, one per vertex, or empty when `material` has no
-    /// texture.
+    /// Texture coordinates, one per vertex, or empty when no material has a texture.
     pub uvs: &'a [[f32; 2]],
-    /// The species' material (texture, alpha mode …); `None` draws the vertex colours opaque.
-    pub material: Option<&'a crate::skin::Material>,
+    /// Tangents (xyz, w = bitangent sign), one per vertex, or empty when no material has a
+    /// normal map (a normal map is then not drawn).
+    pub tangents: &'a [[f32; 4]],
+    /// The species' materials (textures, factors, alpha mode …); empty draws the vertex colours
+    /// with [`crate::skin::Material::default`].
+    pub materials: &'a [crate::skin::Material],
+    /// Which triangles each material draws (index ranges of `indices`); empty: all with
+    /// material 0. Each material costs one draw per level of detail in use, whatever the number
+    /// of fish.
+    pub parts: &'a [crate::skin::MeshPart],
 }
 
 impl<'a> MeshUpload<'a> {
@@ -122,7 +129,9 @@ impl<'a> MeshUpload<'a> {
             weights: &mesh.weights,
             indices: &mesh.indices,
             uvs: &mesh.uvs,
-            material: Some(&mesh.material),
+            tangents: &mesh.tangents,
+            materials: &mesh.materials,
+            parts: &mesh.parts,
         }
     }
 }

@@ -145,10 +145,21 @@ struct GpuMesh {
     first_bucket: u32,
     num_vertices: u32,
     num_joints: u32,
-    /// Base-colour texture coordinates (vertex buffer slot 2; zeros without a texture).
-    uvs: wgpu::Buffer,
-    /// Its material (bind group 1); blended species are drawn in the second fish pass.
-    material: GpuMaterial,
+    /// Texture coordinates and tangents (vertex buffer slot 2, [`SurfaceVertex`]; zeros where
+    /// the mesh has none).
+    surface: wgpu::Buffer,
+    /// Its materials (bind group 1 each); blended ones are drawn in the second fish pass.
+    materials: Vec<GpuMaterial>,
+    /// Per level of detail, its index ranges by material (one draw each).
+    level_parts: Vec<Vec<crate::skin::MeshPart>>,
+}
+
+/// Vertex buffer slot 2 of the fish pipelines: texture coordinates and tangent.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct SurfaceVertex {
+    uv: [f32; 2],
+    tangent: [f32; 4],
 }
 
 /// Instance bucket of something not drawn (culled).
