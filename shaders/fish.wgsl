@@ -29,7 +29,8 @@ struct MaterialParams {
     // 0 OPAQUE, 1 MASK (discard below alpha_cutoff), 2 BLEND (drawn blended, second pass).
     alpha_mode: u32,
     alpha_cutoff: f32,
-    // bit 0: unlit (KHR_materials_unlit); bit 1: normal map in use.
+    // bit 0: unlit (KHR_materials_unlit); bits 1–4: the material has a normal map (and the mesh
+    // tangents), a metallic-roughness, an occlusion, an emissive texture.
     flags: u32,
     // normalTexture.scale.
     normal_scale: f32,
@@ -127,12 +128,26 @@ fn vs_main(in: VertexIn) -> VertexOut {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
-    // Every texture is sampled up front, in uniform control flow.
+    // Every texture is sampled up front, in uniform control flow (the flags are uniform), and
+    // only where the material has it: the stand-ins would give the same values, at the cost of
+    // a sample per map on a software rasterizer.
     let base = base_color(in.color, in.uv);
-    let mapped = textureSample(normal_tex, normal_sampler, in.uv);
-    let mr = textureSample(mr_tex, mr_sampler, in.uv);
-    let occlusion = textureSample(occlusion_tex, occlusion_sampler, in.uv).r;
-    let emissive_texel = textureSample(emissive_tex, emissive_sampler, in.uv).rgb;
+    var mapped = vec4<f32>(0.5, 0.5, 1.0, 1.0);
+    if ((material.flags & 2u) != 0u) {
+        mapped = textureSample(normal_tex, normal_sampler, in.uv);
+    }
+    var mr = vec4<f32>(1.0);
+    if ((material.flags & 4u) != 0u) {
+        mr = textureSample(mr_tex, mr_sampler, in.uv);
+    }
+    var occlusion = 1.0;
+    if ((material.flags & 8u) != 0u) {
+        occlusion = textureSample(occlusion_tex, occlusion_sampler, in.uv).r;
+    }
+    var emissive_texel = vec3<f32>(1.0);
+    if ((material.flags & 16u) != 0u) {
+        emissive_texel = textureSample(emissive_tex, emissive_sampler, in.uv).rgb;
+    }
     if (base.a < 0.0) {
         discard;
     }

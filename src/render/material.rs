@@ -23,6 +23,12 @@ pub const ALPHA_BLEND: u32 = 2;
 pub const FLAG_UNLIT: u32 = 1;
 /// `MaterialParams.flags` bit: the material has a normal map (and the mesh tangents).
 pub const FLAG_NORMAL_MAP: u32 = 2;
+/// `MaterialParams.flags` bit: the material has a metallic-roughness texture.
+pub const FLAG_METALLIC_ROUGHNESS_MAP: u32 = 4;
+/// `MaterialParams.flags` bit: the material has an occlusion texture.
+pub const FLAG_OCCLUSION_MAP: u32 = 8;
+/// `MaterialParams.flags` bit: the material has an emissive texture.
+pub const FLAG_EMISSIVE_MAP: u32 = 16;
 
 /// The uniform of group 1, binding 2.
 #[repr(C)]
@@ -349,8 +355,18 @@ pub(super) fn upload(
     if material.unlit {
         flags |= FLAG_UNLIT;
     }
-    if normal_map.is_some() {
-        flags |= FLAG_NORMAL_MAP;
+    for (present, flag) in [
+        (normal_map.is_some(), FLAG_NORMAL_MAP),
+        (
+            material.metallic_roughness_texture.is_some(),
+            FLAG_METALLIC_ROUGHNESS_MAP,
+        ),
+        (material.occlusion_texture.is_some(), FLAG_OCCLUSION_MAP),
+        (material.emissive_texture.is_some(), FLAG_EMISSIVE_MAP),
+    ] {
+        if present {
+            flags |= flag;
+        }
     }
     let params = MaterialParams {
         alpha_mode,
