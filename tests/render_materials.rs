@@ -932,3 +932,49 @@ fn the_rigger_keeps_several_materials_and_an_untangented_normal_map() {
         assert!(t3.x > 0.99 && t[3].abs() == 1.0, "{t:?}");
     }
 }
+
+/// One species with an opaque part and a `BLEND` part (a body and its see-through fins): the
+/// blended part is drawn after every opaque fish, so a fish uploaded after it still shows
+/// through, while the opaque part hides it.
+#[test]
+fn a_blended_part_of_a_species_is_drawn_after_the_opaque_fish() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut red = unlit();
+    red["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 0.0, 0.0, 1.0]);
+    let mut half_white = unlit();
+    half_white["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 1.0, 1.0, 0.5]);
+    half_white["alphaMode"] = json!("BLEND");
+    let set = MaterialSet {
+        materials: json!([red, half_white]),
+        ..textured(four_colours(), unlit())
+    };
+    let mut two = quad(0.5);
+    two.parts = vec![(3, 0), (3, 1)];
+    let front = load(&write(dir.path(), "two.glb", &two.to_glb(&set, "test")));
+    let behind = load(&write(
+        dir.path(),
+        "behind.glb",
+        &quad(0.0).to_glb(&textured(png(1, 1, &[BLUE]), unlit()), "test"),
+    ));
+    let (img, _) = render(
+        &gpu(),
+        &[
+            MeshUpload::from_skinned_mesh("front", &front.mesh),
+            MeshUpload::from_skinned_mesh("behind", &behind.mesh),
+        ],
+        &[(0, Mat4::IDENTITY), (1, Mat4::IDENTITY)],
+        front_camera(3.0),
+        (64, 64),
+        clear_look(),
+    );
+    assert_eq!(
+        img.get_pixel(18, 18).0,
+        RED,
+        "the opaque part hides the blue quad"
+    );
+    let p = img.get_pixel(45, 45).0;
+    assert!(
+        (170..=205).contains(&p[0]) && (170..=205).contains(&p[1]) && p[2] == 255,
+        "half white over blue: {p:?}"
+    );
+}

@@ -686,6 +686,11 @@ impl TextureCopier<'_> {
             .nth(old)
             .ok_or_else(|| format!("texture {old} does not exist"))?;
         let image = tex.source();
+        if let Some(problem) =
+            crate::skin::material::image_problem(self.gltf.document.as_json(), image.index())
+        {
+            return Err(format!("image {}: {problem}", image.index()));
+        }
         let source = match self.image_of.get(&image.index()) {
             Some(&i) => i,
             None => {

@@ -10,8 +10,8 @@
 //!
 //! On the GPU every palette of the frame lives in one storage buffer uploaded once; the vertex
 //! shader skins each vertex with `Σ w_n · M_n` (eq. 1, `shaders/skinning.wgsl`), and each species
-//! is one instanced draw per level of detail in use, so draw calls do not grow with the number of
-//! fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
+//! is one instanced draw per material and level of detail in use, so draw calls do not grow with
+//! the number of fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
 //! too, judged where the shadows lie), and each drawn fish gets the coarsest of its mesh's levels
 //! of detail (index lists over the same vertices, made at upload) whose error stays under a pixel
 //! on screen: see [`lod`]. The same skinning
@@ -249,7 +249,7 @@ pub struct Look {
     pub caustic_strength: f32,
     /// Direction towards the light (need not be normalised).
     pub light_dir: Vec3,
-    /// Draw planar fish shadows on the sand (one extra instanced draw per species).
+    /// Draw planar fish shadows on the sand (one extra instanced draw per species and material).
     pub shadows: bool,
 }
 

@@ -376,21 +376,23 @@ pub fn read_materials(doc: &gltf::Document, buffers: &[&[u8]], path: &Path) -> V
             };
             let base_color = pbr
                 .base_color_texture()
-                .map(|info| scene_texture(&info, buffers, path));
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
             let metallic_roughness = pbr
                 .metallic_roughness_texture()
-                .map(|info| scene_texture(&info, buffers, path));
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
             // Normal and occlusion infos are their own types; their texture and set are the
             // same fields.
             let normal = normal.map(|n| {
-                let mut t = scene_texture_of(&n.texture(), n.tex_coord(), buffers, path);
+                let mut t =
+                    scene_texture_of(doc.as_json(), &n.texture(), n.tex_coord(), buffers, path);
                 if let Some(v) = n.extension_value("KHR_texture_transform") {
                     t.transform = transform_from_json(v, &mut t.tex_coord);
                 }
                 t
             });
             let occlusion = occlusion.map(|o| {
-                let mut t = scene_texture_of(&o.texture(), o.tex_coord(), buffers, path);
+                let mut t =
+                    scene_texture_of(doc.as_json(), &o.texture(), o.tex_coord(), buffers, path);
                 if let Some(v) = o.extension_value("KHR_texture_transform") {
                     t.transform = transform_from_json(v, &mut t.tex_coord);
                 }
@@ -398,7 +400,7 @@ pub fn read_materials(doc: &gltf::Document, buffers: &[&[u8]], path: &Path) -> V
             });
             let emissive = m
                 .emissive_texture()
-                .map(|info| scene_texture(&info, buffers, path));
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
             SceneMaterial {
                 material,
                 base_color,
@@ -443,8 +445,13 @@ fn transform_from_json(v: &serde_json::Value, tex_coord: &mut u32) -> [[f32; 3];
     )
 }
 
-fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> SceneTexture {
-    let mut t = scene_texture_of(&info.texture(), info.tex_coord(), buffers, path);
+fn scene_texture(
+    root: &gltf::json::Root,
+    info: &gltf::texture::Info,
+    buffers: &[&[u8]],
+    path: &Path,
+) -> SceneTexture {
+    let mut t = scene_texture_of(root, &info.texture(), info.tex_coord(), buffers, path);
     if let Some(tt) = info.texture_transform() {
         if let Some(set) = tt.tex_coord() {
             t.tex_coord = set;
@@ -454,7 +461,25 @@ fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> 
     t
 }
 
+/// Why image `index` of a file cannot be read at all, before asking the gltf crate for its
+/// source (which panics on an image with neither a `uri` nor a `bufferView`, or a `bufferView`
+/// without a `mimeType`; its validation lets both through).
+pub fn image_problem(root: &gltf::json::Root, index: usize) -> Option<&'static str> {
+    let image = root.images.get(index)?;
+    match (&image.uri, &image.buffer_view) {
+        (None, None) => Some("the image has neither a uri nor a bufferView"),
+        (_, Some(_)) if image.mime_type.is_none() => {
+            Some("the image has a bufferView but no mimeType")
+        }
+        (_, Some(v)) if v.value() >= root.buffer_views.len() => {
+            Some("the image's bufferView does not exist")
+        }
+        _ => None,
+    }
+}
+
 fn scene_texture_of(
+    root: &gltf::json::Root,
     tex: &gltf::Texture,
     tex_coord: u32,
     buffers: &[&[u8]],
@@ -486,6 +511,16 @@ fn scene_texture_of(
     };
     let transform = IDENTITY_TRANSFORM;
     let index = image.index();
+    if let Some(problem) = image_problem(root, index) {
+        return SceneTexture {
+            image: index,
+            image_name: format!("image {index}"),
+            source: ImageSource::Unreadable(problem.into()),
+            sampler,
+            tex_coord,
+            transform,
+        };
+    }
     let (image_name, source) = match image.source() {
         gltf::image::Source::Uri { uri, .. } => {
             if uri.starts_with("data:") {
