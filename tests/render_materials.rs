@@ -428,6 +428,15 @@ fn rigged_red_finned_fish_close_up() {
         model.mesh.material().alpha_mode,
         AlphaMode::Mask { .. }
     ));
+    // Its normal and metallic-roughness maps are drawn too, the normal map with the file's
+    // tangents (kept by the rigger, carried into the bind shape).
+    assert!(model.mesh.material().normal_texture.is_some());
+    assert!(model.mesh.material().metallic_roughness_texture.is_some());
+    assert_eq!(model.mesh.tangents.len(), model.mesh.positions.len());
+    assert!(model.mesh.tangents.iter().all(|t| {
+        let l = Vec3::new(t[0], t[1], t[2]).length();
+        (l - 1.0).abs() < 1e-3 && t[3].abs() == 1.0
+    }));
     let (lo, hi) = model
         .mesh
         .positions
