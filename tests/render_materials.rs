@@ -987,3 +987,34 @@ fn a_blended_part_of_a_species_is_drawn_after_the_opaque_fish() {
         "half white over blue: {p:?}"
     );
 }
+
+/// A map on another texture coordinate set than the material's first texture is left out with a
+/// warning naming the set (shoal draws a material with one set); the rest of the material stays.
+#[test]
+fn a_map_on_another_coordinate_set_is_left_out_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut set = with_maps(
+        lit([1.0; 4], 0.0, 1.0),
+        vec![
+            ("pbrMetallicRoughness.baseColorTexture", four_colours()),
+            ("emissiveTexture", png(1, 1, &[[255; 4]])),
+        ],
+    );
+    set.materials[0]["emissiveTexture"]["texCoord"] = json!(1);
+    let model = load(&write(
+        dir.path(),
+        "sets.glb",
+        &quad(0.0).to_glb(&set, "test"),
+    ));
+    let warning = model
+        .warnings
+        .iter()
+        .find(|w| w.contains("emissive texture"))
+        .unwrap_or_else(|| panic!("no warning in {:?}", model.warnings));
+    assert!(
+        warning.contains("TEXCOORD_1") && warning.contains("sets.glb"),
+        "{warning}"
+    );
+    assert!(model.mesh.material().emissive_texture.is_none());
+    assert!(model.mesh.material().base_color_texture.is_some());
+}

@@ -775,6 +775,24 @@ mod tests {
     }
 
     #[test]
+    fn texture_transform_json_matches_the_typed_one() {
+        // What normal and occlusion textures read from their extension JSON.
+        let mut set = 0;
+        let v = serde_json::json!({"offset": [0.5, -1.0], "scale": [2.0, 3.0], "texCoord": 1});
+        assert_eq!(
+            transform_from_json(&v, &mut set),
+            [[2.0, 0.0, 0.5], [0.0, 3.0, -1.0]]
+        );
+        assert_eq!(set, 1);
+        let r = std::f32::consts::FRAC_PI_2;
+        let t = transform_from_json(
+            &serde_json::json!({"rotation": r, "scale": "bad"}),
+            &mut set,
+        );
+        assert_eq!(t, transform_matrix([0.0, 0.0], r, [1.0, 1.0]));
+    }
+
+    #[test]
     fn texture_transform_offsets_and_scales() {
         let mut uv = [[1.0, 1.0]];
         transform_uvs(&mut uv, &[[2.0, 0.0, 0.5], [0.0, 3.0, -1.0]]);
