@@ -6,8 +6,7 @@ use std::path::Path;
 use glam::{Mat4, Vec3};
 
 use super::SkinError;
-use super::gltf_scene::ScenePrimitive;
-use super::gltf_scene::{GltfScene, SceneMesh, SceneSkin, skin_vertex};
+use super::gltf_scene::{GltfScene, SceneMesh, ScenePrimitive, SceneSkin, skin_vertex};
 use super::material::{Material, transform_uvs};
 use crate::skeleton::{JointTransform, Skeleton};
 
@@ -34,7 +33,8 @@ pub struct SkinnedMesh {
     /// file's TANGENT, or MikkTSpace tangents made from the texture coordinates when a normal
     /// map needs them and the file has none; empty when no material has a normal map.
     pub tangents: Vec<[f32; 4]>,
-    /// The materials the primitives use, in order of first use (at least one).
+    /// The materials the primitives use, in order of first use (at least one in a loaded
+    /// model; empty means [`Material::default`], see [`SkinnedMesh::material`]).
     pub materials: Vec<Material>,
     /// The triangle ranges of the primitives and the material each is drawn with, in index
     /// order, covering `indices`.
