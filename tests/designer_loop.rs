@@ -382,12 +382,12 @@ fn a_species_can_cut_its_models_alpha_at_its_own_cutoff() {
     let mut sim = Simulation::empty(&root, 1).unwrap();
     let id = sim.species_id("masked").unwrap();
     assert_eq!(
-        sim.world().species(id).model.mesh.material.alpha_mode,
+        sim.world().species(id).model.mesh.material().alpha_mode,
         shoal::skin::AlphaMode::Mask { cutoff: 0.5 }
     );
     let porgy = sim.species_id("black_porgy").unwrap();
     assert_eq!(
-        sim.world().species(porgy).model.mesh.material.alpha_mode,
+        sim.world().species(porgy).model.mesh.material().alpha_mode,
         shoal::skin::AlphaMode::Opaque,
         "without the field the file's alpha mode stands"
     );

@@ -61,7 +61,9 @@ fn gpu_skinning_matches_cpu_lbs_on_a_two_bone_strip() {
         weights: &weights,
         indices: &indices,
         uvs: &[],
-        material: None,
+        tangents: &[],
+        materials: &[],
+        parts: &[],
     };
     // Palette at offset 3 (first three entries are decoys that must not be used).
     let decoy = Mat4::from_scale(Vec3::splat(100.0));

@@ -2,15 +2,20 @@
 //! a z-buffer. For checking shape, fins and bending by eye (`shoal asset preview`); the real
 //! renderer is `crate::render`.
 //!
-//! With a material ([`render_views_material`]) it samples the base-colour texture (bilinear, at
-//! full size) and honours the alpha mode as the renderer does: `MASK` cuts texels below the
-//! cutoff away, `BLEND` blends over what is drawn (in triangle order, depth tested, not
-//! written), and an unlit material is not shaded.
+//! With materials ([`render_views_material`], [`render_views_mesh`] for a mesh with several)
+//! it samples each triangle's base-colour texture (bilinear, at full size) and honours the alpha
+//! mode as the renderer does: `MASK` cuts texels below the cutoff away, `BLEND` blends over what
+//! is drawn (in triangle order, depth tested, not written), and an unlit material is not shaded.
+//!
+//! The preview models base colour and alpha only: normal, metallic-roughness, occlusion and
+//! emissive maps, and the renderer's water lighting, are not drawn here (its shading is a fixed
+//! flat light for judging shape). Where it claims to agree with the renderer is an unlit
+//! material's texture colours (`tests/render_materials.rs` checks them pixel for pixel).
 
 use glam::{Vec3, Vec4};
 use image::{Rgb, RgbImage};
 
-use crate::skin::{AlphaMode, Material};
+use crate::skin::{AlphaMode, Material, SkinnedMesh};
 
 /// One orthographic view: screen right and up directions (unit, perpendicular); depth is
 /// `right × up` (towards the viewer).
@@ -32,7 +37,39 @@ pub fn render_views(
     views: &[View],
     size: u32,
 ) -> RgbImage {
-    render_views_material(positions, colors, &[], None, indices, views, size)
+    draw(positions, colors, &[], |_| None, indices, views, size)
+}
+
+/// Like [`render_views`] for a skinned mesh posed at `positions`: its vertex colours, texture
+/// coordinates and each part's material.
+pub fn render_views_mesh(
+    positions: &[Vec3],
+    mesh: &SkinnedMesh,
+    views: &[View],
+    size: u32,
+) -> RgbImage {
+    // The material of each triangle, from the mesh's parts (material 0 outside them).
+    let mut of_triangle = vec![0u16; mesh.indices.len() / 3];
+    for part in &mesh.parts {
+        let first = part.first_index as usize / 3;
+        let end = (first + part.num_indices as usize / 3).min(of_triangle.len());
+        for t in of_triangle.get_mut(first..end).into_iter().flatten() {
+            *t = part.material;
+        }
+    }
+    draw(
+        positions,
+        &mesh.colors,
+        &mesh.uvs,
+        |t| {
+            mesh.materials
+                .get(usize::from(of_triangle[t]))
+                .or(mesh.materials.first())
+        },
+        &mesh.indices,
+        views,
+        size,
+    )
 }
 
 /// Like [`render_views`], with the mesh's material and its base-colour texture coordinates
@@ -46,11 +83,19 @@ pub fn render_views_material(
     views: &[View],
     size: u32,
 ) -> RgbImage {
-    let texture = material
-        .and_then(|m| m.base_color_texture.as_deref())
-        .filter(|_| uvs.len() == positions.len());
-    let alpha_mode = material.map_or(AlphaMode::Opaque, |m| m.alpha_mode);
-    let unlit = material.is_some_and(|m| m.unlit);
+    draw(positions, colors, uvs, |_| material, indices, views, size)
+}
+
+/// The rasterizer behind the public functions; `material_of(t)` is triangle t's material.
+fn draw<'m>(
+    positions: &[Vec3],
+    colors: &[[f32; 4]],
+    uvs: &[[f32; 2]],
+    material_of: impl Fn(usize) -> Option<&'m Material>,
+    indices: &[u32],
+    views: &[View],
+    size: u32,
+) -> RgbImage {
     let mut img = RgbImage::from_pixel(size, size * views.len() as u32, Rgb([24, 40, 64]));
     let centre = positions.iter().copied().sum::<Vec3>() / positions.len().max(1) as f32;
     let radius = positions
@@ -70,11 +115,17 @@ pub fn render_views_material(
                 d.dot(depth_dir),
             )
         };
-        for tri in indices.chunks_exact(3) {
+        for (t, tri) in indices.chunks_exact(3).enumerate() {
             let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
             if a >= positions.len() || b >= positions.len() || c >= positions.len() {
                 continue;
             }
+            let material = material_of(t);
+            let texture = material
+                .and_then(|m| m.base_color_texture.as_deref())
+                .filter(|_| uvs.len() == positions.len());
+            let alpha_mode = material.map_or(AlphaMode::Opaque, |m| m.alpha_mode);
+            let unlit = material.is_some_and(|m| m.unlit);
             let n = (positions[b] - positions[a])
                 .cross(positions[c] - positions[a])
                 .normalize_or_zero();

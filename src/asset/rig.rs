@@ -198,7 +198,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         tangents,
         all_tangents,
         indices,
-        material,
+        parts,
     } = baked;
     let rigged = RiggedMesh {
         name: sanitize(&name),
@@ -216,17 +216,29 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         tangents: None,
         influences,
         indices,
+        parts: Vec::new(),
     };
     let have_tangents = all_tangents && tangents.len() == rigged.positions.len();
-    let materials = copy_material(
-        scene,
-        material,
-        rigged.uvs.is_some(),
-        have_tangents,
-        &mut warnings,
-    )?;
+    // The distinct materials in order of first use; each part points at its slot.
+    let mut used: Vec<Option<usize>> = Vec::new();
+    let mut part_slots = Vec::with_capacity(parts.len());
+    for &(count, m) in &parts {
+        let slot = used.iter().position(|&u| u == m).unwrap_or_else(|| {
+            used.push(m);
+            used.len() - 1
+        });
+        part_slots.push((count, slot));
+    }
+    let materials = copy_materials(scene, &used, rigged.uvs.is_some(), &mut warnings)?;
     let mut rigged = rigged;
-    if materials.materials[0].get("normalTexture").is_some() {
+    if used.len() > 1 {
+        rigged.parts = part_slots;
+    }
+    let normal_maps = materials
+        .materials
+        .as_array()
+        .is_some_and(|ms| ms.iter().any(|m| m.get("normalTexture").is_some()));
+    if normal_maps && have_tangents {
         rigged.tangents = Some(tangents);
     }
     let glb = rigged.to_glb(&materials, "shoal asset rig");
@@ -253,8 +265,9 @@ struct Baked {
     /// Every primitive had TANGENT.
     all_tangents: bool,
     indices: Vec<u32>,
-    /// The first primitive's material (the rig keeps only that one).
-    material: Option<usize>,
+    /// Consecutive triangle ranges and their material: (number of indices, material index in
+    /// the file), in index order.
+    parts: Vec<(usize, Option<usize>)>,
 }
 
 /// Bakes every mesh node of the default scene into scene space: positions, normals, tangents
@@ -275,7 +288,7 @@ fn bake_scene(scene: &GltfScene, warnings: &mut Vec<String>) -> Result<Baked, Ri
     let mut tangents: Vec<[f32; 4]> = Vec::new();
     let mut all_tangents = true;
     let mut indices = Vec::new();
-    let mut material = None;
+    let mut parts: Vec<(usize, Option<usize>)> = Vec::new();
     for node in scene.scene_mesh_nodes() {
         let Some(mesh) = scene.nodes[node].mesh.and_then(|m| scene.meshes.get(m)) else {
             continue;
@@ -289,13 +302,9 @@ fn bake_scene(scene: &GltfScene, warnings: &mut Vec<String>) -> Result<Baked, Ri
         let g = globals[node];
         let normal_m = Mat3::from_mat4(g).inverse().transpose();
         for prim in &mesh.primitives {
-            if material.is_none() {
-                material = prim.material;
-            } else if prim.material != material {
-                warnings.push(format!(
-                    "{}: several materials; the rig keeps the first one only",
-                    path.display()
-                ));
+            match parts.last_mut() {
+                Some(last) if last.1 == prim.material => last.0 += prim.indices.len(),
+                _ => parts.push((prim.indices.len(), prim.material)),
             }
             let base = positions.len() as u32;
             let local_normals = match &prim.normals {
@@ -348,7 +357,7 @@ fn bake_scene(scene: &GltfScene, warnings: &mut Vec<String>) -> Result<Baked, Ri
         tangents,
         all_tangents,
         indices,
-        material,
+        parts,
     })
 }
 
@@ -520,29 +529,34 @@ fn perpendicular_frame(axis: Vec3) -> (Vec3, Vec3) {
     (u, axis.cross(u))
 }
 
-/// Copies the first material whole: its JSON as written (factors, alpha mode, double-sidedness,
-/// normal scale, occlusion strength, emissive factor and every extension), with every texture it
-/// refers to (base colour, metallic-roughness, normal, occlusion, emissive, and textures of
-/// material extensions) re-pointed at images embedded in the GLB, with their samplers. A
-/// texture whose image cannot be read, or that needs a coordinate set the rig does not keep
-/// (only TEXCOORD_0 is kept), is dropped with a warning naming it.
-fn copy_material(
+/// Copies every material the mesh uses (`used`, in order; `None` is a primitive without one,
+/// which gets a plain default) whole: its JSON as written (factors, alpha mode,
+/// double-sidedness, normal scale, occlusion strength, emissive factor and every extension),
+/// with every texture it refers to (base colour, metallic-roughness, normal, occlusion,
+/// emissive, and textures of material extensions) re-pointed at images embedded in the GLB,
+/// with their samplers; an image several materials share is embedded once. A texture whose
+/// image cannot be read, or that needs a coordinate set the rig does not keep (only TEXCOORD_0
+/// is kept), is dropped with a warning naming it. A normal map is kept without the file's
+/// tangents: glTF then asks for MikkTSpace tangents, which shoal makes when it loads the fish.
+fn copy_materials(
     scene: &GltfScene,
-    material: Option<usize>,
+    used: &[Option<usize>],
     have_uvs: bool,
-    have_tangents: bool,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialSet, RigError> {
-    let default = MaterialSet::pbr("rigged", [1.0, 1.0, 1.0, 1.0], 0.0, 0.6);
-    let Some(index) = material else {
-        return Ok(default);
-    };
+    let default = || MaterialSet::pbr("rigged", [1.0, 1.0, 1.0, 1.0], 0.0, 0.6);
+    let plain = || default().materials[0].clone();
+    if used.iter().all(Option::is_none) {
+        let mut set = default();
+        set.materials = Value::Array(vec![plain(); used.len().max(1)]);
+        return Ok(set);
+    }
     let bytes = std::fs::read(&scene.path).map_err(|source| SkinError::Io {
         path: scene.path.clone(),
         source,
     })?;
     let Ok(gltf) = gltf::Gltf::from_slice(&bytes) else {
-        return Ok(default);
+        return Ok(default());
     };
     // The file's own JSON, so nothing the gltf crate does not model is lost.
     let raw: Option<Value> = if bytes.starts_with(b"glTF") {
@@ -553,19 +567,9 @@ fn copy_material(
         serde_json::from_slice(&bytes).ok()
     };
     let Some(raw) = raw else {
-        return Ok(default);
-    };
-    let Some(mut m) = raw["materials"].get(index).cloned() else {
-        return Ok(default);
+        return Ok(default());
     };
     let file = scene.path.display().to_string();
-    let mut set = MaterialSet {
-        materials: Value::Null,
-        textures: json!([]),
-        samplers: json!([]),
-        images: Vec::new(),
-        material: 0,
-    };
     let mut copier = TextureCopier {
         scene,
         gltf: &gltf,
@@ -578,25 +582,29 @@ fn copy_material(
         texture_of: std::collections::BTreeMap::new(),
         warnings,
     };
-    copier.remap(&mut m, "material");
-    // A normal map needs a tangent space; without the file's tangents it would be one a viewer
-    // makes up, so it is dropped rather than kept wrong.
-    if !have_tangents
-        && let Some(obj) = m.as_object_mut()
-        && obj.remove("normalTexture").is_some()
-    {
-        copier.warnings.push(format!(
-            "{file}: material.normalTexture dropped: not every primitive has TANGENT"
-        ));
+    let mut materials = Vec::with_capacity(used.len());
+    for &index in used {
+        let Some(mut m) = index.and_then(|i| raw["materials"].get(i).cloned()) else {
+            materials.push(plain());
+            continue;
+        };
+        let at = match used.len() {
+            1 => "material".to_string(),
+            _ => format!("material {}", index.unwrap_or(0)),
+        };
+        copier.remap(&mut m, &at);
+        if m.get("name").is_none() {
+            m["name"] = json!("rigged");
+        }
+        materials.push(m);
     }
-    set.textures = Value::Array(copier.textures);
-    set.samplers = Value::Array(copier.samplers);
-    set.images = copier.images;
-    if m.get("name").is_none() {
-        m["name"] = json!("rigged");
-    }
-    set.materials = json!([m]);
-    Ok(set)
+    Ok(MaterialSet {
+        materials: Value::Array(materials),
+        textures: Value::Array(copier.textures),
+        samplers: Value::Array(copier.samplers),
+        images: copier.images,
+        material: 0,
+    })
 }
 
 /// Re-points a material's texture references at the rigged GLB's own textures.
@@ -678,6 +686,11 @@ impl TextureCopier<'_> {
             .nth(old)
             .ok_or_else(|| format!("texture {old} does not exist"))?;
         let image = tex.source();
+        if let Some(problem) =
+            crate::skin::material::image_problem(self.gltf.document.as_json(), image.index())
+        {
+            return Err(format!("image {}: {problem}", image.index()));
+        }
         let source = match self.image_of.get(&image.index()) {
             Some(&i) => i,
             None => {

@@ -94,10 +94,14 @@ pub struct RiggedMesh {
     pub influences: Vec<Influences>,
     /// Triangle list.
     pub indices: Vec<u32>,
+    /// Consecutive triangle ranges drawn with their own material: (number of indices, index
+    /// into the [`MaterialSet`]'s materials), in index order, written as one primitive each
+    /// (sharing the vertex attributes). Empty: one primitive with [`MaterialSet::material`].
+    pub parts: Vec<(usize, usize)>,
 }
 
 /// What the file's `materials`, `textures`, `images` and `samplers` are; `material` is the index
-/// the primitive uses. Images are embedded as buffer views (`bytes`, MIME type).
+/// the primitive uses (when the mesh has no [`RiggedMesh::parts`]). Images are embedded as buffer views (`bytes`, MIME type).
 #[derive(Debug, Clone)]
 pub struct MaterialSet {
     /// glTF `materials` array.
@@ -145,7 +149,20 @@ impl RiggedMesh {
         let jnt = b.joints(&joints);
         let wgt = b.vec4s(&weights);
         let uv = self.uvs.as_ref().map(|uv| b.vec2s(uv));
-        let idx = b.indices(&self.indices);
+        let mut ranges: Vec<(std::ops::Range<usize>, usize)> = Vec::new();
+        let mut at = 0;
+        for &(count, material) in &self.parts {
+            let end = (at + count).min(self.indices.len());
+            ranges.push((at..end, material));
+            at = end;
+        }
+        if ranges.is_empty() {
+            ranges.push((0..self.indices.len(), materials.material));
+        }
+        let idx: Vec<(usize, usize)> = ranges
+            .iter()
+            .map(|(r, m)| (b.indices(&self.indices[r.clone()]), *m))
+            .collect();
         let ibms: Vec<Mat4> = self
             .joint_positions
             .iter()
@@ -195,9 +212,9 @@ impl RiggedMesh {
             "scene": 0,
             "scenes": [{"name": self.name, "nodes": roots}],
             "nodes": nodes,
-            "meshes": [{"name": self.name, "primitives": [{
-                "attributes": attributes, "indices": idx, "material": materials.material, "mode": 4
-            }]}],
+            "meshes": [{"name": self.name, "primitives": idx.iter().map(|&(indices, material)| json!({
+                "attributes": attributes, "indices": indices, "material": material, "mode": 4
+            })).collect::<Vec<_>>()}],
             "materials": materials.materials,
             "skins": [{
                 "name": format!("{}_skin", self.name),

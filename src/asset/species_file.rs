@@ -113,8 +113,11 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
     desc.drives = base_desc.drives;
     // A mask cut at (nearly) 1.0 keeps only texels whose filtered alpha is exactly opaque: fins
     // drawn with filtering come out in ribbons and body edges speckle. Suggest glTF's default.
-    if let crate::skin::AlphaMode::Mask { cutoff } = model.mesh.material.alpha_mode
-        && cutoff > 0.99
+    if model
+        .mesh
+        .materials
+        .iter()
+        .any(|m| matches!(m.alpha_mode, crate::skin::AlphaMode::Mask { cutoff } if cutoff > 0.99))
     {
         desc.alpha_cutoff = Some(0.5);
     }

@@ -217,7 +217,7 @@ pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<i
     let (rig, _) = preview_rig(model, &fish)?;
     let yaws = vec![yaw; rig.num_driven()];
     let (positions, f, u) = posed(&fish, &rig, &yaws)?;
-    use crate::asset::preview::{View, render_views_material};
+    use crate::asset::preview::{View, render_views_mesh};
     let right = f.cross(u);
     let views = [
         View { right: -f, up: u },
@@ -226,15 +226,7 @@ pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<i
             up: right,
         },
     ];
-    Ok(render_views_material(
-        &positions,
-        &fish.mesh.colors,
-        &fish.mesh.uvs,
-        Some(&fish.mesh.material),
-        &fish.mesh.indices,
-        &views,
-        size,
-    ))
+    Ok(render_views_mesh(&positions, &fish.mesh, &views, size))
 }
 
 /// Eight top views over one period of a travelling wave: joint k's yaw is
@@ -244,7 +236,7 @@ pub fn swim_sheet(
     amplitude: f32,
     size: u32,
 ) -> anyhow::Result<image::RgbImage> {
-    use crate::asset::preview::{View, render_views_material};
+    use crate::asset::preview::{View, render_views_mesh};
     let fish = crate::skin::FishModel::load(model)?;
     for w in &fish.warnings {
         eprintln!("warning: {w}");
@@ -262,15 +254,7 @@ pub fn swim_sheet(
             right: -f,
             up: f.cross(u),
         }];
-        let img = render_views_material(
-            &positions,
-            &fish.mesh.colors,
-            &fish.mesh.uvs,
-            Some(&fish.mesh.material),
-            &fish.mesh.indices,
-            &views,
-            size,
-        );
+        let img = render_views_mesh(&positions, &fish.mesh, &views, size);
         image::imageops::replace(
             &mut sheet,
             &img,

@@ -446,8 +446,10 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let num_species = scene.world().num_species();
         for mut m in scene.meshes().into_iter().take(num_species) {
             if args.no_materials {
-                m.material = None;
+                m.materials = &[];
+                m.parts = &[];
                 m.uvs = &[];
+                m.tangents = &[];
             }
             let id = renderer.upload_mesh(&gpu, &m)?;
             if n == args.fish[0] {

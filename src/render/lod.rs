@@ -302,6 +302,46 @@ impl MeshLods {
     }
 }
 
+/// Groups each level's triangles by material (a triangle's material is that of its first
+/// vertex, `vertex_material`; the simplifier never joins vertices of different primitives, so
+/// its triangles keep one material), in place and stably, and returns each level's parts: the
+/// index ranges of one material each, materials in increasing order. A level's own range is
+/// unchanged, so the levels, their errors and [`MeshLods::indices`]' length stay as they are.
+pub fn split_levels_by_material(
+    indices: &mut [u32],
+    levels: &[LodLevel],
+    vertex_material: &[u16],
+) -> Vec<Vec<crate::skin::MeshPart>> {
+    let material_of = |tri: &[u32]| vertex_material.get(tri[0] as usize).copied().unwrap_or(0);
+    levels
+        .iter()
+        .map(|level| {
+            let range =
+                level.first_index as usize..(level.first_index + level.num_indices) as usize;
+            let mut triangles: Vec<[u32; 3]> = indices[range.clone()]
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]])
+                .collect();
+            triangles.sort_by_key(|t| material_of(t));
+            let mut parts: Vec<crate::skin::MeshPart> = Vec::new();
+            for (k, t) in triangles.iter().enumerate() {
+                let at = range.start + 3 * k;
+                indices[at..at + 3].copy_from_slice(t);
+                let material = material_of(t);
+                match parts.last_mut() {
+                    Some(p) if p.material == material => p.num_indices += 3,
+                    _ => parts.push(crate::skin::MeshPart {
+                        first_index: at as u32,
+                        num_indices: 3,
+                        material,
+                    }),
+                }
+            }
+            parts
+        })
+        .collect()
+}
+
 /// Picks a level of detail from a fish's projected geometric error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LodSelector {
@@ -448,6 +488,38 @@ mod tests {
                 "{p} outside {shadow:?}"
             );
         }
+    }
+
+    /// Triangles of materials 1, 0, 1 in one level and 0 in the next come out grouped, in
+    /// material order (stably: the two of material 1 keep their order), each level's range
+    /// kept.
+    #[test]
+    fn levels_split_by_material_keep_their_ranges() {
+        let mut indices = vec![3, 4, 5, 0, 1, 2, 5, 4, 3, 0, 1, 2];
+        let levels = [
+            LodLevel {
+                first_index: 0,
+                num_indices: 9,
+                error: 0.0,
+            },
+            LodLevel {
+                first_index: 9,
+                num_indices: 3,
+                error: 0.1,
+            },
+        ];
+        // Vertices 0–2 are material 0, 3–5 material 1.
+        let parts = split_levels_by_material(&mut indices, &levels, &[0, 0, 0, 1, 1, 1]);
+        assert_eq!(indices, vec![0, 1, 2, 3, 4, 5, 5, 4, 3, 0, 1, 2]);
+        let ranges: Vec<Vec<(u32, u32, u16)>> = parts
+            .iter()
+            .map(|l| {
+                l.iter()
+                    .map(|p| (p.first_index, p.num_indices, p.material))
+                    .collect()
+            })
+            .collect();
+        assert_eq!(ranges, vec![vec![(0, 3, 0), (3, 6, 1)], vec![(9, 3, 0)]]);
     }
 
     /// The coarsest level whose projected error fits: full detail close up, coarser far away,

@@ -10,8 +10,8 @@
 //!
 //! On the GPU every palette of the frame lives in one storage buffer uploaded once; the vertex
 //! shader skins each vertex with `Σ w_n · M_n` (eq. 1, `shaders/skinning.wgsl`), and each species
-//! is one instanced draw per level of detail in use, so draw calls do not grow with the number of
-//! fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
+//! is one instanced draw per material and level of detail in use, so draw calls do not grow with
+//! the number of fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
 //! too, judged where the shadows lie), and each drawn fish gets the coarsest of its mesh's levels
 //! of detail (index lists over the same vertices, made at upload) whose error stays under a pixel
 //! on screen: see [`lod`]. The same skinning
@@ -103,11 +103,18 @@ pub struct MeshUpload<'a> {
     pub weights: &'a [[f32; 4]],
     /// Triangle list, counter-clockwise front faces.
     pub indices: &'a [u32],
-    /// Base-colour texture coordinates, one per vertex, or empty when `material` has no
-    /// texture.
+    /// Texture coordinates, one per vertex, or empty when no material has a texture.
     pub uvs: &'a [[f32; 2]],
-    /// The species' material (texture, alpha mode …); `None` draws the vertex colours opaque.
-    pub material: Option<&'a crate::skin::Material>,
+    /// Tangents (xyz, w = bitangent sign), one per vertex, or empty when no material has a
+    /// normal map (a normal map is then not drawn).
+    pub tangents: &'a [[f32; 4]],
+    /// The species' materials (textures, factors, alpha mode …); empty draws the vertex colours
+    /// with [`crate::skin::Material::default`].
+    pub materials: &'a [crate::skin::Material],
+    /// Which triangles each material draws (index ranges of `indices`); empty: all with
+    /// material 0. Each material costs one draw per level of detail in use, whatever the number
+    /// of fish.
+    pub parts: &'a [crate::skin::MeshPart],
 }
 
 impl<'a> MeshUpload<'a> {
@@ -122,7 +129,9 @@ impl<'a> MeshUpload<'a> {
             weights: &mesh.weights,
             indices: &mesh.indices,
             uvs: &mesh.uvs,
-            material: Some(&mesh.material),
+            tangents: &mesh.tangents,
+            materials: &mesh.materials,
+            parts: &mesh.parts,
         }
     }
 }
@@ -240,7 +249,7 @@ pub struct Look {
     pub caustic_strength: f32,
     /// Direction towards the light (need not be normalised).
     pub light_dir: Vec3,
-    /// Draw planar fish shadows on the sand (one extra instanced draw per species).
+    /// Draw planar fish shadows on the sand (one extra instanced draw per species and material).
     pub shadows: bool,
 }
 

@@ -37,7 +37,9 @@ impl PropMesh {
             weights: &self.weights,
             indices: &self.indices,
             uvs: &[],
-            material: None,
+            tangents: &[],
+            materials: &[],
+            parts: &[],
         }
     }
 

@@ -222,7 +222,9 @@ impl TestFish {
             weights: &self.weights,
             indices: &self.indices,
             uvs: &[],
-            material: None,
+            tangents: &[],
+            materials: &[],
+            parts: &[],
         }
     }
 

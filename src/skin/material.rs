@@ -1,16 +1,22 @@
 //! glTF 2.0 materials for the runtime: what a species looks like beyond its per-vertex colours.
 //!
 //! [`read_materials`] records each material of a file when it is read (cheap: no image is
-//! decoded); [`SceneMaterial::resolve`] decodes the base-colour image of the one material a
-//! [`super::FishModel`] uses. A base-colour image that is missing or malformed is a warning
-//! naming the file and the image, and the fish keeps its base colour (factor × vertex colour):
-//! never an error, never a black fish.
+//! decoded); [`SceneMaterial::resolve`] decodes the images of each material a
+//! [`super::FishModel`] uses. An image that is missing or malformed is a warning naming the file,
+//! the image and which texture it is, and the fish is drawn with that texture's factors
+//! (base colour factor × vertex colour, metallic and roughness factors, no normal map, no
+//! occlusion, the emissive factor alone): never an error, never a black fish.
 //!
-//! What is kept: the base-colour texture (its texCoord set, its sampler, `KHR_texture_transform`
-//! baked into the texture coordinates), `baseColorFactor` (already in the vertex colours),
-//! `alphaMode` / `alphaCutoff`, `doubleSided`, `emissiveFactor` and `KHR_materials_unlit`.
-//! Normal, metallic-roughness, occlusion and emissive *textures* are not drawn (the water's
-//! lighting is a stylised wrapped diffuse, see `shaders/fish.wgsl`).
+//! What is kept: the base-colour, normal, metallic-roughness, occlusion and emissive textures
+//! (each with its sampler), `baseColorFactor` (already in the vertex colours), `metallicFactor`,
+//! `roughnessFactor`, the normal scale, the occlusion strength, `emissiveFactor`,
+//! `alphaMode` / `alphaCutoff`, `doubleSided` and `KHR_materials_unlit`.
+//!
+//! One set of texture coordinates per material: the texCoord set and `KHR_texture_transform` of
+//! its first texture (base colour, normal, metallic-roughness, occlusion, emissive, in that
+//! order), baked into the mesh's texture coordinates. A texture of the same material that uses
+//! another set or another transform is left out with a warning (rare in exported files: Blender
+//! and the Sketchfab exports use one set for every map).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -72,7 +78,8 @@ impl Default for Sampler {
     }
 }
 
-/// A decoded base-colour image: RGBA8, sRGB-encoded colour and linear alpha, rows top first.
+/// A decoded image: RGBA8, rows top first. Base-colour and emissive images are sRGB-encoded
+/// colour (and linear alpha); normal, metallic-roughness and occlusion images are linear data.
 #[derive(Clone, PartialEq)]
 pub struct TextureImage {
     /// Width in pixels.
@@ -183,6 +190,23 @@ pub struct Material {
     /// The decoded base-colour texture; `None` when the material has none or it could not be
     /// read (then a warning says why).
     pub base_color_texture: Option<Arc<TextureImage>>,
+    /// `metallicFactor` (glTF default 1).
+    pub metallic: f32,
+    /// `roughnessFactor` (glTF default 1).
+    pub roughness: f32,
+    /// `metallicRoughnessTexture`: roughness in G, metallic in B (linear), multiplying the
+    /// factors.
+    pub metallic_roughness_texture: Option<Arc<TextureImage>>,
+    /// `normalTexture` (tangent space, linear RGB).
+    pub normal_texture: Option<Arc<TextureImage>>,
+    /// `normalTexture.scale`: the map's x and y are multiplied by it.
+    pub normal_scale: f32,
+    /// `occlusionTexture` (R channel, linear).
+    pub occlusion_texture: Option<Arc<TextureImage>>,
+    /// `occlusionTexture.strength`: 0 no effect, 1 the full map.
+    pub occlusion_strength: f32,
+    /// `emissiveTexture` (sRGB), multiplying `emissive`.
+    pub emissive_texture: Option<Arc<TextureImage>>,
     /// Alpha handling.
     pub alpha_mode: AlphaMode,
     /// Both faces are lit as front faces (`doubleSided`). Fish are always drawn without
@@ -195,11 +219,22 @@ pub struct Material {
 }
 
 impl Default for Material {
+    /// A plain white dielectric (metallic 0, roughness 0.5), what meshes without a material
+    /// (the procedural test fish, props, glTF primitives with no material) are drawn with.
+    /// glTF's own defaults (metallic 1, roughness 1) only apply to materials a file declares.
     fn default() -> Self {
         Self {
             name: None,
             base_color_factor: [1.0; 4],
             base_color_texture: None,
+            metallic: 0.0,
+            roughness: 0.5,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive_texture: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             unlit: false,
@@ -226,6 +261,62 @@ pub struct SceneMaterial {
     pub material: Material,
     /// The base-colour texture, if the material has one.
     pub base_color: Option<SceneTexture>,
+    /// The metallic-roughness texture, if any.
+    pub metallic_roughness: Option<SceneTexture>,
+    /// The normal texture, if any.
+    pub normal: Option<SceneTexture>,
+    /// The occlusion texture, if any.
+    pub occlusion: Option<SceneTexture>,
+    /// The emissive texture, if any.
+    pub emissive: Option<SceneTexture>,
+}
+
+/// Which of a material's textures (for messages and for how its image is stored).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TextureKind {
+    /// `baseColorTexture` (sRGB).
+    BaseColor,
+    /// `normalTexture` (linear).
+    Normal,
+    /// `metallicRoughnessTexture` (linear).
+    MetallicRoughness,
+    /// `occlusionTexture` (linear).
+    Occlusion,
+    /// `emissiveTexture` (sRGB).
+    Emissive,
+}
+
+impl TextureKind {
+    /// Every kind, in the order the texture coordinates are chosen from.
+    pub const ALL: [TextureKind; 5] = [
+        TextureKind::BaseColor,
+        TextureKind::Normal,
+        TextureKind::MetallicRoughness,
+        TextureKind::Occlusion,
+        TextureKind::Emissive,
+    ];
+
+    /// How messages name it (`base colour texture` …).
+    pub fn name(self) -> &'static str {
+        match self {
+            TextureKind::BaseColor => "base colour texture",
+            TextureKind::Normal => "normal texture",
+            TextureKind::MetallicRoughness => "metallic-roughness texture",
+            TextureKind::Occlusion => "occlusion texture",
+            TextureKind::Emissive => "emissive texture",
+        }
+    }
+
+    /// What the fish is drawn with instead when the texture cannot be used.
+    fn fallback(self) -> &'static str {
+        match self {
+            TextureKind::BaseColor => "drawn with the base colour only",
+            TextureKind::Normal => "drawn without the normal map",
+            TextureKind::MetallicRoughness => "drawn with the metallic and roughness factors",
+            TextureKind::Occlusion => "drawn without occlusion",
+            TextureKind::Emissive => "drawn with the emissive factor only",
+        }
+    }
 }
 
 /// A texture reference of a [`SceneMaterial`].
@@ -258,10 +349,20 @@ pub fn read_materials(doc: &gltf::Document, buffers: &[&[u8]], path: &Path) -> V
     doc.materials()
         .map(|m| {
             let pbr = m.pbr_metallic_roughness();
+            let normal = m.normal_texture();
+            let occlusion = m.occlusion_texture();
             let material = Material {
                 name: m.name().map(str::to_string),
                 base_color_factor: pbr.base_color_factor(),
                 base_color_texture: None,
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+                metallic_roughness_texture: None,
+                normal_texture: None,
+                normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
+                occlusion_texture: None,
+                occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
+                emissive_texture: None,
                 alpha_mode: match m.alpha_mode() {
                     gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
                     gltf::material::AlphaMode::Mask => AlphaMode::Mask {
@@ -275,17 +376,115 @@ pub fn read_materials(doc: &gltf::Document, buffers: &[&[u8]], path: &Path) -> V
             };
             let base_color = pbr
                 .base_color_texture()
-                .map(|info| scene_texture(&info, buffers, path));
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
+            let metallic_roughness = pbr
+                .metallic_roughness_texture()
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
+            // Normal and occlusion infos are their own types; their texture and set are the
+            // same fields.
+            let normal = normal.map(|n| {
+                let mut t =
+                    scene_texture_of(doc.as_json(), &n.texture(), n.tex_coord(), buffers, path);
+                if let Some(v) = n.extension_value("KHR_texture_transform") {
+                    t.transform = transform_from_json(v, &mut t.tex_coord);
+                }
+                t
+            });
+            let occlusion = occlusion.map(|o| {
+                let mut t =
+                    scene_texture_of(doc.as_json(), &o.texture(), o.tex_coord(), buffers, path);
+                if let Some(v) = o.extension_value("KHR_texture_transform") {
+                    t.transform = transform_from_json(v, &mut t.tex_coord);
+                }
+                t
+            });
+            let emissive = m
+                .emissive_texture()
+                .map(|info| scene_texture(doc.as_json(), &info, buffers, path));
             SceneMaterial {
                 material,
                 base_color,
+                metallic_roughness,
+                normal,
+                occlusion,
+                emissive,
             }
         })
         .collect()
 }
 
-fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> SceneTexture {
-    let tex = info.texture();
+/// uv' = T · R · S · uv, `KHR_texture_transform`'s definition, as a 2×3 matrix.
+fn transform_matrix(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [[f32; 3]; 2] {
+    let [ox, oy] = offset;
+    let [sx, sy] = scale;
+    let (sin, cos) = rotation.sin_cos();
+    [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]]
+}
+
+/// `KHR_texture_transform` of a normal or occlusion texture (the gltf crate has no typed
+/// accessor for those): read from the extension's JSON, defaults where a field is missing or
+/// not a number. Sets `tex_coord` when the extension overrides it.
+fn transform_from_json(v: &serde_json::Value, tex_coord: &mut u32) -> [[f32; 3]; 2] {
+    let pair = |key: &str, default: [f32; 2]| -> [f32; 2] {
+        match v.get(key).and_then(|p| p.as_array()) {
+            Some(a) if a.len() == 2 => [
+                a[0].as_f64().map_or(default[0], |x| x as f32),
+                a[1].as_f64().map_or(default[1], |x| x as f32),
+            ],
+            _ => default,
+        }
+    };
+    if let Some(set) = v.get("texCoord").and_then(|t| t.as_u64()) {
+        *tex_coord = set as u32;
+    }
+    let rotation = v.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32;
+    transform_matrix(
+        pair("offset", [0.0, 0.0]),
+        rotation,
+        pair("scale", [1.0, 1.0]),
+    )
+}
+
+fn scene_texture(
+    root: &gltf::json::Root,
+    info: &gltf::texture::Info,
+    buffers: &[&[u8]],
+    path: &Path,
+) -> SceneTexture {
+    let mut t = scene_texture_of(root, &info.texture(), info.tex_coord(), buffers, path);
+    if let Some(tt) = info.texture_transform() {
+        if let Some(set) = tt.tex_coord() {
+            t.tex_coord = set;
+        }
+        t.transform = transform_matrix(tt.offset(), tt.rotation(), tt.scale());
+    }
+    t
+}
+
+/// Why image `index` of a file cannot be read at all, before asking the gltf crate for its
+/// source (which panics on an image with neither a `uri` nor a `bufferView`, or a `bufferView`
+/// without a `mimeType`; its validation lets both through).
+pub fn image_problem(root: &gltf::json::Root, index: usize) -> Option<&'static str> {
+    let image = root.images.get(index)?;
+    match (&image.uri, &image.buffer_view) {
+        (None, None) => Some("the image has neither a uri nor a bufferView"),
+        (_, Some(_)) if image.mime_type.is_none() => {
+            Some("the image has a bufferView but no mimeType")
+        }
+        (_, Some(v)) if v.value() >= root.buffer_views.len() => {
+            Some("the image's bufferView does not exist")
+        }
+        _ => None,
+    }
+}
+
+fn scene_texture_of(
+    root: &gltf::json::Root,
+    tex: &gltf::Texture,
+    tex_coord: u32,
+    buffers: &[&[u8]],
+    path: &Path,
+) -> SceneTexture {
     let image = tex.source();
     let s = tex.sampler();
     let wrap = |w: gltf::texture::WrappingMode| match w {
@@ -310,19 +509,18 @@ fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> 
         mip_linear,
         mipmaps,
     };
-    let mut tex_coord = info.tex_coord();
-    let mut transform = IDENTITY_TRANSFORM;
-    if let Some(t) = info.texture_transform() {
-        if let Some(set) = t.tex_coord() {
-            tex_coord = set;
-        }
-        let [ox, oy] = t.offset();
-        let [sx, sy] = t.scale();
-        let (sin, cos) = t.rotation().sin_cos();
-        // uv' = T · R · S · uv (KHR_texture_transform's definition).
-        transform = [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]];
-    }
+    let transform = IDENTITY_TRANSFORM;
     let index = image.index();
+    if let Some(problem) = image_problem(root, index) {
+        return SceneTexture {
+            image: index,
+            image_name: format!("image {index}"),
+            source: ImageSource::Unreadable(problem.into()),
+            sampler,
+            tex_coord,
+            transform,
+        };
+    }
     let (image_name, source) = match image.source() {
         gltf::image::Source::Uri { uri, .. } => {
             if uri.starts_with("data:") {
@@ -368,31 +566,108 @@ fn scene_texture(info: &gltf::texture::Info, buffers: &[&[u8]], path: &Path) -> 
 }
 
 impl SceneMaterial {
-    /// The material with its base-colour image decoded (downsampled to [`MAX_TEXTURE_SIDE`]).
-    /// `has_uvs` says whether every vertex has the texture's coordinate set. Anything that
-    /// stops the texture from being used adds a warning naming `path` and the image and returns
-    /// the material without it.
+    /// The material's texture of `kind`, if it has one.
+    pub fn texture(&self, kind: TextureKind) -> Option<&SceneTexture> {
+        match kind {
+            TextureKind::BaseColor => self.base_color.as_ref(),
+            TextureKind::Normal => self.normal.as_ref(),
+            TextureKind::MetallicRoughness => self.metallic_roughness.as_ref(),
+            TextureKind::Occlusion => self.occlusion.as_ref(),
+            TextureKind::Emissive => self.emissive.as_ref(),
+        }
+    }
+
+    /// The texture coordinates the material is drawn with: the set and transform of its first
+    /// texture ([`TextureKind::ALL`] order), `None` when it has no texture.
+    pub fn uv_source(&self) -> Option<(u32, [[f32; 3]; 2])> {
+        TextureKind::ALL
+            .iter()
+            .find_map(|&k| self.texture(k))
+            .map(|t| (t.tex_coord, t.transform))
+    }
+
+    /// The material with its images decoded (downsampled to [`MAX_TEXTURE_SIDE`], several at
+    /// once). `has_uvs` says whether every vertex drawn with it has the coordinate set of
+    /// [`SceneMaterial::uv_source`]. Anything that stops a texture from being used adds a
+    /// warning naming `path`, the image and the kind of texture, and the material is drawn
+    /// without that texture (with its factors).
     pub fn resolve(&self, path: &Path, has_uvs: bool, warnings: &mut Vec<String>) -> Material {
+        use rayon::prelude::*;
         let mut material = self.material.clone();
-        let Some(tex) = &self.base_color else {
+        let Some(source) = self.uv_source() else {
             return material;
         };
         let file = path.display();
-        if !has_uvs {
-            warnings.push(format!(
-                "{file}: {}: the base colour texture needs TEXCOORD_{} on every vertex; drawn with the base colour only",
-                tex.image_name, tex.tex_coord
-            ));
-            return material;
+        let mut wanted = Vec::new();
+        for kind in TextureKind::ALL {
+            let Some(tex) = self.texture(kind) else {
+                continue;
+            };
+            let (name, fallback) = (kind.name(), kind.fallback());
+            if (tex.tex_coord, tex.transform) != source {
+                warnings.push(format!(
+                    "{file}: {}: the {name} uses TEXCOORD_{} or a texture transform other than the material's first texture (TEXCOORD_{}), and shoal draws a material with one set; {fallback}",
+                    tex.image_name, tex.tex_coord, source.0
+                ));
+            } else if !has_uvs {
+                warnings.push(format!(
+                    "{file}: {}: the {name} needs TEXCOORD_{} on every vertex; {fallback}",
+                    tex.image_name, tex.tex_coord
+                ));
+            } else {
+                wanted.push((kind, tex));
+            }
         }
-        match decode(tex) {
-            Ok(image) => material.base_color_texture = Some(Arc::new(image)),
-            Err(why) => warnings.push(format!(
-                "{file}: {}: {why}; drawn with the base colour only",
-                tex.image_name
-            )),
+        let decoded: Vec<_> = wanted
+            .par_iter()
+            .map(|&(kind, tex)| (kind, tex, decode(tex)))
+            .collect();
+        for (kind, tex, result) in decoded {
+            match result {
+                Ok(image) => {
+                    let image = Some(Arc::new(image));
+                    match kind {
+                        TextureKind::BaseColor => material.base_color_texture = image,
+                        TextureKind::Normal => material.normal_texture = image,
+                        TextureKind::MetallicRoughness => {
+                            material.metallic_roughness_texture = image;
+                        }
+                        TextureKind::Occlusion => material.occlusion_texture = image,
+                        TextureKind::Emissive => material.emissive_texture = image,
+                    }
+                }
+                Err(why) => warnings.push(format!(
+                    "{file}: {}: {why}; the {} is not used, {}",
+                    tex.image_name,
+                    kind.name(),
+                    kind.fallback()
+                )),
+            }
         }
         material
+    }
+}
+
+impl Material {
+    /// Whether any texture is drawn (the mesh then needs texture coordinates).
+    pub fn has_textures(&self) -> bool {
+        self.base_color_texture.is_some()
+            || self.normal_texture.is_some()
+            || self.metallic_roughness_texture.is_some()
+            || self.occlusion_texture.is_some()
+            || self.emissive_texture.is_some()
+    }
+
+    /// The material without any texture (drawn with its factors).
+    pub fn without_textures(&self) -> Material {
+        Material {
+            base_color_texture: None,
+            normal_texture: None,
+            metallic_roughness_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            ..self.clone()
+        }
     }
 }
 
@@ -497,6 +772,24 @@ mod tests {
         t.sampler.wrap_u = Wrap::Mirror;
         assert_eq!(red(&t, 4), red(&t, 3));
         assert_eq!(red(&t, -1), red(&t, 0));
+    }
+
+    #[test]
+    fn texture_transform_json_matches_the_typed_one() {
+        // What normal and occlusion textures read from their extension JSON.
+        let mut set = 0;
+        let v = serde_json::json!({"offset": [0.5, -1.0], "scale": [2.0, 3.0], "texCoord": 1});
+        assert_eq!(
+            transform_from_json(&v, &mut set),
+            [[2.0, 0.0, 0.5], [0.0, 3.0, -1.0]]
+        );
+        assert_eq!(set, 1);
+        let r = std::f32::consts::FRAC_PI_2;
+        let t = transform_from_json(
+            &serde_json::json!({"rotation": r, "scale": "bad"}),
+            &mut set,
+        );
+        assert_eq!(t, transform_matrix([0.0, 0.0], r, [1.0, 1.0]));
     }
 
     #[test]

@@ -21,7 +21,7 @@ pub use gltf_scene::{
 };
 pub use lbs::{LinearBlendSkinningJob, palette, transform_normal};
 pub use material::{AlphaMode, Material, TextureImage};
-pub use model::{FishModel, SkinnedMesh, vertex_normals};
+pub use model::{FishModel, MeshPart, SkinnedMesh, generate_tangents, vertex_normals};
 
 use crate::skeleton::SkeletonError;
 

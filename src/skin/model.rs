@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::{Mat4, Vec3};
 
 use super::SkinError;
-use super::gltf_scene::{GltfScene, SceneMesh, SceneSkin, skin_vertex};
+use super::gltf_scene::{GltfScene, SceneMesh, ScenePrimitive, SceneSkin, skin_vertex};
 use super::material::{Material, transform_uvs};
 use crate::skeleton::{JointTransform, Skeleton};
 
@@ -25,11 +25,31 @@ pub struct SkinnedMesh {
     pub weights: Vec<[f32; 4]>,
     /// Triangle list over all primitives.
     pub indices: Vec<u32>,
-    /// Texture coordinates of the material's base-colour texture, one per vertex
-    /// (`KHR_texture_transform` applied); empty when the material has no usable texture.
+    /// Texture coordinates, one per vertex: each primitive's material's set
+    /// (`KHR_texture_transform` applied; zeros for a primitive whose material has no texture);
+    /// empty when no material has a usable texture.
     pub uvs: Vec<[f32; 2]>,
-    /// The material (of the first primitive; one material per species).
-    pub material: Material,
+    /// Tangents (xyz unit, w = ±1 bitangent sign), one per vertex, in the bind shape: the
+    /// file's TANGENT, or MikkTSpace tangents made from the texture coordinates when a normal
+    /// map needs them and the file has none; empty when no material has a normal map.
+    pub tangents: Vec<[f32; 4]>,
+    /// The materials the primitives use, in order of first use (at least one in a loaded
+    /// model; empty means [`Material::default`], see [`SkinnedMesh::material`]).
+    pub materials: Vec<Material>,
+    /// The triangle ranges of the primitives and the material each is drawn with, in index
+    /// order, covering `indices`.
+    pub parts: Vec<MeshPart>,
+}
+
+/// A range of a [`SkinnedMesh`]'s triangles drawn with one of its materials.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshPart {
+    /// First index (a multiple of 3) into the mesh's index list.
+    pub first_index: u32,
+    /// Number of indices.
+    pub num_indices: u32,
+    /// Index into the mesh's materials.
+    pub material: u16,
 }
 
 impl SkinnedMesh {
@@ -41,6 +61,13 @@ impl SkinnedMesh {
     /// Number of triangles.
     pub fn num_triangles(&self) -> usize {
         self.indices.len() / 3
+    }
+
+    /// The first material (the only one of most fish); [`Material::default`] when the mesh
+    /// has none.
+    pub fn material(&self) -> &Material {
+        static PLAIN: std::sync::LazyLock<Material> = std::sync::LazyLock::new(Material::default);
+        self.materials.first().unwrap_or(&PLAIN)
     }
 }
 
@@ -145,6 +172,7 @@ impl FishModel {
             inconsistent,
             computed_normals,
             morph,
+            tangents,
             extent,
         } = bind_shape(
             path,
@@ -153,7 +181,13 @@ impl FishModel {
             &bind_palette,
             &new_of_old,
         )?;
-        resolve_material(scene, &mesh.primitives, &mut out, &mut warnings);
+        resolve_materials(scene, &mesh.primitives, &mut out, &mut warnings);
+        if out.materials.iter().any(|m| m.normal_texture.is_some()) {
+            out.tangents = match tangents {
+                Some(t) => t,
+                None => generate_tangents(&out.positions, &out.normals, &out.uvs, &out.indices),
+            };
+        }
         let file = path.display();
         if inconsistent > 0 {
             warnings.push(format!(
@@ -287,6 +321,8 @@ struct BindShape {
     computed_normals: bool,
     /// A primitive has morph targets (ignored).
     morph: bool,
+    /// Bind-shape tangents when every primitive has TANGENT.
+    tangents: Option<Vec<[f32; 4]>>,
     /// Largest |coordinate| of the bind shape.
     extent: f32,
 }
@@ -312,7 +348,11 @@ fn bind_shape(
     let mut inconsistent = 0usize;
     let mut computed_normals = false;
     let mut morph = false;
+    let mut tangents = Some(Vec::new());
     for prim in &mesh.primitives {
+        if prim.tangents.is_none() {
+            tangents = None;
+        }
         let (Some(joints), Some(weights)) = (&prim.joints, &prim.weights) else {
             return Err(invalid(format!(
                 "node {node_index} is skinned but mesh {mesh_index} primitive {} has no JOINTS_0/WEIGHTS_0",
@@ -329,7 +369,7 @@ fn bind_shape(
             }
         };
         for v in 0..prim.positions.len() {
-            let Some((p, n, _)) = skin_vertex(
+            let Some((p, n, m)) = skin_vertex(
                 bind_palette,
                 joints[v],
                 weights[v],
@@ -360,6 +400,15 @@ fn bind_shape(
             extent = extent.max(p.abs().max_element());
             out.positions.push(p);
             out.normals.push(n);
+            if let (Some(ts), Some(file)) = (tangents.as_mut(), prim.tangents.as_ref()) {
+                // Tangents follow the surface like edges: the skinning matrix's linear part,
+                // handedness flipped where it mirrors.
+                let t = file[v];
+                let d = m.transform_vector3(Vec3::new(t[0], t[1], t[2]));
+                let d = (d - n * d.dot(n)).normalize_or(Vec3::X);
+                let flip = if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+                ts.push([d.x, d.y, d.z, if t[3] < 0.0 { -flip } else { flip }]);
+            }
             out.colors.push(prim.colors[v]);
             let j = joints[v];
             out.joints.push([
@@ -377,6 +426,7 @@ fn bind_shape(
         inconsistent,
         computed_normals,
         morph,
+        tangents,
         extent,
     })
 }
@@ -397,43 +447,154 @@ pub fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     normals.iter().map(|n| n.normalize_or_zero()).collect()
 }
 
-/// Gives `out` the first primitive's material, with its base-colour texture decoded and the
-/// texture's coordinate set (transformed) as `out.uvs`. Problems are warnings: the fish then
-/// keeps its base colour.
-fn resolve_material(
+/// Gives `out` its materials (one per distinct primitive material, in order of first use; a
+/// primitive without one gets [`Material::default`]), each with its textures decoded, the
+/// primitives' triangle ranges, and the texture coordinates each material is drawn with
+/// (transformed) as `out.uvs`. Problems are warnings: the fish then keeps its factors.
+fn resolve_materials(
     scene: &GltfScene,
-    primitives: &[super::gltf_scene::ScenePrimitive],
+    primitives: &[ScenePrimitive],
     out: &mut SkinnedMesh,
     warnings: &mut Vec<String>,
 ) {
-    let file = scene.path.display();
-    let first = primitives.first().and_then(|p| p.material);
-    if primitives.iter().any(|p| p.material != first) {
-        warnings.push(format!(
-            "{file}: the skinned mesh's primitives use several materials; all are drawn with the first"
-        ));
-    }
-    let Some(scene_material) = first.and_then(|m| scene.materials.get(m)) else {
-        return;
-    };
-    let set = scene_material
-        .base_color
-        .as_ref()
-        .map_or(0, |t| t.tex_coord as usize);
-    let mut uvs = Vec::with_capacity(out.positions.len());
-    let mut has_uvs = true;
+    // Distinct scene materials in order of first use, and each primitive's slot.
+    let mut used: Vec<Option<usize>> = Vec::new();
+    let mut slot_of = Vec::with_capacity(primitives.len());
     for p in primitives {
-        match p.tex_coords.get(set) {
-            Some(t) if t.len() == p.positions.len() => uvs.extend_from_slice(t),
-            _ => has_uvs = false,
+        let m = p.material.filter(|&m| m < scene.materials.len());
+        let slot = match used.iter().position(|&u| u == m) {
+            Some(s) => s,
+            None => {
+                used.push(m);
+                used.len() - 1
+            }
+        };
+        slot_of.push(slot);
+    }
+    if used.is_empty() {
+        used.push(None);
+    }
+    let mut first_index = 0u32;
+    out.parts = primitives
+        .iter()
+        .zip(&slot_of)
+        .map(|(p, &slot)| {
+            let part = MeshPart {
+                first_index,
+                num_indices: p.indices.len() as u32,
+                material: slot as u16,
+            };
+            first_index += part.num_indices;
+            part
+        })
+        .collect();
+    out.materials = used
+        .iter()
+        .map(|&m| {
+            let Some(scene_material) = m.map(|m| &scene.materials[m]) else {
+                return Material::default();
+            };
+            let set = scene_material.uv_source().map_or(0, |s| s.0 as usize);
+            let has_uvs = primitives.iter().all(|p| {
+                p.material != m
+                    || p.tex_coords
+                        .get(set)
+                        .is_some_and(|t| t.len() == p.positions.len())
+            });
+            scene_material.resolve(&scene.path, has_uvs, warnings)
+        })
+        .collect();
+    if !out.materials.iter().any(Material::has_textures) {
+        return;
+    }
+    let mut uvs = Vec::with_capacity(out.positions.len());
+    for (p, &slot) in primitives.iter().zip(&slot_of) {
+        let source = used[slot]
+            .and_then(|m| scene.materials[m].uv_source())
+            .filter(|_| out.materials[slot].has_textures());
+        match source.and_then(|(set, t)| Some((p.tex_coords.get(set as usize)?, t))) {
+            Some((coords, transform)) if coords.len() == p.positions.len() => {
+                let mut coords = coords.clone();
+                transform_uvs(&mut coords, &transform);
+                uvs.extend(coords);
+            }
+            _ => uvs.extend(std::iter::repeat_n([0.0; 2], p.positions.len())),
         }
     }
-    let material = scene_material.resolve(&scene.path, has_uvs, warnings);
-    if material.base_color_texture.is_some() {
-        if let Some(t) = &scene_material.base_color {
-            transform_uvs(&mut uvs, &t.transform);
-        }
-        out.uvs = uvs;
+    out.uvs = uvs;
+}
+
+/// MikkTSpace tangents (what glTF asks for when a file has none), one per vertex: the
+/// per-corner tangents MikkTSpace makes (bevy_mikktspace) averaged over each vertex's corners
+/// and made perpendicular to its normal, the handedness of the majority. Vertices of no
+/// triangle, or whose coordinates give no direction, get +x.
+pub fn generate_tangents(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    uvs: &[[f32; 2]],
+    indices: &[u32],
+) -> Vec<[f32; 4]> {
+    struct Corners<'a> {
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+        uvs: &'a [[f32; 2]],
+        indices: &'a [u32],
+        sum: Vec<(Vec3, f32)>,
     }
-    out.material = material;
+    impl Corners<'_> {
+        fn vertex(&self, face: usize, vert: usize) -> usize {
+            self.indices[face * 3 + vert] as usize
+        }
+    }
+    impl bevy_mikktspace::Geometry for Corners<'_> {
+        fn num_faces(&self) -> usize {
+            self.indices.len() / 3
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.positions[self.vertex(face, vert)].to_array()
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.normals[self.vertex(face, vert)].to_array()
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            self.uvs[self.vertex(face, vert)]
+        }
+        fn set_tangent(
+            &mut self,
+            tangent_space: Option<bevy_mikktspace::TangentSpace>,
+            face: usize,
+            vert: usize,
+        ) {
+            if let Some(t) = tangent_space {
+                let v = self.vertex(face, vert);
+                let e = t.tangent_encoded();
+                self.sum[v].0 += Vec3::new(e[0], e[1], e[2]);
+                self.sum[v].1 += e[3];
+            }
+        }
+    }
+    let n = positions.len();
+    let valid = normals.len() == n && uvs.len() == n && indices.iter().all(|&i| (i as usize) < n);
+    let mut corners = Corners {
+        positions,
+        normals,
+        uvs,
+        indices: if valid { indices } else { &[] },
+        sum: vec![(Vec3::ZERO, 0.0); n],
+    };
+    // The generator reports no error kinds (its error enum is empty).
+    let _ = bevy_mikktspace::generate_tangents(&mut corners);
+    corners
+        .sum
+        .iter()
+        .enumerate()
+        .map(|(v, &(t, w))| {
+            let nrm = normals.get(v).copied().unwrap_or(Vec3::Z);
+            let t = (t - nrm * t.dot(nrm)).normalize_or(Vec3::X);
+            [t.x, t.y, t.z, if w < 0.0 { -1.0 } else { 1.0 }]
+        })
+        .collect()
 }

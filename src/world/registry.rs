@@ -32,11 +32,13 @@ impl Species {
         };
         let mut model = FishModel::load(&path).map_err(|e| fail(e.to_string()))?;
         if let Some(cutoff) = desc.alpha_cutoff {
-            model.mesh.material.alpha_mode = crate::skin::AlphaMode::Mask { cutoff };
+            for m in &mut model.mesh.materials {
+                m.alpha_mode = crate::skin::AlphaMode::Mask { cutoff };
+            }
         }
         // A texture that cannot be used is not fatal (the fish keeps its base colour), but a
         // designer should hear of it.
-        for w in model.warnings.iter().filter(|w| w.contains("base colour")) {
+        for w in model.warnings.iter().filter(|w| w.contains(" texture")) {
             log::warn!("species {}: {w}", desc.name);
         }
         let rig = SpeciesRig::bind(&desc, &model).map_err(|e| fail(e.to_string()))?;

@@ -7,7 +7,7 @@ use bytemuck::Zeroable;
 use glam::{Mat4, Vec3};
 
 use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
-use crate::render::lod::{Frustum, LodLevel, LodSelector, ShadowProjection};
+use crate::render::lod::{Frustum, LodSelector, ShadowProjection};
 use crate::render::{FrameInput, Gpu, RenderError};
 
 /// What the frame's camera and light work out to, shared by the upload steps.
@@ -358,27 +358,36 @@ impl Renderer {
         Ok(draws)
     }
 
-    /// One shadow draw per mesh with shadows in view. Shadows are small and dark: always the
-    /// coarsest level.
+    /// One shadow draw per mesh and material with shadows in view. Shadows are small and dark:
+    /// always the coarsest level.
     fn draw_shadows(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
         pass.set_pipeline(&self.pipelines.shadows);
         let shadow_ranges = &self.scratch_ranges[self.num_lod_buckets as usize..];
         for (mesh, &(begin, end)) in self.meshes.iter().zip(shadow_ranges) {
-            let Some(level) = mesh.levels.last().filter(|_| end > begin) else {
+            let (Some(level), Some(parts)) = (
+                mesh.levels.last().filter(|_| end > begin),
+                mesh.level_parts.last(),
+            ) else {
                 continue;
             };
-            pass.set_bind_group(1, &mesh.material.bind_group, &[]);
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-            pass.set_vertex_buffer(2, mesh.uvs.slice(..));
+            pass.set_vertex_buffer(2, mesh.surface.slice(..));
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(level_range(level), 0, begin..end);
+            for part in parts {
+                pass.set_bind_group(
+                    1,
+                    &mesh.materials[usize::from(part.material)].bind_group,
+                    &[],
+                );
+                pass.draw_indexed(part_range(part), 0, begin..end);
+                *draws += 1;
+            }
             *triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
-            *draws += 1;
         }
     }
 
-    /// One draw per mesh and level of detail with fish in view: opaque and masked species
-    /// first, then blended ones over them.
+    /// One draw per mesh, level of detail with fish in view and material: opaque and masked
+    /// materials first, then blended ones over them.
     fn draw_fish(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
         for blend_pass in [false, true] {
             pass.set_pipeline(if blend_pass {
@@ -386,24 +395,30 @@ impl Renderer {
             } else {
                 &self.pipelines.fish
             });
-            for mesh in self
-                .meshes
-                .iter()
-                .filter(|m| m.material.blend == blend_pass)
-            {
+            for mesh in &self.meshes {
+                if !mesh.materials.iter().any(|m| m.blend == blend_pass) {
+                    continue;
+                }
                 let first = mesh.first_bucket as usize;
                 let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
                 if ranges.iter().all(|&(begin, end)| end == begin) {
                     continue;
                 }
-                pass.set_bind_group(1, &mesh.material.bind_group, &[]);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_vertex_buffer(2, mesh.uvs.slice(..));
+                pass.set_vertex_buffer(2, mesh.surface.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (level, &(begin, end)) in mesh.levels.iter().zip(ranges) {
-                    if end > begin {
-                        pass.draw_indexed(level_range(level), 0, begin..end);
-                        *triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
+                for (parts, &(begin, end)) in mesh.level_parts.iter().zip(ranges) {
+                    if end == begin {
+                        continue;
+                    }
+                    for part in parts {
+                        let material = &mesh.materials[usize::from(part.material)];
+                        if material.blend != blend_pass {
+                            continue;
+                        }
+                        pass.set_bind_group(1, &material.bind_group, &[]);
+                        pass.draw_indexed(part_range(part), 0, begin..end);
+                        *triangles += u64::from(part.num_indices / 3) * u64::from(end - begin);
                         *draws += 1;
                     }
                 }
@@ -412,9 +427,9 @@ impl Renderer {
     }
 }
 
-/// The index range of one level of detail.
-fn level_range(level: &LodLevel) -> std::ops::Range<u32> {
-    level.first_index..level.first_index + level.num_indices
+/// The index range of one material's part of a level.
+fn part_range(part: &crate::skin::MeshPart) -> std::ops::Range<u32> {
+    part.first_index..part.first_index + part.num_indices
 }
 
 /// The twelve edges of the box `min`–`max` as line-list vertices.

@@ -1,6 +1,6 @@
 //! The renderer: pipelines, grow-only buffers, one palette upload each frame, and one instanced
-//! draw per species and level of detail that has fish in view (plus one per species for the
-//! shadows, at the coarsest level). Fish outside the view are left out of the instance buffer
+//! draw per species, material and level of detail that has fish in view (plus one per species
+//! and material for the shadows, at the coarsest level). Fish outside the view are left out of the instance buffer
 //! (see [`super::lod`]).
 //!
 //! This file holds the renderer's state and its set-up; the steps live beside it:
@@ -41,7 +41,8 @@ pub struct RenderTimings {
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
     /// Number of draw calls in the scene pass (background, floor, one per species' shadows and
-    /// one per species and level of detail with fish in view, tank edges, overlays).
+    /// one per species and level of detail with fish in view, each times the species' materials,
+    /// tank edges, overlays).
     pub num_draw_calls: u32,
     /// Fish drawn (bounding sphere in or touching the view).
     pub num_fish_drawn: u32,
@@ -145,10 +146,21 @@ struct GpuMesh {
     first_bucket: u32,
     num_vertices: u32,
     num_joints: u32,
-    /// Base-colour texture coordinates (vertex buffer slot 2; zeros without a texture).
-    uvs: wgpu::Buffer,
-    /// Its material (bind group 1); blended species are drawn in the second fish pass.
-    material: GpuMaterial,
+    /// Texture coordinates and tangents (vertex buffer slot 2, [`SurfaceVertex`]; zeros where
+    /// the mesh has none).
+    surface: wgpu::Buffer,
+    /// Its materials (bind group 1 each); blended ones are drawn in the second fish pass.
+    materials: Vec<GpuMaterial>,
+    /// Per level of detail, its index ranges by material (one draw each).
+    level_parts: Vec<Vec<crate::skin::MeshPart>>,
+}
+
+/// Vertex buffer slot 2 of the fish pipelines: texture coordinates and tangent.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct SurfaceVertex {
+    uv: [f32; 2],
+    tangent: [f32; 4],
 }
 
 /// Instance bucket of something not drawn (culled).

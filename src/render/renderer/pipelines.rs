@@ -1,7 +1,7 @@
 //! Shader modules and pipelines: compiled inside validation error scopes so a bad shader is an
 //! error (and the previous pipelines keep drawing), never a panic.
 
-use super::{DEPTH_FORMAT, InstanceRaw, LineVertex, Pipelines, Vertex};
+use super::{DEPTH_FORMAT, InstanceRaw, LineVertex, Pipelines, SurfaceVertex, Vertex};
 use crate::render::RenderError;
 use crate::render::shaders::ShaderSources;
 
@@ -217,8 +217,8 @@ impl<'a> Factory<'a> {
         (background, floor)
     }
 
-    /// Opaque fish, blended fish and fish shadows: the same mesh vertices, per-instance data
-    /// and texture coordinates, different blending and depth.
+    /// Opaque fish, blended fish and fish shadows: the same mesh vertices, per-instance data,
+    /// texture coordinates and tangents, different blending and depth.
     fn fish(
         &self,
         module: &wgpu::ShaderModule,
@@ -241,7 +241,7 @@ impl<'a> Factory<'a> {
                 shader_location: 7,
             },
         ];
-        let uv_attrs = wgpu::vertex_attr_array![8 => Float32x2];
+        let surface_attrs = wgpu::vertex_attr_array![8 => Float32x2, 9 => Float32x4];
         let buffers = [
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<Vertex>() as u64,
@@ -254,9 +254,9 @@ impl<'a> Factory<'a> {
                 attributes: &instance_attrs,
             }),
             Some(wgpu::VertexBufferLayout {
-                array_stride: 8,
+                array_stride: std::mem::size_of::<SurfaceVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &uv_attrs,
+                attributes: &surface_attrs,
             }),
         ];
         let two_sided = wgpu::PrimitiveState {

@@ -1,8 +1,8 @@
 //! Mesh uploads: checked, levels of detail built, vertex, index and texture-coordinate buffers
 //! and the material created.
 
-use super::{GpuMesh, Renderer, Vertex};
-use crate::render::lod::{LodLevel, MeshBounds, MeshLods};
+use super::{GpuMesh, Renderer, SurfaceVertex, Vertex};
+use crate::render::lod::{LodLevel, MeshBounds, MeshLods, split_levels_by_material};
 use crate::render::material;
 use crate::render::{Gpu, MeshId, MeshUpload, RenderError};
 
@@ -32,6 +32,24 @@ impl Renderer {
                 "uvs has {} entries but positions has {n}",
                 mesh.uvs.len()
             )));
+        }
+        if !mesh.tangents.is_empty() && mesh.tangents.len() != n {
+            return Err(bad(format!(
+                "tangents has {} entries but positions has {n}",
+                mesh.tangents.len()
+            )));
+        }
+        let num_materials = mesh.materials.len().max(1);
+        for (k, part) in mesh.parts.iter().enumerate() {
+            let end = u64::from(part.first_index) + u64::from(part.num_indices);
+            if end > mesh.indices.len() as u64 || usize::from(part.material) >= num_materials {
+                return Err(bad(format!(
+                    "part {k} (indices {}..{end}, material {}) is outside the {} indices or {num_materials} materials",
+                    part.first_index,
+                    part.material,
+                    mesh.indices.len()
+                )));
+            }
         }
         if n == 0 || mesh.indices.is_empty() {
             return Err(bad("no vertices or no indices".into()));
@@ -74,7 +92,17 @@ impl Renderer {
                 weights: mesh.weights[i],
             })
             .collect();
-        let lods = MeshLods::build(mesh);
+        let mut lods = MeshLods::build(mesh);
+        // Each vertex's material, from the parts (material 0 outside them).
+        let mut vertex_material = vec![0u16; n];
+        for part in mesh.parts {
+            let range = part.first_index as usize..(part.first_index + part.num_indices) as usize;
+            for &i in &mesh.indices[range] {
+                vertex_material[i as usize] = part.material;
+            }
+        }
+        let level_parts =
+            split_levels_by_material(&mut lods.indices, &lods.levels, &vertex_material);
         use wgpu::util::DeviceExt;
         let vertex_label = format!("{} vertices", mesh.label);
         let index_label = format!("{} indices", mesh.label);
@@ -92,37 +120,46 @@ impl Renderer {
                 contents: bytemuck::cast_slice(&lods.indices),
                 usage: wgpu::BufferUsages::INDEX,
             });
-        let uvs: Vec<[f32; 2]> = if mesh.uvs.is_empty() {
-            vec![[0.0; 2]; n]
-        } else {
-            mesh.uvs
-                .iter()
-                .map(|uv| uv.map(|x| if x.is_finite() { x } else { 0.0 }))
-                .collect()
-        };
-        let uv_label = format!("{} texture coordinates", mesh.label);
-        let uvs = gpu
+        let clean = |x: f32| if x.is_finite() { x } else { 0.0 };
+        let surface: Vec<SurfaceVertex> = (0..n)
+            .map(|i| SurfaceVertex {
+                uv: mesh.uvs.get(i).map_or([0.0; 2], |uv| uv.map(clean)),
+                tangent: mesh.tangents.get(i).map_or([0.0; 4], |t| t.map(clean)),
+            })
+            .collect();
+        let surface_label = format!("{} texture coordinates and tangents", mesh.label);
+        let surface = gpu
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(&uv_label),
-                contents: bytemuck::cast_slice(&uvs),
+                label: Some(&surface_label),
+                contents: bytemuck::cast_slice(&surface),
                 usage: wgpu::BufferUsages::VERTEX,
             });
-        // A texture without coordinates cannot be sampled: keep the rest of the material.
-        let without_uvs = mesh
-            .material
-            .filter(|m| mesh.uvs.is_empty() && m.base_color_texture.is_some())
-            .map(|m| crate::skin::Material {
-                base_color_texture: None,
-                ..m.clone()
-            });
-        let material = material::upload(
-            &gpu.device,
-            &gpu.queue,
-            &self.material_layout,
-            mesh.label,
-            without_uvs.as_ref().or(mesh.material),
-        );
+        // Textures without coordinates cannot be sampled: keep the rest of the material.
+        let plain: Vec<crate::skin::Material> = mesh
+            .materials
+            .iter()
+            .map(|m| {
+                if mesh.uvs.is_empty() && m.has_textures() {
+                    m.without_textures()
+                } else {
+                    m.clone()
+                }
+            })
+            .collect();
+        let materials: Vec<_> = (0..num_materials)
+            .map(|k| {
+                let label = format!("{} material {k}", mesh.label);
+                material::upload(
+                    &gpu.device,
+                    &gpu.queue,
+                    &self.material_layout,
+                    &label,
+                    plain.get(k),
+                    !mesh.tangents.is_empty(),
+                )
+            })
+            .collect();
         let first_bucket = self.num_lod_buckets;
         self.num_lod_buckets += lods.levels.len() as u32;
         self.meshes.push(GpuMesh {
@@ -133,8 +170,9 @@ impl Renderer {
             first_bucket,
             num_vertices: n as u32,
             num_joints,
-            uvs,
-            material,
+            surface,
+            materials,
+            level_parts,
         });
         Ok(MeshId(self.meshes.len() as u32 - 1))
     }
