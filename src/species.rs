@@ -15,7 +15,7 @@
 use glam::{Mat3, Mat4, Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
-use crate::motion::{Body, MotionParams, PowerProfile};
+use crate::motion::{Body, FrontWave, MotionParams, PowerProfile};
 use crate::skeleton::JointTransform;
 use crate::skin::FishModel;
 
@@ -197,14 +197,15 @@ pub enum SpeciesError {
 }
 
 impl SpeciesDesc {
-    /// The black porgy: the paper's fish (Table 1 Ex1 pivot p = 0.4, l = 50) on
-    /// `assets/black_porgy.glb`, driven at `spine_1` … `spine_6`.
+    /// The black porgy: the paper's fish (l = 50, swimming like a carangiform fish:
+    /// [`MotionParams::BLACK_PORGY`]) on `assets/black_porgy.glb`, driven at `spine_1` …
+    /// `spine_6`.
     pub fn black_porgy() -> Self {
         Self {
             name: "black_porgy".into(),
             asset: "black_porgy.glb".into(),
             vertebral_joints: DRIVEN_JOINTS.iter().map(|s| s.to_string()).collect(),
-            // The motion layer's black porgy defaults (Table 1 Ex1), written once there.
+            // The motion layer's black porgy defaults, written once there.
             motion: MotionParams::BLACK_PORGY,
             power_profile: PowerProfile::Fig5,
             view_range: 250.0,
@@ -218,11 +219,13 @@ impl SpeciesDesc {
     }
 
     /// An eel-like fish on `assets/eel.glb`, swimming like an anguilliform fish (docs/motion.md):
-    /// long, slender, its motion centre towards the front (pivot p = 0.2, Table 1 Ex3's pivot),
-    /// a body wave shorter than the body (λ = 0.7·l, more than one wave on the body), every joint
-    /// bending with the same weight (the whole body undulates), ω = 6 so the tail beats at
-    /// s·p·ω/λ ≈ 1.7 Hz per body length per second (Strouhal number about 0.3), and a slower
-    /// cruise.
+    /// long, slender, its motion centre towards the front (pivot p = 0.2, Table 1 Ex3's pivot,
+    /// just behind the first driven joint of `eel.glb`, which is also where it turns about), the
+    /// front wave travelling from the snout at 0.035 L in step with the body wave behind the pivot
+    /// (the whole body undulates, no still point), a body wave shorter than the body (λ = 0.7·l,
+    /// more than one wave on the body), every joint bending with the same weight, ω = 6 so the
+    /// tail beats at s·p·ω/λ ≈ 1.7 Hz per body length per second (Strouhal number about 0.3),
+    /// and a slower cruise.
     pub fn eel() -> Self {
         Self {
             name: "eel".into(),
@@ -238,6 +241,9 @@ impl SpeciesDesc {
                 tt: 2.5,
                 f: 1.0,
                 turn_angle: std::f32::consts::FRAC_PI_2,
+                turn_axis: None,
+                front_amp: 0.035,
+                front_wave: FrontWave::Travelling,
             },
             power_profile: PowerProfile::Uniform,
             view_range: 180.0,

@@ -18,9 +18,17 @@ fn deep_bodies_get_porgy_motion_and_slender_ones_eel_motion() {
     let porgy = suggest("p", "black_porgy.glb", &model("black_porgy.glb")).unwrap();
     assert_eq!(porgy.swimming_mode, "carangiform", "{}", porgy.slenderness);
     assert_eq!(porgy.base, "black_porgy");
-    assert!((porgy.desc.motion.p - 0.4).abs() < 1e-6);
+    // The deep body gets the black porgy's motion (issue 16's carangiform values).
+    let porgy_motion = shoal::motion::MotionParams::BLACK_PORGY;
+    assert!((porgy.desc.motion.p - porgy_motion.p).abs() < 1e-6);
     assert_eq!(porgy.desc.motion.l, 50.0);
-    assert_eq!(porgy.desc.motion.lambda, 50.0);
+    // (The suggestion rounds λ to whole units: 1.2·50 = 60.000004 in f32.)
+    assert_eq!(porgy.desc.motion.lambda, porgy_motion.lambda.round());
+    assert_eq!(porgy.desc.motion.turn_axis_fraction(), 0.4);
+    assert_eq!(
+        porgy.desc.motion.front_wave,
+        shoal::motion::FrontWave::Recoil
+    );
     let eel = suggest("e", "eel.glb", &model("eel.glb")).unwrap();
     assert_eq!(
         eel.swimming_mode, "anguilliform-like",
@@ -28,8 +36,17 @@ fn deep_bodies_get_porgy_motion_and_slender_ones_eel_motion() {
         eel.slenderness
     );
     assert_eq!(eel.base, "eel");
-    assert!((eel.desc.motion.p - 0.2).abs() < 1e-6);
-    assert_eq!(eel.desc.motion.lambda, (0.6 * eel.desc.motion.l).round());
+    // The slender one the eel's (anguilliform: the wave runs from the snout).
+    let eel_motion = shoal::species::SpeciesDesc::eel().motion;
+    assert!((eel.desc.motion.p - eel_motion.p).abs() < 1e-6);
+    assert_eq!(
+        eel.desc.motion.lambda,
+        (eel_motion.lambda / eel_motion.l * eel.desc.motion.l).round()
+    );
+    assert_eq!(
+        eel.desc.motion.front_wave,
+        shoal::motion::FrontWave::Travelling
+    );
     assert!(eel.slenderness > 2.0 * porgy.slenderness);
     assert_eq!(porgy.desc.vertebral_joints.len(), 6);
     assert!(porgy.desc.motion.validate().is_ok());

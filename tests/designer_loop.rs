@@ -271,6 +271,35 @@ fn unknown_species_keys_are_errors_with_a_suggestion() {
     assert!(e.contains("did you mean \"lambda\"?"), "{e}");
 }
 
+/// Motion values out of range are refused when the species loads, naming the file and the field
+/// (issue 16's turning axis and front wave included), instead of swimming a broken fish.
+#[test]
+fn out_of_range_motion_values_are_errors_naming_the_field() {
+    for (motion, needle) in [
+        ("turn_axis = 2", "turn_axis = 2"),
+        ("turn_axis = 0/0", "turn_axis = NaN"),
+        ("front_amp = -0.1", "front_amp = -0.1"),
+        ("p = 0.1", "p = 0.1"),
+        ("front_wave = \"wiggle\"", "recoil` or `travelling"),
+    ] {
+        let (_d, root) = scratch(&[
+            (
+                "scripts/species/odd_fish.lua",
+                &format!(
+                    "return {{ base = \"black_porgy\", name = \"odd_fish\", motion = {{ {motion} }} }}\n"
+                ),
+            ),
+            (
+                "scripts/scenes/t.lua",
+                &scene_of(r#"    { species = "odd_fish" },"#),
+            ),
+        ]);
+        let e = load_err(&root, "scenes/t.lua");
+        assert!(e.contains("odd_fish.lua"), "{motion}: {e}");
+        assert!(e.contains(needle), "{motion}: {e}");
+    }
+}
+
 #[test]
 fn scene_params_reach_the_fish_as_fish_params() {
     let (_d, root) = scratch(&[

@@ -33,6 +33,7 @@ fn params() -> impl Strategy<Value = MotionParams> {
                 tt,
                 f,
                 turn_angle: PI / 2.0,
+                ..MotionParams::TABLE_1
             },
         )
 }

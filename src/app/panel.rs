@@ -376,6 +376,7 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
     ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
     ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
     ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
+    ui.add(egui::Slider::new(&mut p.front_amp, 0.0..=0.1).text("snout amplitude (body fraction)"));
     ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
     ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
     let mut deg = p.turn_angle.to_degrees();

@@ -4,10 +4,11 @@
 //! The body's slenderness (length over its largest cross-section extent, depth or width) picks
 //! where between the two built-in swimmers the motion parameters sit:
 //! - slender (ratio ≥ [`ANGUILLIFORM_RATIO`], an eel's ≈ 12): anguilliform like the built-in eel
-//!   — pivot near the head (p = 0.2), a short body wave (λ = 0.6 l), wider swings (maxAmp = l/8),
-//!   a slower cruise;
+//!   — pivot near the head (p = 0.2), a wave running from the snout, a short body wave
+//!   (λ = 0.7 l), a slower cruise;
 //! - deep (ratio ≤ [`CARANGIFORM_RATIO`], a porgy's ≈ 2): carangiform like the black porgy
-//!   (Table 1 Ex1: p = 0.4, λ = l, maxAmp = l/5, cruising at a body length per second);
+//!   (p = 0.3, turning about 0.4, λ = 1.2 l, maxAmp = 0.17 l, cruising at a body length per
+//!   second);
 //! - in between: linearly interpolated.
 //!
 //! The suggestion is a starting point for a designer, printed with the measured ratio.
@@ -93,12 +94,23 @@ pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSugg
         p: lerp(porgy.p, eel.motion.p),
         s: (lerp(porgy.s / porgy.l, eel.motion.s / eel.motion.l) * l).round(),
         l,
-        max_amp: l / lerp(5.0, 8.0),
-        lambda: (lerp(1.0, 0.6) * l).round(),
+        max_amp: l * lerp(porgy.max_amp / porgy.l, eel.motion.max_amp / eel.motion.l),
+        lambda: (lerp(porgy.lambda / porgy.l, eel.motion.lambda / eel.motion.l) * l).round(),
         omega: lerp(porgy.omega, eel.motion.omega),
         tt: lerp(porgy.tt, eel.motion.tt),
         f: 1.0,
         turn_angle: porgy.turn_angle,
+        turn_axis: Some(lerp(
+            porgy.turn_axis_fraction(),
+            eel.motion.turn_axis_fraction(),
+        )),
+        front_amp: lerp(porgy.front_amp, eel.motion.front_amp),
+        // The eel's wave runs from the snout; the porgy's front recoils about the pivot.
+        front_wave: if t >= 0.5 {
+            eel.motion.front_wave
+        } else {
+            porgy.front_wave
+        },
     };
     let base_desc = if t >= 0.5 {
         eel.clone()
@@ -159,7 +171,10 @@ impl SpeciesSuggestion {
                vertebral_joints = {{ {joints} }},  -- driven joints, head to tail\n  \
                motion = {{\n    \
                  l = {l},                 -- body length, world units (the model is scaled to it)\n    \
-                 p = {p:.2},               -- motion centre, fraction of l from the head\n    \
+                 p = {p:.2},               -- swim wave's pivot (its quietest point), fraction of l from the head\n    \
+                 turn_axis = {axis:.2},       -- where it turns about, fraction of l from the head\n    \
+                 front_amp = {front_amp:.3},      -- snout amplitude of the front wave, fraction of l\n    \
+                 front_wave = {front_wave:?}, -- \"recoil\" (carangiform head yaw) or \"travelling\" (anguilliform)\n    \
                  s = {s},                 -- cruising speed, units/s\n    \
                  max_amp = {amp:.2},        -- amplitude scale of the body wave, units\n    \
                  lambda = {lambda},            -- body wave length, units\n    \
@@ -179,6 +194,12 @@ impl SpeciesSuggestion {
             joints = joints.join(", "),
             l = m.l,
             p = m.p,
+            axis = m.turn_axis_fraction(),
+            front_amp = m.front_amp,
+            front_wave = match m.front_wave {
+                crate::motion::FrontWave::Recoil => "recoil",
+                crate::motion::FrontWave::Travelling => "travelling",
+            },
             s = m.s,
             amp = m.max_amp,
             lambda = m.lambda,

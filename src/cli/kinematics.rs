@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::motion::kinematics::{self, Kinematics, MidlineSeries};
-use crate::motion::{Body, MotionParams, Preset};
+use crate::motion::{Body, FrontWave, MotionParams, Preset};
 use crate::script::{Limits, ScriptHost};
 use crate::world::Species;
 
@@ -39,6 +39,17 @@ pub enum Mode {
     Anguilliform,
 }
 
+impl Mode {
+    /// The mode a species swims in, by its front wave: a wave running from the snout
+    /// ([`FrontWave::Travelling`]) is anguilliform, a front recoiling about the pivot carangiform.
+    pub fn of(params: &MotionParams) -> Self {
+        match params.front_wave {
+            FrontWave::Travelling => Mode::Anguilliform,
+            FrontWave::Recoil => Mode::Carangiform,
+        }
+    }
+}
+
 /// Arguments of `shoal kinematics`.
 #[derive(Debug, Clone, clap::Args)]
 #[command(after_long_help = DEFINITIONS)]
@@ -59,7 +70,8 @@ pub struct Args {
     /// Also draw the envelope and the midlines over one beat, with published data, into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Published data to compare with (default: anguilliform for the eel, else carangiform).
+    /// Published data to compare with (default: anguilliform for a species whose front wave
+    /// travels from the snout, like the eel's; else carangiform).
     #[arg(long, value_enum)]
     pub mode: Option<Mode>,
 }
@@ -148,11 +160,7 @@ pub fn subject(args: &Args, root: &Path) -> anyhow::Result<Subject> {
     let species = Species::load(desc, &assets)
         .with_context(|| format!("{display}: loading its model from {}", assets.display()))?;
     Ok(Subject {
-        mode: args.mode.unwrap_or(if species_name == "eel" {
-            Mode::Anguilliform
-        } else {
-            Mode::Carangiform
-        }),
+        mode: args.mode.unwrap_or(Mode::of(&species.desc.motion)),
         name: species_name,
         source: display,
         params: species.desc.motion,
@@ -248,13 +256,20 @@ fn text_report(subject: &Subject, ms: &[Measurement]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{} ({}): p = {}, l = {}, λ = {:.2} L, maxAmp = {:.3} L, {} driven joints",
+        "{} ({}): p = {}, turn axis = {}, l = {}, λ = {:.2} L, maxAmp = {:.3} L, front wave {} \
+         at {:.3} L, {} driven joints",
         subject.name,
         subject.source,
         p.p,
+        p.turn_axis_fraction(),
         p.l,
         p.lambda / p.l,
         p.max_amp / p.l,
+        match p.front_wave {
+            FrontWave::Recoil => "recoil",
+            FrontWave::Travelling => "travelling",
+        },
+        p.front_amp,
         subject.body.num_joints()
     );
     let _ = writeln!(
@@ -306,13 +321,20 @@ fn text_report(subject: &Subject, ms: &[Measurement]) -> String {
         out.push('\n');
     }
     let (name, ranges) = published(subject.mode);
-    let _ = writeln!(out, "\npublished ({name}; sources in docs/motion.md):");
+    let _ = writeln!(
+        out,
+        "\npublished ({name}; sources in docs/motion.md), and whether each speed is inside:"
+    );
     for r in ranges {
-        let _ = writeln!(
-            out,
-            "  {:<34}{:.3} – {:.3}   {}",
-            r.what, r.lo, r.hi, r.source
-        );
+        let _ = write!(out, "  {:<34}{:>6.3} – {:<6.3}", r.what, r.lo, r.hi);
+        for m in ms {
+            let _ = write!(
+                out,
+                " {}",
+                if r.holds(&m.kinematics) { "in " } else { "OUT" }
+            );
+        }
+        let _ = writeln!(out, "  {}", r.source);
     }
     let _ = writeln!(out, "\n{DEFINITIONS}");
     out
@@ -327,11 +349,37 @@ pub struct Range {
     pub lo: f32,
     /// Upper bound.
     pub hi: f32,
-    /// Where it comes from.
+    /// Where it comes from (docs/motion.md cites each, with the figure or table and how sure
+    /// we are).
     pub source: &'static str,
+    /// The measured value it is compared with.
+    pub measured: fn(&Kinematics) -> f32,
 }
 
-/// The published ranges shown for `mode` (docs/motion.md cites each and says how sure it is).
+impl Range {
+    /// Whether `k`'s value lies in the range.
+    pub fn holds(&self, k: &Kinematics) -> bool {
+        (self.lo..=self.hi).contains(&(self.measured)(k))
+    }
+}
+
+fn snout(k: &Kinematics) -> f32 {
+    k.envelope.first().map_or(f32::NAN, |p| p.amplitude)
+}
+
+fn tail(k: &Kinematics) -> f32 {
+    k.envelope.last().map_or(f32::NAN, |p| p.amplitude)
+}
+
+fn smallest(k: &Kinematics) -> f32 {
+    k.envelope
+        .iter()
+        .map(|p| p.amplitude)
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// The published ranges for `mode` (docs/motion.md cites each and says how sure it is). The
+/// tests hold every shipped species of that mode to all of them, at 0.5 – 3 L/s.
 pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
     match mode {
         Mode::Carangiform => (
@@ -342,30 +390,63 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
                     lo: 0.004,
                     hi: 0.03,
                     source: "Jayne & Lauder 1995 (bass) to Videler & Hess 1984 (mackerel)",
+                    measured: snout,
+                },
+                Range {
+                    what: "smallest amplitude at x (L)",
+                    lo: 0.15,
+                    hi: 0.35,
+                    source: "Jayne & Lauder 1995 (rise from ~0.25 L); mackerel fit ~0.25 L",
+                    measured: |k| k.min_amplitude_x,
+                },
+                Range {
+                    what: "smallest amplitude (L)",
+                    lo: 0.0,
+                    hi: 0.012,
+                    source: "Jayne & Lauder 1995 (≤ snout's 0.012 L); mackerel fit 0.0095 L",
+                    measured: smallest,
                 },
                 Range {
                     what: "tail amplitude a(1) (L)",
                     lo: 0.05,
                     hi: 0.11,
                     source: "Jayne & Lauder 1995; Bainbridge 1958 (A ≈ 0.2 L)",
+                    measured: tail,
+                },
+                Range {
+                    what: "tail excursion A, peak to peak (L)",
+                    lo: 0.16,
+                    hi: 0.22,
+                    source: "Bainbridge 1958 (≈ 0.2 L)",
+                    measured: |k| k.tail_amplitude_peak_to_peak,
                 },
                 Range {
                     what: "body wavelength λb (L)",
                     lo: 0.8,
                     hi: 1.2,
                     source: "Videler 1993; Videler & Hess 1984",
+                    measured: |k| k.wavelength,
                 },
                 Range {
                     what: "Strouhal number",
                     lo: 0.2,
                     hi: 0.4,
                     source: "Taylor, Nudds & Thomas 2003",
+                    measured: |k| k.strouhal,
                 },
                 Range {
                     what: "stride length (L)",
                     lo: 0.5,
                     hi: 1.0,
                     source: "Bainbridge 1958; Videler 1993",
+                    measured: |k| k.stride_length,
+                },
+                Range {
+                    what: "slip U/V",
+                    lo: 0.5,
+                    hi: 0.9,
+                    source: "Videler 1993",
+                    measured: |k| k.slip,
                 },
             ],
         ),
@@ -373,36 +454,75 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
             "anguilliform",
             &[
                 Range {
+                    what: "snout amplitude a(0) (L)",
+                    lo: 0.025,
+                    hi: 0.1,
+                    source: "Tytell & Lauder 2004; Tytell 2004 (eel head yaw)",
+                    measured: snout,
+                },
+                Range {
+                    what: "smallest amplitude at x (L)",
+                    lo: 0.1,
+                    hi: 0.5,
+                    source: "Tytell 2004; D'Août & Aerts 1999 (eels)",
+                    measured: |k| k.min_amplitude_x,
+                },
+                Range {
+                    what: "smallest amplitude (L)",
+                    lo: 0.01,
+                    hi: 0.05,
+                    source: "whole body undulates (Gray 1933; Tytell & Lauder 2004)",
+                    measured: smallest,
+                },
+                Range {
                     what: "tail amplitude a(1) (L)",
                     lo: 0.05,
                     hi: 0.11,
                     source: "Gillis 1998 (eel, ≈ 0.08 L)",
+                    measured: tail,
                 },
                 Range {
                     what: "body wavelength λb (L)",
                     lo: 0.5,
                     hi: 0.95,
                     source: "Gillis 1996; Tytell & Lauder 2004",
+                    measured: |k| k.wavelength,
                 },
                 Range {
                     what: "waves on the body",
-                    lo: 1.0,
+                    lo: 1.05,
                     hi: 2.0,
-                    source: "anguilliform: more than one wave",
+                    source: "anguilliform: more than one wave (Gillis 1996)",
+                    measured: |k| k.waves_on_body,
                 },
                 Range {
                     what: "Strouhal number",
                     lo: 0.2,
                     hi: 0.45,
                     source: "Taylor et al. 2003; Tytell & Lauder 2004",
+                    measured: |k| k.strouhal,
+                },
+                Range {
+                    what: "stride length (L)",
+                    lo: 0.3,
+                    hi: 0.8,
+                    source: "Gillis 1998; Tytell 2004",
+                    measured: |k| k.stride_length,
+                },
+                Range {
+                    what: "slip U/V",
+                    lo: 0.4,
+                    hi: 0.9,
+                    source: "Gillis 1998; Tytell 2004",
+                    measured: |k| k.slip,
                 },
             ],
         ),
     }
 }
 
-/// Published envelope curves: (label, (x, a(x)) points).
-type Curves = Vec<(String, Vec<(f32, f32)>)>;
+/// Published envelope curves: (label, (x, a(x)) points, colour).
+type Curves = Vec<(String, Vec<(f32, f32)>, RGBColor)>;
 /// Published ranges at one station: (label, x, lowest a, highest a).
 type Bars = Vec<(String, f32, f32, f32)>;
 
@@ -414,9 +534,22 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
             (x, 0.02 - 0.0825 * x + 0.1625 * x * x)
         })
         .collect();
+    // Anguilliform envelope a(x) = 0.1·e^(x − 1) L: the form CFD studies of eel swimming
+    // (Borazjani & Sotiropoulos 2009) fit to Tytell & Lauder's (2004) eels (from memory).
+    let eel: Vec<(f32, f32)> = (0..=50)
+        .map(|i| {
+            let x = i as f32 / 50.0;
+            (x, 0.1 * (x - 1.0).exp())
+        })
+        .collect();
+    let grey = RGBColor(150, 150, 150);
     match mode {
         Mode::Carangiform => (
-            vec![("mackerel, Videler & Hess 1984 (fit)".to_owned(), mackerel)],
+            vec![(
+                "mackerel, Videler & Hess 1984 (fit)".to_owned(),
+                mackerel,
+                BLACK,
+            )],
             vec![
                 (
                     "bass snout, Jayne & Lauder 1995".to_owned(),
@@ -433,16 +566,32 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
             ],
         ),
         Mode::Anguilliform => (
-            vec![(
-                "carangiform for contrast: mackerel, Videler & Hess 1984 (fit)".to_owned(),
-                mackerel,
-            )],
-            vec![(
-                "eel tail tip ≈ 0.08 L, Gillis 1998".to_owned(),
-                1.0,
-                0.075,
-                0.085,
-            )],
+            vec![
+                (
+                    "eel, 0.1·exp(x − 1) after Tytell & Lauder 2004 (fit, from memory)".to_owned(),
+                    eel,
+                    BLACK,
+                ),
+                (
+                    "carangiform for contrast: mackerel, Videler & Hess 1984 (fit)".to_owned(),
+                    mackerel,
+                    grey,
+                ),
+            ],
+            vec![
+                (
+                    "eel head, 0.025 – 0.1 L (Tytell & Lauder 2004, from memory)".to_owned(),
+                    0.0,
+                    0.025,
+                    0.1,
+                ),
+                (
+                    "eel tail tip ≈ 0.08 L, Gillis 1998".to_owned(),
+                    1.0,
+                    0.075,
+                    0.085,
+                ),
+            ],
         ),
     }
 }
@@ -509,11 +658,7 @@ fn draw_envelope(
         .map_err(plot_err)?;
     let (curves, bars) = published_envelope(subject.mode);
     // The anguilliform plot shows the carangiform curve only for contrast, in grey.
-    let curve_color = match subject.mode {
-        Mode::Carangiform => BLACK,
-        Mode::Anguilliform => RGBColor(150, 150, 150),
-    };
-    for (label, pts) in curves {
+    for (label, pts, curve_color) in curves {
         chart
             .draw_series(DashedLineSeries::new(
                 pts,

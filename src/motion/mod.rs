@@ -33,6 +33,7 @@ pub use kinematics::{Kinematics, KinematicsError, MidlineSeries, analyze, record
 pub use player::{MotionPlayer, WaveTable};
 pub use presets::Preset;
 pub use record::{Recording, record_preset};
+pub use wave::FrontWave;
 
 /// Which way a turn goes: the paper's `d` (−1 left, 1 right; 0 "front" is not a turn).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -87,6 +88,23 @@ pub struct MotionParams {
     pub f: f32,
     /// Default turn angle, radians (Table 1 experiments use 90°).
     pub turn_angle: f32,
+    /// The turning axis: where the body yaws about during turns, as a fraction of the body length
+    /// from the head; `None` turns about the pivot `p` (the paper's reading). A species sets it
+    /// where its swim wave's node (`p`) is not where it turns (docs/motion.md, "Where the pivot
+    /// sits").
+    #[serde(default)]
+    pub turn_axis: Option<f32>,
+    /// Amplitude of the front wave F_f at the snout, a fraction of the body length (equation (3)
+    /// prints none: one length unit, 1/50 of Table 1's fish, [`wave::FRONT_AMPLITUDE_BODY_LENGTHS`]).
+    #[serde(default = "default_front_amp")]
+    pub front_amp: f32,
+    /// How F_f's amplitude runs from the snout to the pivot ([`wave::FrontWave`]).
+    #[serde(default)]
+    pub front_wave: wave::FrontWave,
+}
+
+fn default_front_amp() -> f32 {
+    wave::FRONT_AMPLITUDE_BODY_LENGTHS
 }
 
 /// One motion request, as a behaviour script issues it (Fig. 10: played to completion in order).
@@ -221,29 +239,40 @@ impl MotionParams {
         tt: 2.0,
         f: 1.0,
         turn_angle: std::f32::consts::FRAC_PI_2,
+        turn_axis: None,
+        front_amp: wave::FRONT_AMPLITUDE_BODY_LENGTHS,
+        front_wave: wave::FrontWave::Recoil,
     };
 
     /// The black porgy, swimming like a carangiform fish (docs/motion.md, "Defaults and biology").
     ///
-    /// Table 1's p = 0.4, s = 50 (one body length per second), l = 50 and maxAmp = l/5, with
-    /// λ = 1.2·l, which the posed body (rigid segments, Fig. 5 weights) shows as a body wave of
-    /// about one body length (carangiform fish: 0.8 – 1.2 L), and ω = 4.5 so the tail beats at
-    /// s·p·ω/λ = 1.5 Hz per body length per second. The posed tail tip sweeps about 0.2·l peak to
-    /// peak, so the Strouhal number is about 0.3 at every speed; Tt = 2 s, f = 1, turn angle 90°.
+    /// Table 1's s = 50 (one body length per second), l = 50 and Tt = 2 s, with the swim wave's
+    /// pivot at p = 0.3, where carangiform fish are quietest (Jayne & Lauder 1995; Videler & Hess
+    /// 1984), while the body still turns about Table 1's 0.4 (`turn_axis`, near the centre of
+    /// mass; the school's alignment depends on it). λ = 1.2·l, which the posed body (rigid
+    /// segments, Fig. 5 weights) shows as a body wave of about one body length (carangiform fish:
+    /// 0.8 – 1.2 L); ω = 6 so the tail beats at s·p·ω/λ = 1.5 Hz per body length per second;
+    /// maxAmp = 0.17·l so the posed tail tip sweeps about 0.2·l peak to peak and the Strouhal
+    /// number is about 0.3 at every speed. The snout swings the paper's 0.02 L, recoiling against
+    /// the tail. f = 1, turn angle 90°.
     pub const BLACK_PORGY: Self = Self {
-        p: 0.4,
+        p: 0.3,
         s: 50.0,
         l: 50.0,
-        max_amp: 50.0 / 5.0,
+        max_amp: 50.0 * 0.17,
         lambda: 50.0 * 1.2,
-        omega: 4.5,
+        omega: 6.0,
         tt: 2.0,
         f: 1.0,
         turn_angle: std::f32::consts::FRAC_PI_2,
+        turn_axis: Some(0.4),
+        front_amp: wave::FRONT_AMPLITUDE_BODY_LENGTHS,
+        front_wave: wave::FrontWave::Recoil,
     };
 
     /// Checks every field: finite, and p ∈ (18.8/132, 1) so λ' > 0, s ≥ 0, l > 0, maxAmp ≥ 0,
-    /// λ > 0, ω ≥ 0, Tt > 0, f ∈ [1, 2], turn angle ∈ (0, 2π]. The error names the field, its
+    /// λ > 0, ω ≥ 0, Tt > 0, f ∈ [1, 2], turn angle ∈ (0, 2π], turn axis (if set) ∈ [0, 1],
+    /// front amplitude ∈ [0, 0.5]. The error names the field, its
     /// value and why.
     pub fn validate(&self) -> Result<(), MotionError> {
         check(
@@ -291,6 +320,20 @@ impl MotionParams {
             self.turn_angle > 0.0 && self.turn_angle <= std::f32::consts::TAU,
             "turn angle must lie in (0, 2π] radians",
         )?;
+        if let Some(axis) = self.turn_axis {
+            check(
+                "turn_axis",
+                axis,
+                (0.0..=1.0).contains(&axis),
+                "the turning axis must lie on the body: a fraction of its length in [0, 1]",
+            )?;
+        }
+        check(
+            "front_amp",
+            self.front_amp,
+            (0.0..=0.5).contains(&self.front_amp),
+            "the front wave's snout amplitude must be a fraction of the body length in [0, 0.5]",
+        )?;
         Ok(())
     }
 
@@ -306,6 +349,11 @@ impl MotionParams {
     /// λ' = (132·p − 18.8)·λ for these parameters, length units.
     pub fn lambda_prime(&self) -> f32 {
         wave::lambda_prime(self.p, self.lambda)
+    }
+
+    /// The turning axis as a fraction of the body length: `turn_axis`, or the pivot `p`.
+    pub fn turn_axis_fraction(&self) -> f32 {
+        self.turn_axis.unwrap_or(self.p)
     }
 
     /// Tail-beat frequency at `speed` (length units per second), hertz.

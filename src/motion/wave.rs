@@ -42,17 +42,40 @@ pub fn amplitude(x: f32, p: f32, l: f32, max_amp: f32) -> f32 {
 /// Equation (3) prints F_f with no amplitude factor, i.e. an amplitude of one length unit; Table 1's
 /// fish is l = 50 units long, so the snout swings 1/50 = 0.02 body lengths, the snout amplitude
 /// of carangiform fish (Videler & Hess 1984, mackerel ≈ 0.02 L; Jayne & Lauder 1995, bass 0.004 –
-/// 0.012 L). We keep that ratio for every body length (see `docs/motion.md`).
+/// 0.012 L). Table 1 and the carangiform species keep that ratio for every body length; a species
+/// may choose its own (`MotionParams::front_amp`; see `docs/motion.md`).
 pub const FRONT_AMPLITUDE_BODY_LENGTHS: f32 = 1.0 / 50.0;
 
-/// The front wave's amplitude A_f(x) for x ≤ p·l, length units: zero at the pivot, growing
-/// linearly to −[`FRONT_AMPLITUDE_BODY_LENGTHS`]·l at the snout (x = 0).
+/// How the front wave F_f's amplitude runs from the snout to the pivot: equation (3) prints F_f
+/// with no amplitude factor at all, so this is a reading (`docs/motion.md`, readings 4 and 6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrontWave {
+    /// Zero at the pivot, growing linearly to the snout amplitude, on the side opposite to the
+    /// body just behind the pivot: the front yaws about the pivot against the tail, the head
+    /// recoil of carangiform fish. The body curve is continuous at the pivot (0 on both sides).
+    #[default]
+    Recoil,
+    /// The snout amplitude all along the front, on the same side as the wave behind the pivot:
+    /// the literal (3), a wave of constant amplitude running from the snout, as the whole body of
+    /// an anguilliform swimmer undulates. The curve steps at the pivot from F_f to F_b = 0; on a
+    /// body of rigid segments only the joints are sampled, so place the pivot just behind one.
+    Travelling,
+}
+
+/// The front wave's amplitude A_f(x) for x ≤ p·l, length units, with the snout amplitude
+/// `snout` a fraction of `l` (the paper's unit amplitude on Table 1's fish is
+/// [`FRONT_AMPLITUDE_BODY_LENGTHS`]).
 ///
-/// Signed like [`amplitude`] (negative in front of the pivot), so the snout swings opposite to
-/// the tail near the pivot (carangiform head recoil) and the curve is continuous at the pivot.
-/// Needs p > 0 (every valid pivot is).
-pub fn front_amplitude(x: f32, p: f32, l: f32) -> f32 {
-    (x - p * l) / p * FRONT_AMPLITUDE_BODY_LENGTHS
+/// [`FrontWave::Recoil`]: zero at the pivot, growing linearly to −`snout`·l at the snout (x = 0),
+/// signed like [`amplitude`] (negative in front of the pivot), so the snout swings opposite to the
+/// tail near the pivot and the curve is continuous at the pivot. [`FrontWave::Travelling`]:
+/// +`snout`·l everywhere in front of the pivot. Needs p > 0 (every valid pivot is).
+pub fn front_amplitude(x: f32, p: f32, l: f32, snout: f32, profile: FrontWave) -> f32 {
+    match profile {
+        FrontWave::Recoil => (x - p * l) / p * snout,
+        FrontWave::Travelling => snout * l,
+    }
 }
 
 /// λ' = (132·p − 18.8)·λ: the stretched wavelength of the front wave F_f, length units.
@@ -146,8 +169,9 @@ pub fn t_locomotion(s_wave: f32, t_wave: f32, ip: f32) -> f32 {
     s_wave * (1.0 - ip) + t_wave * ip
 }
 
-/// The swim wave S(x, t) of (3)/(4): F_f (amplitude [`front_amplitude`]) in front of the pivot,
-/// F_b (amplitude [`amplitude`]) behind it. Length units.
+/// The swim wave S(x, t) of (3)/(4): F_f (amplitude [`front_amplitude`] with snout amplitude
+/// `front_amp`, a fraction of `l`, and profile `front_wave`) in front of the pivot, F_b
+/// (amplitude [`amplitude`]) behind it. Length units.
 ///
 /// `x` length units from the head; `gain` scales the whole wave (the player's speed gain).
 #[allow(clippy::too_many_arguments)]
@@ -158,12 +182,14 @@ pub fn swim_wave(
     max_amp: f32,
     lambda: f32,
     lambda_prime: f32,
+    front: (f32, FrontWave),
     phase: f32,
     gain: f32,
 ) -> f32 {
     let xp = x_prime(x, p, l);
     if xp < 0.0 {
-        f_front(front_amplitude(x, p, l) * gain, xp, lambda_prime, phase)
+        let a = front_amplitude(x, p, l, front.0, front.1);
+        f_front(a * gain, xp, lambda_prime, phase)
     } else {
         f_back(amplitude(x, p, l, max_amp) * gain, xp, lambda, phase)
     }
@@ -175,6 +201,10 @@ pub use crate::math::smoothstep;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The paper's unit front amplitude on Table 1's fish, as a recoil.
+    const U: f32 = FRONT_AMPLITUDE_BODY_LENGTHS;
+    const R: (f32, FrontWave) = (U, FrontWave::Recoil);
 
     fn close(a: f32, b: f32, tol: f32) -> bool {
         (a - b).abs() <= tol
@@ -238,8 +268,8 @@ mod tests {
         for k in 0..16 {
             let phase = k as f32 * 0.4;
             let eps = 1e-3;
-            let before = swim_wave(20.0 - eps, p, l, amp, lam, lp, phase, 1.0);
-            let after = swim_wave(20.0 + eps, p, l, amp, lam, lp, phase, 1.0);
+            let before = swim_wave(20.0 - eps, p, l, amp, lam, lp, R, phase, 1.0);
+            let after = swim_wave(20.0 + eps, p, l, amp, lam, lp, R, phase, 1.0);
             assert!(
                 close(before, after, 1e-3),
                 "jump at pivot: {before} vs {after}"
@@ -248,9 +278,9 @@ mod tests {
             // A_f'(x)·sin(−φ) = 0.02/p·sin(−φ) (snout amplitude 0.02·l over p·l). A kink, not a
             // jump: the front is nearly still while the back carries the wave.
             let h = 0.05;
-            let pivot = swim_wave(20.0, p, l, amp, lam, lp, phase, 1.0);
-            let back = (swim_wave(20.0 + h, p, l, amp, lam, lp, phase, 1.0) - pivot) / h;
-            let front = (pivot - swim_wave(20.0 - h, p, l, amp, lam, lp, phase, 1.0)) / h;
+            let pivot = swim_wave(20.0, p, l, amp, lam, lp, R, phase, 1.0);
+            let back = (swim_wave(20.0 + h, p, l, amp, lam, lp, R, phase, 1.0) - pivot) / h;
+            let front = (pivot - swim_wave(20.0 - h, p, l, amp, lam, lp, R, phase, 1.0)) / h;
             assert!(close(back, amp / l * (-phase).sin(), 2e-3), "{back}");
             assert!(close(front, 0.02 / p * (-phase).sin(), 2e-3), "{front}");
         }
@@ -259,16 +289,62 @@ mod tests {
     #[test]
     fn test_front_amplitude_is_the_literal_unit_amplitude_on_table_1s_fish() {
         // Eq. (3) has amplitude 1: on the l = 50 fish the snout swings exactly one unit.
-        assert!(close(front_amplitude(0.0, 0.4, 50.0), -1.0, 1e-6));
-        assert!(close(front_amplitude(0.0, 0.2, 50.0), -1.0, 1e-6));
+        assert!(close(
+            front_amplitude(0.0, 0.4, 50.0, U, FrontWave::Recoil),
+            -1.0,
+            1e-6
+        ));
+        assert!(close(
+            front_amplitude(0.0, 0.2, 50.0, U, FrontWave::Recoil),
+            -1.0,
+            1e-6
+        ));
         // Zero at the pivot, half way in between; scales with the body (l = 80 → 1.6).
-        assert!(close(front_amplitude(20.0, 0.4, 50.0), 0.0, 1e-6));
-        assert!(close(front_amplitude(10.0, 0.4, 50.0), -0.5, 1e-6));
-        assert!(close(front_amplitude(0.0, 0.3, 80.0), -1.6, 1e-5));
+        assert!(close(
+            front_amplitude(20.0, 0.4, 50.0, U, FrontWave::Recoil),
+            0.0,
+            1e-6
+        ));
+        assert!(close(
+            front_amplitude(10.0, 0.4, 50.0, U, FrontWave::Recoil),
+            -0.5,
+            1e-6
+        ));
+        assert!(close(
+            front_amplitude(0.0, 0.3, 80.0, U, FrontWave::Recoil),
+            -1.6,
+            1e-5
+        ));
         // The swim wave uses it ahead of the pivot: φ = −π/2 puts the snout at A_f·sin(~π/2).
         let lp = lambda_prime(0.4, 50.0);
-        let s = swim_wave(0.0, 0.4, 50.0, 10.0, 50.0, lp, -PI / 2.0, 1.0);
+        let s = swim_wave(0.0, 0.4, 50.0, 10.0, 50.0, lp, R, -PI / 2.0, 1.0);
         assert!(close(s, -(TAU * -20.0 / lp + PI / 2.0).sin(), 1e-5), "{s}");
+    }
+
+    #[test]
+    fn test_travelling_front_wave_keeps_its_amplitude_to_the_pivot() {
+        // Travelling: the snout amplitude (0.035·70 = 2.45) all along the front, on the side of
+        // the wave behind the pivot.
+        let (p, l, snout) = (0.15, 70.0, 0.035);
+        for x in [0.0, 5.0, 10.0, 10.4] {
+            let a = front_amplitude(x, p, l, snout, FrontWave::Travelling);
+            assert!(close(a, 2.45, 1e-5), "{x}: {a}");
+        }
+        // p = 0.15 makes λ' = (132·0.15 − 18.8)·λ = λ: one wave from snout to tail.
+        assert!(close(lambda_prime(0.15, 49.0), 49.0, 1e-3));
+        let front = (snout, FrontWave::Travelling);
+        for k in 0..16 {
+            let phase = k as f32 * 0.4;
+            // Just in front of the pivot F_f = 2.45·sin(−φ); just behind it F_b → 0 with the
+            // same sign: the curve steps at the pivot but never swings against the body behind.
+            let before = swim_wave(10.5 - 1e-3, p, l, 8.0, 49.0, 49.0, front, phase, 1.0);
+            let behind = swim_wave(10.5 + 1.0, p, l, 8.0, 49.0, 49.0, front, phase, 1.0);
+            assert!(close(before, 2.45 * (-phase).sin(), 1e-3), "{before}");
+            assert!(
+                before * behind >= -1e-6 || behind.abs() < 0.02,
+                "{before} {behind}"
+            );
+        }
     }
 
     #[test]

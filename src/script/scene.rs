@@ -221,6 +221,11 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
         return Err(format!("{file}: {why}"));
     }
     let desc: SpeciesDesc = from_lua_value(Value::Table(table), file)?;
+    // Motion values out of range (a pivot with λ' ≤ 0, a turning axis off the body, NaN) are
+    // refused here, naming the file and the field, rather than swum.
+    desc.motion
+        .validate()
+        .map_err(|e| format!("{file}: motion: {e}"))?;
     Ok(SpeciesFile { desc, decision_hz })
 }
 

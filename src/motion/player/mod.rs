@@ -294,7 +294,7 @@ impl MotionPlayer {
         }
     }
 
-    /// Locomotion of the root over `dt`: speed, heading (turns yaw about the pivot), pitch and
+    /// Locomotion of the root over `dt`: speed, heading (turns yaw about the turning axis), pitch and
     /// position. Returns the step's mean speed, which drives the wave's phase.
     fn move_root(&mut self, dt: f32, params: &MotionParams, root: &mut RootState) -> f32 {
         let a = &mut self.current;
@@ -342,9 +342,10 @@ impl MotionPlayer {
         root.pos.x += ch * horizontal;
         root.pos.z -= sh * horizontal;
         if heading != root.heading {
-            // Turns yaw the body about the pivot (the paper's turning axis), not about the head:
-            // the head, p·l in front of it, swings round with the heading.
-            let arm = params.p * params.l;
+            // Turns yaw the body about its turning axis (the pivot unless the species sets one
+            // apart), not about the head: the head, that far in front of it, swings round with
+            // the heading.
+            let arm = params.turn_axis_fraction() * params.l;
             let (s0, c0) = root.heading.sin_cos();
             let (s1, c1) = heading.sin_cos();
             root.pos.x += arm * (c1 - c0);

@@ -74,8 +74,10 @@ pub(super) fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSampl
         return swim;
     };
     let (ip, xp, amp) = (turn.ip, s.xp, s.amp);
-    if ip == 0.0 || xp < 0.0 {
-        // The turn functions only change the part behind the pivot (paper 3.5.2).
+    if ip == 0.0 || xp <= 0.0 {
+        // The turn functions only change the part behind the pivot (paper 3.5.2). A sample on
+        // the pivot (x' = 0, as the black porgy's first joint is) has A(x) = 0, so its swim and
+        // turn waves are both 0 and (7) gives 0 = `swim`: skip them.
         return swim;
     }
     let t = match kind {

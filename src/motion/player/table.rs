@@ -24,7 +24,7 @@ use crate::motion::{Body, MotionParams};
 #[derive(Debug, Clone, Default)]
 pub struct WaveTable {
     /// The parameters and midline samples it was built for, bit for bit.
-    params_bits: [u32; 9],
+    params_bits: [u32; 11],
     joints_x_bits: Vec<u32>,
     /// Wavelength of the quick/serial turn wave along the body (as `Active::start` plans it).
     pub(super) turn_wavelength: f32,
@@ -46,8 +46,10 @@ pub(super) struct WaveSample {
     pub(super) turn: (f32, f32),
 }
 
-fn param_bits(p: &MotionParams) -> [u32; 9] {
+fn param_bits(p: &MotionParams) -> [u32; 11] {
     [
+        p.front_amp,
+        f32::from(u8::from(p.front_wave == wave::FrontWave::Travelling)),
         p.p,
         p.s,
         p.l,
@@ -114,7 +116,7 @@ impl WaveTable {
                     WaveSample {
                         xp,
                         amp: if xp < 0.0 {
-                            wave::front_amplitude(xl, p, l)
+                            wave::front_amplitude(xl, p, l, params.front_amp, params.front_wave)
                         } else {
                             wave::amplitude(xl, p, l, params.max_amp)
                         },

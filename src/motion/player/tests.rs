@@ -166,6 +166,7 @@ fn shape_direct(a: &Active, params: &MotionParams, phase: f32, gain: f32, x: f32
         params.max_amp,
         params.lambda,
         params.lambda_prime(),
+        (params.front_amp, params.front_wave),
         phase,
         gain,
     );
@@ -226,6 +227,9 @@ fn test_tabled_shape_matches_direct_evaluation() {
         tt: 2.5,
         f: 1.0,
         turn_angle: FRAC_PI_4,
+        turn_axis: Some(0.3),
+        front_amp: 0.035,
+        front_wave: crate::motion::FrontWave::Travelling,
     };
     let requests = [
         MotionRequest::Swim { speed: 50.0 },
@@ -337,4 +341,60 @@ fn test_tabled_shape_matches_direct_evaluation() {
 fn test_player_state_is_small() {
     let size = std::mem::size_of::<MotionPlayer>();
     assert!(size <= 192, "MotionPlayer is {size} bytes");
+}
+
+/// A quick turn from rest turns the body about its turning axis: the point `turn_axis`·l behind
+/// the head stays where it was while the head swings round it, whatever the swim wave's pivot
+/// `p`; without a turning axis the body turns about the pivot, as in the paper.
+#[test]
+fn test_turns_yaw_about_the_turning_axis_not_the_pivot() {
+    let point = |root: &RootState, x: f32, l: f32| root.pos - x * l * root.forward();
+    for (turn_axis, about) in [(Some(0.45), 0.45), (Some(0.2), 0.2), (None, 0.3)] {
+        let params = MotionParams {
+            p: 0.3,
+            turn_axis,
+            ..MotionParams::BLACK_PORGY
+        };
+        params.validate().unwrap();
+        let mut player = MotionPlayer::new();
+        let mut root = RootState::default();
+        player
+            .push(MotionRequest::Turn {
+                kind: TurnKind::Quick,
+                angle: 1.5,
+                side: Side::Left,
+            })
+            .unwrap();
+        let start = root;
+        run(&mut player, &params, &mut root, params.tt + 0.1);
+        assert!((root.heading - 1.5).abs() < 1e-3, "{}", root.heading);
+        let l = params.l;
+        let stayed = (point(&root, about, l) - point(&start, about, l)).length();
+        assert!(stayed < 1e-3 * l, "{turn_axis:?}: axis moved {stayed}");
+        // Any other point of the body moved: the head by about 2·sin(0.75)·about·l.
+        let head = (root.pos - start.pos).length();
+        assert!(
+            (head - 2.0 * 0.75f32.sin() * about * l).abs() < 1e-2 * l,
+            "{turn_axis:?}: head moved {head}"
+        );
+        let other = if about == 0.3 { 0.4 } else { 0.3 };
+        assert!((point(&root, other, l) - point(&start, other, l)).length() > 0.05 * l);
+    }
+    // A turning axis off the body is refused, naming the field.
+    let bad = MotionParams {
+        turn_axis: Some(1.5),
+        ..MotionParams::BLACK_PORGY
+    };
+    let e = bad.validate().unwrap_err().to_string();
+    assert!(e.contains("turn_axis = 1.5"), "{e}");
+    let bad = MotionParams {
+        turn_axis: Some(f32::NAN),
+        ..MotionParams::BLACK_PORGY
+    };
+    assert!(
+        bad.validate()
+            .unwrap_err()
+            .to_string()
+            .contains("turn_axis")
+    );
 }

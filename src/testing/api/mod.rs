@@ -32,7 +32,8 @@
 //!   `w:write_script(path, source)` then writes a script there (path relative to `scripts/`) and
 //!   reloads what it affects, as saving it in an editor would in the aquarium.
 //! - Fish also expose `species` (name) and `params` (the species' motion parameters: `p`, `s`,
-//!   `l`, `max_amp`, `lambda`, `omega`, `tt` in seconds, `f`, `turn_angle`).
+//!   `l`, `max_amp`, `lambda`, `omega`, `tt` in seconds, `f`, `turn_angle`, `turn_axis` (nil:
+//!   the pivot), `front_amp`, `front_wave`).
 //! - `t:expect(cond, msg)`, `t:near(actual, expected, tol, msg)`, `t:less(a, b, msg)`,
 //!   `t:greater(a, b, msg)`: record a failure (with file, line, expected, actual, simulated time)
 //!   and carry on; a Lua error ends the test as a failure.
