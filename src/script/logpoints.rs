@@ -12,8 +12,6 @@ use std::path::{Path, PathBuf};
 
 use mlua::{Lua, Table, Value};
 
-use super::log::{LogLevel, ScriptLog};
-
 /// The global the injected calls use.
 pub const LOGPOINT_FN: &str = "__shoal_logpoint";
 
@@ -113,14 +111,7 @@ pub fn install(lua: &Lua, globals: &Table) -> mlua::Result<()> {
             for v in args.iter() {
                 text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
             }
-            let (fish, time_s) = lua
-                .app_data_ref::<super::api::Ctx>()
-                .map_or((None, 0.0), |c| {
-                    (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
-                });
-            if let Some(mut log) = lua.app_data_mut::<ScriptLog>() {
-                log.push(LogLevel::Info, &text, fish, time_s);
-            }
+            super::sandbox::console_line(lua, &text);
             Ok(())
         })?,
     )

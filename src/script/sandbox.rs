@@ -484,19 +484,24 @@ fn install_print(lua: &Lua, g: &Table) -> mlua::Result<()> {
                 }
                 text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
             }
-            // The deciding fish and the world's time, when a behaviour stage is running.
-            let (fish, time_s) = lua
-                .app_data_ref::<super::api::Ctx>()
-                .map_or((None, 0.0), |c| {
-                    (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
-                });
-            if let Some(mut log) = lua.app_data_mut::<ScriptLog>() {
-                log.push(LogLevel::Info, &text, fish, time_s);
-            }
+            console_line(lua, &text);
             Ok(())
         })?,
     )?;
     Ok(())
+}
+
+/// Puts `text` in the script console as a print, with the deciding fish and the world's time
+/// when a behaviour stage is running (`print` and logpoints).
+pub fn console_line(lua: &Lua, text: &str) {
+    let (fish, time_s) = lua
+        .app_data_ref::<super::api::Ctx>()
+        .map_or((None, 0.0), |c| {
+            (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
+        });
+    if let Some(mut log) = lua.app_data_mut::<ScriptLog>() {
+        log.push(LogLevel::Info, text, fish, time_s);
+    }
 }
 
 /// `pcall`, `xpcall`, `coroutine.resume`/`wrap`/`create`: they must not swallow the host's

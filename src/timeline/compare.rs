@@ -317,7 +317,7 @@ pub fn compare(spec: &CompareSpec<'_>) -> Result<Comparison, TimelineError> {
         runs[v].push(m);
     }
     let [ra, rb] = runs;
-    let changed = changed(&ha, &hb);
+    let changed = super::run_file::changed_keys(&ha, &hb);
     Ok(finish(Comparison {
         format: FORMAT,
         shoal_version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -337,18 +337,6 @@ pub fn compare(spec: &CompareSpec<'_>) -> Result<Comparison, TimelineError> {
         },
         summary: Vec::new(),
     }))
-}
-
-fn changed(a: &BTreeMap<String, u32>, b: &BTreeMap<String, u32>) -> Vec<String> {
-    let mut out: Vec<String> = a
-        .iter()
-        .filter(|(k, v)| b.get(*k) != Some(v))
-        .map(|(k, _)| k.clone())
-        .chain(b.keys().filter(|k| !a.contains_key(*k)).cloned())
-        .collect();
-    out.sort();
-    out.dedup();
-    out
 }
 
 /// Sorts the runs by seed and computes the summary.

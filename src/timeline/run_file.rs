@@ -378,14 +378,19 @@ pub fn read_scripts(dir: &Path) -> std::io::Result<BTreeMap<String, ScriptFile>>
     Ok(out)
 }
 
-/// Script files that differ between two sets: changed, added or removed, sorted.
+/// The script files that differ between two sets (changed, added or removed), sorted.
 pub fn changed_scripts(
     a: &BTreeMap<String, ScriptFile>,
     b: &BTreeMap<String, ScriptFile>,
 ) -> Vec<String> {
+    changed_keys(a, b)
+}
+
+/// The keys whose values differ between two maps, or that only one has, sorted.
+pub fn changed_keys<V: PartialEq>(a: &BTreeMap<String, V>, b: &BTreeMap<String, V>) -> Vec<String> {
     let mut out: Vec<String> = a
         .iter()
-        .filter(|(k, v)| b.get(*k).is_none_or(|w| w.crc32 != v.crc32))
+        .filter(|(k, v)| b.get(*k) != Some(*v))
         .map(|(k, _)| k.clone())
         .chain(b.keys().filter(|k| !a.contains_key(*k)).cloned())
         .collect();
