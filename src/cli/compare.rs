@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, required_unless_present = "merge")]
     pub seeds: Option<u64>,
     /// Simulated seconds per run.
-    #[arg(long, required_unless_present = "merge")]
+    #[arg(long, required_unless_present = "merge", allow_negative_numbers = true)]
     pub seconds: Option<f64>,
     /// Run only this shard of the seeds (`i/n`, 1-based: seeds i, i+n, i+2n…); merge the
     /// shards' `--json` outputs with `--merge`.
@@ -98,7 +98,20 @@ fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
         anyhow::bail!("--a, --b, --seeds and --seconds are needed to run an experiment");
     };
     let (a, b) = (version_dir("a", a)?, version_dir("b", b)?);
+    if seeds == 0 {
+        anyhow::bail!("--seeds 0: an experiment needs at least one seed (2 or more for intervals)");
+    }
+    if !(seconds.is_finite() && seconds > 0.0) {
+        anyhow::bail!("--seconds {seconds}: expected a number of seconds > 0");
+    }
     let scene = super::timeline::scene_in(&a, args.scene.as_deref())?;
+    if !b.join(&scene).is_file() {
+        anyhow::bail!(
+            "--b {}: no scene {scene} in it (both versions run the same scene, named relative to \
+             each scripts directory)",
+            b.display()
+        );
+    }
     let root = super::ScriptsArg {
         scripts: Some(a.clone()),
     }
