@@ -320,10 +320,12 @@ fn logpoints(
     let mut remove = None;
     for (i, (file, line, message)) in st.logpoints.iter().enumerate() {
         ui.horizontal(|ui| {
-            ui.label(format!("{file}:{line}  {message}"));
+            // The button first, so a long message is cut at the panel's edge instead of
+            // widening the panel.
             if ui.small_button("remove logpoint").clicked() {
                 remove = Some(i);
             }
+            ui.add(egui::Label::new(format!("{file}:{line}  {message}")).truncate());
         });
     }
     if let Some(i) = remove {
@@ -494,17 +496,24 @@ fn watches(ui: &mut egui::Ui, st: &mut ScriptsPanel, selected: Option<FishId>) {
     let mut remove = None;
     for (i, w) in st.watches.iter().enumerate() {
         ui.horizontal(|ui| {
-            match (&w.last, selected) {
-                (_, None) => ui.label(format!("{} (no fish selected)", w.expr)),
-                (Ok(v), _) => ui.label(format!("{} = {v}", w.expr)),
-                (Err(e), _) => ui.colored_label(
-                    egui::Color32::from_rgb(255, 110, 90),
-                    format!("{}: {e}", w.expr),
-                ),
-            };
+            // The button first, so a long value or error is cut at the panel's edge (hover
+            // shows it whole) instead of widening the panel.
             if ui.small_button("remove").clicked() {
                 remove = Some(i);
             }
+            let (text, color) = match (&w.last, selected) {
+                (_, None) => (format!("{} (no fish selected)", w.expr), None),
+                (Ok(v), _) => (format!("{} = {v}", w.expr), None),
+                (Err(e), _) => (
+                    format!("{}: {e}", w.expr),
+                    Some(egui::Color32::from_rgb(255, 110, 90)),
+                ),
+            };
+            let mut rich = egui::RichText::new(text);
+            if let Some(c) = color {
+                rich = rich.color(c);
+            }
+            ui.add(egui::Label::new(rich).truncate());
         });
     }
     if let Some(i) = remove {
