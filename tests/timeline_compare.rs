@@ -250,3 +250,50 @@ fn replay_is_exact_on_every_shipped_scene() {
         }
     }
 }
+
+/// `shoal bench history`: the recording cost, state size and seek time, as JSON.
+#[test]
+fn the_history_bench_reports_cost_size_and_seek() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args([
+            "bench",
+            "history",
+            "--fish",
+            "60",
+            "--pairs",
+            "1",
+            "--seeks",
+            "3",
+            "--minutes",
+            "0.05",
+            "--json",
+            "--root",
+        ])
+        .arg(common::repo())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let row = &json["recording"][0];
+    assert_eq!(row["fish"], 60);
+    assert!(
+        row["state_bytes_per_fish"].as_f64().unwrap() > 100.0,
+        "{row}"
+    );
+    assert!(row["plain_ms_per_tick"].as_f64().unwrap() > 0.0);
+    let seek = &json["seek"];
+    assert_eq!(seek["seeks"], 3);
+    assert!(seek["history_s"].as_f64().unwrap() >= 2.9, "{seek}");
+    assert!(seek["max_ms"].as_f64().unwrap() >= seek["median_ms"].as_f64().unwrap());
+    let bad = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["bench", "history", "--fish", "0"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--fish needs positive counts"));
+}

@@ -85,11 +85,12 @@ pub fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
         if !args.json {
             if costs.is_empty() {
                 println!(
-                    "{:>7} {:>14} {:>18} {:>9} {:>16} {:>22}",
+                    "{:>7} {:>14} {:>18} {:>9} {:>12} {:>16} {:>22}",
                     "fish",
                     "ms/tick plain",
                     "ms/tick + history",
                     "overhead",
+                    "ms/state",
                     "B/fish per state",
                     "B/fish per tick (paths)"
                 );
