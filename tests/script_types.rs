@@ -119,3 +119,61 @@ fn test_shipped_scenes_parse() {
     );
     assert!(scene.food_drops.is_some_and(|d| d.every > 0.0));
 }
+
+/// Every method and field the behaviour-test API registers (`t`, `w`, a test's fish and food)
+/// is in `scripts/types/shoal_test.lua`, and nothing there is stale.
+#[test]
+fn test_api_definitions_match_the_test_handles() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut registered = BTreeSet::new();
+    for file in ["test_handle.rs", "world_handle.rs", "fish_handle.rs"] {
+        let src = std::fs::read_to_string(root.join("src/testing/api").join(file)).unwrap();
+        // `add_method("name"`, `add_field_method_get("name"`, or the name on the next line.
+        let mut rest = src.as_str();
+        let next = |r: &str| {
+            [
+                r.find("methods.add_method("),
+                r.find("fields.add_field_method_get("),
+            ]
+            .into_iter()
+            .flatten()
+            .min()
+        };
+        while let Some(i) = next(rest) {
+            let after = &rest[i..];
+            let open = after.find('"').unwrap();
+            let close = open + 1 + after[open + 1..].find('"').unwrap();
+            registered.insert(after[open + 1..close].to_owned());
+            rest = &after[close..];
+        }
+    }
+    registered.insert("test".to_owned());
+    let defs = std::fs::read_to_string(root.join("scripts/types/shoal_test.lua")).unwrap();
+    assert!(defs.starts_with("---@meta"));
+    let mut documented = BTreeSet::new();
+    let mut in_handle_class = false;
+    for line in defs.lines() {
+        if let Some(class) = line.strip_prefix("---@class shoal.") {
+            in_handle_class = ["Test", "TestWorld", "TestFish", "TestFood"]
+                .contains(&class.split_whitespace().next().unwrap_or(""));
+        } else if let Some(f) = line.strip_prefix("---@field ")
+            && in_handle_class
+        {
+            documented.insert(f.split(['?', ' ']).next().unwrap().to_owned());
+        } else if let Some(f) = line.strip_prefix("function ") {
+            let name = f[..f.find('(').unwrap()].rsplit([':', '.']).next().unwrap();
+            documented.insert(name.to_owned());
+        }
+    }
+    let missing: Vec<_> = registered.difference(&documented).collect();
+    let stale: Vec<_> = documented.difference(&registered).collect();
+    assert!(
+        missing.is_empty(),
+        "registered but not in shoal_test.lua: {missing:?}"
+    );
+    assert!(
+        stale.is_empty(),
+        "in shoal_test.lua but not registered: {stale:?}"
+    );
+    assert!(registered.len() > 35, "{registered:?}");
+}
