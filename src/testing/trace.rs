@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf32;
 use plotters::prelude::*;
 
 /// One recorded fish state.
@@ -112,6 +113,22 @@ fn fish_color(i: usize) -> RGBColor {
 }
 
 /// Whether plotters can render text with a system font here (its `ttf` feature needs one).
+/// The axes of a tank seen from above (x across, z down the page, whole world units), as the
+/// trace and the run-diff plots draw them.
+pub(crate) fn top_view_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf32, RangedCoordf32>>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_mesh()
+        .x_desc("x, world units")
+        .y_desc("z, world units")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .draw()
+}
+
 pub(crate) fn fonts_work() -> bool {
     let mut buffer = vec![0u8; 64 * 32 * 3];
     let area = BitMapBackend::with_buffer(&mut buffer, (64, 32)).into_drawing_area();
@@ -199,16 +216,7 @@ impl Trace {
             .fill(&BACKGROUND)
             .map_err(|e| plot_err(&e))?;
         if text {
-            chart
-                .configure_mesh()
-                .x_desc("x, world units")
-                .y_desc("z, world units")
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_label_formatter(&|v| format!("{v:.0}"))
-                .light_line_style(RGBColor(235, 235, 235))
-                .bold_line_style(RGBColor(205, 205, 205))
-                .draw()
-                .map_err(|e| plot_err(&e))?;
+            top_view_axes(&mut chart).map_err(|e| plot_err(&e))?;
         }
         let area = chart.plotting_area();
         area.draw(&Rectangle::new(

@@ -8,7 +8,7 @@ use plotters::prelude::*;
 
 use super::RunDiff;
 use super::run_file::Run;
-use crate::testing::trace::fonts_work;
+use crate::testing::trace::{fonts_work, top_view_axes};
 
 pub(super) const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
 const WATER: RGBColor = RGBColor(214, 232, 240);
@@ -69,16 +69,7 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), String> {
         .build_cartesian_2d(min[0]..max[0], max[2]..min[2])
         .map_err(|e| err(&e))?;
     if text {
-        chart
-            .configure_mesh()
-            .x_desc("x, world units")
-            .y_desc("z, world units")
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| format!("{v:.0}"))
-            .light_line_style(RGBColor(235, 235, 235))
-            .bold_line_style(RGBColor(205, 205, 205))
-            .draw()
-            .map_err(|e| err(&e))?;
+        top_view_axes(&mut chart).map_err(|e| err(&e))?;
     }
     let area = chart.plotting_area();
     let tank = [(min[0], min[2]), (max[0], max[2])];
