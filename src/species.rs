@@ -354,6 +354,51 @@ pub struct SpeciesRig {
     pub rest_locals: Vec<JointTransform>,
 }
 
+/// Slices of the body along its long axis for its mass model ([`crate::motion::body::mass_shares`]).
+const MASS_SLICES: usize = 48;
+
+/// The body's extent across (along `forward × up`) and up (along `up`) in [`MASS_SLICES`] equal
+/// slices from the snout (`head_t` along `forward`) to the tail tip, asset units; (0, 0) for a
+/// slice no vertex falls in.
+fn cross_sections(
+    positions: &[Vec3],
+    forward: Vec3,
+    up: Vec3,
+    head_t: f32,
+    length: f32,
+) -> Vec<(f32, f32)> {
+    let right = forward.cross(up);
+    let mut bounds = [[
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ]; MASS_SLICES];
+    for p in positions {
+        let x = (head_t - p.dot(forward)) / length;
+        if !x.is_finite() {
+            continue;
+        }
+        let slice = ((x * MASS_SLICES as f32) as usize).min(MASS_SLICES - 1);
+        let b = &mut bounds[slice];
+        let (across, height) = (p.dot(right), p.dot(up));
+        b[0] = b[0].min(across);
+        b[1] = b[1].max(across);
+        b[2] = b[2].min(height);
+        b[3] = b[3].max(height);
+    }
+    bounds
+        .iter()
+        .map(|b| {
+            if b[1] >= b[0] {
+                (b[1] - b[0], b[3] - b[2])
+            } else {
+                (0.0, 0.0)
+            }
+        })
+        .collect()
+}
+
 impl SpeciesRig {
     /// Binds `desc` to `model`.
     ///
@@ -366,6 +411,8 @@ impl SpeciesRig {
     ///   axis is within ~17° of vertical, the perpendicular direction of larger vertex spread.
     /// - `joints_x`: each driven joint's distance from the snout along the long axis over the
     ///   body length (snout to tail tip), strictly increasing inside (0, 1), then 1.0.
+    /// - `mass`: each segment's share of the body's mass, from the bind-shape vertices'
+    ///   cross-sections along the long axis (uniform density), for the body's sideways recoil.
     pub fn bind(desc: &SpeciesDesc, model: &FishModel) -> Result<SpeciesRig, SpeciesError> {
         desc.validate()?;
         let species = desc.name.clone();
@@ -479,6 +526,8 @@ impl SpeciesRig {
             joints_x.push(x);
         }
         joints_x.push(1.0);
+        let sections = cross_sections(positions, forward, up, head_t, length);
+        let mass = crate::motion::body::mass_shares(&joints_x, &sections);
         let power = joints_x[..driven.len()]
             .iter()
             .map(|&x| desc.power_profile.weight(x))
@@ -502,7 +551,11 @@ impl SpeciesRig {
         let model_to_body =
             Mat4::from_scale(Vec3::splat(scale)) * rotation * Mat4::from_translation(-head_point);
         Ok(SpeciesRig {
-            body: Body { joints_x, power },
+            body: Body {
+                joints_x,
+                power,
+                mass,
+            },
             driven_joints: driven,
             bend_axes,
             model_to_body,

@@ -9,7 +9,7 @@ return {
   motion = {
     l = 80,                 -- body length, world units (the model is scaled to it)
     s = 70,                 -- cruising speed, units/s
-    max_amp = 80 * 0.17,    -- the porgy's 0.17 l: the tail sweeps ~0.2 L peak to peak
+    max_amp = 80 * 0.16,    -- the porgy's 0.16 l: the tail sweeps ~0.2 L peak to peak
     lambda = 80 * 1.2,      -- the porgy's 1.2 body lengths (a ~1 L wave on the posed body)
   },
   view_range = 500,

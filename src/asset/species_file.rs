@@ -7,7 +7,7 @@
 //!   — pivot near the head (p = 0.2), a wave running from the snout, a short body wave
 //!   (λ = 0.7 l), a slower cruise;
 //! - deep (ratio ≤ [`CARANGIFORM_RATIO`], a porgy's ≈ 2): carangiform like the black porgy
-//!   (p = 0.3, turning about 0.4, λ = 1.2 l, maxAmp = 0.17 l, cruising at a body length per
+//!   (p = 0.3, turning about 0.4, λ = 1.2 l, maxAmp = 0.16 l, cruising at a body length per
 //!   second);
 //! - in between: linearly interpolated.
 //!

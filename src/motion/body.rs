@@ -75,7 +75,11 @@ impl Body {
             .iter()
             .map(|&x| power_after_fig5(x))
             .collect();
-        Self { joints_x, power }
+        Self {
+            joints_x,
+            power,
+            mass: Vec::new(),
+        }
     }
 
     /// Number of driven joints (entries of `yaw`); `joints_x` has one more (the tail tip).
@@ -123,8 +127,98 @@ impl Body {
                 ));
             }
         }
+        if !self.mass.is_empty() {
+            if self.mass.len() != self.joints_x.len() {
+                return bad(format!(
+                    "{} mass shares for {} segments (one per joints_x entry, or none)",
+                    self.mass.len(),
+                    self.joints_x.len()
+                ));
+            }
+            if let Some((i, m)) = self
+                .mass
+                .iter()
+                .enumerate()
+                .find(|(_, m)| !m.is_finite() || **m < 0.0)
+            {
+                return bad(format!(
+                    "mass[{i}] = {m} must be a finite, non-negative share"
+                ));
+            }
+            let total: f32 = self.mass.iter().sum();
+            if (total - 1.0).abs() > 1e-3 {
+                return bad(format!("the mass shares sum to {total}, not 1"));
+            }
+        }
         Ok(())
     }
+
+    /// The sideways position of the posed body's centre of mass, length units (positive left):
+    /// each segment's share of [`Body::mass`] at the mean of its two ends' displacement.
+    /// `head_lateral` is the head's displacement, `lateral` each `joints_x` entry's. 0 when the
+    /// body has no mass model.
+    ///
+    /// A swimming fish is not held on a rail: the water pushes its undulating body sideways and
+    /// back, and the body recoils so that its centre of mass travels nearly straight (Lighthill's
+    /// recoil). Posing subtracts this from the midline, which is why a real carangiform fish
+    /// keeps a few thousandths of a body length at its quietest point instead of a still node
+    /// (docs/motion.md, "Readings of the paper", 19).
+    pub fn recoil(&self, head_lateral: f32, lateral: &[f32]) -> f32 {
+        let mut front = head_lateral;
+        let mut centre = 0.0;
+        for (&m, &y) in self.mass.iter().zip(lateral) {
+            centre += m * 0.5 * (front + y);
+            front = y;
+        }
+        centre
+    }
+}
+
+/// Each segment's share of the body's mass — head to the first driven joint, joint to joint, the
+/// last ending at the tail tip (x = 1) — from the body's cross-sections: `sections` holds, for
+/// `n` equal slices from the snout (x = 0) to the tail tip, the extent of the body across
+/// (`width`) and up (`depth`) in any unit, and a slice's mass is the area of the ellipse they
+/// span times its length (a uniform density). Slices with no extent (no vertex fell in them) take
+/// the mean of their nearest neighbours that have one. Returns an empty list when the sections
+/// carry no area (no recoil).
+pub fn mass_shares(joints_x: &[f32], sections: &[(f32, f32)]) -> Vec<f32> {
+    let n = sections.len();
+    let mut area: Vec<Option<f32>> = sections
+        .iter()
+        .map(|&(w, d)| {
+            let a = std::f32::consts::FRAC_PI_4 * w * d;
+            (a.is_finite() && a > 0.0).then_some(a)
+        })
+        .collect();
+    let known: Vec<usize> = (0..n).filter(|&i| area[i].is_some()).collect();
+    if known.is_empty() {
+        return Vec::new();
+    }
+    for i in 0..n {
+        if area[i].is_none() {
+            let before = known.iter().rev().find(|&&k| k < i).and_then(|&k| area[k]);
+            let after = known.iter().find(|&&k| k > i).and_then(|&k| area[k]);
+            area[i] = match (before, after) {
+                (Some(a), Some(b)) => Some(0.5 * (a + b)),
+                (a, b) => a.or(b),
+            };
+        }
+    }
+    let mut shares = vec![0.0f32; joints_x.len()];
+    for (i, a) in area.iter().enumerate() {
+        let x = (i as f32 + 0.5) / n as f32;
+        let segment = joints_x
+            .iter()
+            .position(|&j| x < j)
+            .unwrap_or(joints_x.len() - 1);
+        shares[segment] += a.unwrap_or(0.0);
+    }
+    let total: f32 = shares.iter().sum();
+    if !(total.is_finite() && total > 0.0) {
+        return Vec::new();
+    }
+    shares.iter_mut().for_each(|m| *m /= total);
+    shares
 }
 
 /// Turns midline samples into joint yaws. Returns the head segment's yaw relative to the heading
@@ -350,11 +444,57 @@ mod tests {
     }
 
     #[test]
+    fn test_mass_shares_hand_values() {
+        // Four slices of 0.25; ellipse areas π/4·w·d = π/4·(4, 0 → filled, 2, 1·2); joints at
+        // 0.5 and the tail tip. The empty slice takes the mean of its neighbours, 3.
+        let sections = [(2.0, 2.0), (0.0, 0.0), (1.0, 2.0), (2.0, 1.0)];
+        let shares = mass_shares(&[0.5, 1.0], &sections);
+        assert_eq!(shares.len(), 2);
+        assert!((shares[0] - 7.0 / 11.0).abs() < 1e-6, "{shares:?}");
+        assert!((shares[1] - 4.0 / 11.0).abs() < 1e-6, "{shares:?}");
+        assert!(mass_shares(&[0.5, 1.0], &[(0.0, 0.0); 4]).is_empty());
+        assert!(mass_shares(&[0.5, 1.0], &[(f32::NAN, 1.0); 4]).is_empty());
+    }
+
+    #[test]
+    fn test_recoil_hand_value_and_mass_validity() {
+        let mut body = Body {
+            joints_x: vec![0.5, 1.0],
+            power: vec![1.0],
+            mass: vec![0.75, 0.25],
+        };
+        body.validate().unwrap();
+        // Segment 0 runs from the head (2) to the joint (0): mean 1; segment 1 from 0 to −4:
+        // mean −2. Centre: 0.75·1 + 0.25·(−2) = 0.25.
+        assert!((body.recoil(2.0, &[0.0, -4.0]) - 0.25).abs() < 1e-6);
+        body.mass = vec![0.5];
+        assert!(
+            body.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("1 mass shares")
+        );
+        body.mass = vec![0.5, f32::NAN];
+        assert!(body.validate().unwrap_err().to_string().contains("mass[1]"));
+        body.mass = vec![0.5, 0.2];
+        assert!(
+            body.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("sum to 0.7")
+        );
+        body.mass.clear();
+        body.validate().unwrap();
+        assert_eq!(body.recoil(2.0, &[0.0, -4.0]), 0.0);
+    }
+
+    #[test]
     fn test_midline_pose_straight_and_bent() {
         // Two segments of 1 (l = 2, joint at 0.5); heading 90° (facing −z), root at the origin.
         let body = Body {
             joints_x: vec![0.5, 1.0],
             power: vec![1.0],
+            mass: Vec::new(),
         };
         let root = RootState {
             heading: std::f32::consts::FRAC_PI_2,

@@ -169,6 +169,14 @@ pub struct Body {
     pub joints_x: Vec<f32>,
     /// Per driven joint power weight after Fig. 5. Length = number of driven joints.
     pub power: Vec<f32>,
+    /// The share of the body's mass in each rigid segment of the chain — head to the first
+    /// driven joint, then joint to joint, the last one ending at the tail tip (so one entry per
+    /// `joints_x` entry) — summing to 1. The posed body recoils sideways so that its centre of
+    /// mass stays on the line the fish travels ([`Body::recoil`]). Empty: no recoil (the paper's
+    /// Table 1 body, which has no mass model; a species bound to a model gets its mass from the
+    /// model's cross-sections).
+    #[serde(default)]
+    pub mass: Vec<f32>,
 }
 
 /// Errors of the motion layer: each names the value and why it is rejected.
@@ -252,14 +260,14 @@ impl MotionParams {
     /// mass; the school's alignment depends on it). λ = 1.2·l, which the posed body (rigid
     /// segments, Fig. 5 weights) shows as a body wave of about one body length (carangiform fish:
     /// 0.8 – 1.2 L); ω = 6 so the tail beats at s·p·ω/λ = 1.5 Hz per body length per second;
-    /// maxAmp = 0.17·l so the posed tail tip sweeps about 0.2·l peak to peak and the Strouhal
-    /// number is about 0.3 at every speed. The snout swings the paper's 0.02 L, recoiling against
-    /// the tail. f = 1, turn angle 90°.
+    /// maxAmp = 0.16·l so the posed tail tip sweeps about 0.2·l peak to peak (with the body's
+    /// sideways recoil, [`Body::recoil`]) and the Strouhal number is about 0.3 at every speed. The
+    /// snout swings about the paper's 0.02 L, recoiling against the tail. f = 1, turn angle 90°.
     pub const BLACK_PORGY: Self = Self {
         p: 0.3,
         s: 50.0,
         l: 50.0,
-        max_amp: 50.0 * 0.17,
+        max_amp: 50.0 * 0.16,
         lambda: 50.0 * 1.2,
         omega: 6.0,
         tt: 2.0,

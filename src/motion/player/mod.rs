@@ -459,6 +459,13 @@ impl MotionPlayer {
         // Report the body as posed: the weighted yaws, chained from the head, give each
         // sample's sideways displacement (what a renderer driving the joints shows).
         posed_lateral(params.l, &body.joints_x, head, self.head_yaw, yaw, lateral);
+        // The body recoils so that its centre of mass stays on the travel line (a body with a
+        // mass model; the recoil is 0 without one).
+        let recoil = body.recoil(head, lateral);
+        if recoil != 0.0 && recoil.is_finite() {
+            self.head_lateral -= recoil;
+            lateral.iter_mut().for_each(|y| *y -= recoil);
+        }
     }
 }
 

@@ -398,3 +398,60 @@ fn test_turns_yaw_about_the_turning_axis_not_the_pivot() {
             .contains("turn_axis")
     );
 }
+
+/// A body with a mass model recoils sideways: at every step its centre of mass is on the travel
+/// line, and the posed body is the unrecoiled one shifted sideways as a whole (the joint yaws are
+/// the same), by an amount that is not always 0.
+#[test]
+fn test_recoil_keeps_the_centre_of_mass_on_the_travel_line() {
+    let params = MotionParams::BLACK_PORGY;
+    let rigid = Body::black_porgy();
+    let mut massive = Body::black_porgy();
+    massive.mass = vec![0.25, 0.3, 0.2, 0.12, 0.07, 0.04, 0.02];
+    massive.validate().unwrap();
+    let (mut a, mut b) = (MotionPlayer::new(), MotionPlayer::new());
+    let cruising = RootState {
+        speed: params.s,
+        ..RootState::default()
+    };
+    let (mut root_a, mut root_b) = (cruising, cruising);
+    for player in [&mut a, &mut b] {
+        player
+            .push(MotionRequest::Swim { speed: params.s })
+            .unwrap();
+    }
+    let (mut lat_a, mut lat_b) = (vec![0.0; 7], vec![0.0; 7]);
+    let (mut yaw_a, mut yaw_b) = (vec![0.0; 6], vec![0.0; 6]);
+    let mut largest_shift = 0.0f32;
+    for _ in 0..180 {
+        a.step(
+            1.0 / 60.0,
+            &params,
+            &rigid,
+            &mut root_a,
+            &mut lat_a,
+            &mut yaw_a,
+        );
+        b.step(
+            1.0 / 60.0,
+            &params,
+            &massive,
+            &mut root_b,
+            &mut lat_b,
+            &mut yaw_b,
+        );
+        let centre = massive.recoil(b.head_lateral(), &lat_b);
+        assert!(centre.abs() < 1e-4, "centre of mass {centre} off the line");
+        assert_eq!(yaw_a, yaw_b, "recoil must not change the bends");
+        assert_eq!(root_a, root_b, "recoil must not move the root");
+        let shift = a.head_lateral() - b.head_lateral();
+        for (ya, yb) in lat_a.iter().zip(&lat_b) {
+            assert!((ya - yb - shift).abs() < 1e-4, "{ya} {yb} {shift}");
+        }
+        largest_shift = largest_shift.max(shift.abs());
+    }
+    assert!(
+        largest_shift > 0.1,
+        "the body never recoiled ({largest_shift})"
+    );
+}
