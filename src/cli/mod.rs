@@ -88,7 +88,8 @@ impl DapArg {
         let local = debug::server::listen(addr, &debugger)?;
         debug::attach_globally(&debugger);
         println!(
-            "DAP server listening on {local}: waiting for a debugger to attach (VS Code:              scripts/README.md, \"Debugging behaviours\")"
+            "DAP server listening on {local}: waiting for a debugger to attach (how: \
+             scripts/README.md, \"Debugging behaviours from an editor\")"
         );
         debugger.wait_for_configuration();
         println!("DAP client attached: simulating");

@@ -486,7 +486,7 @@ fn table_entries(t: &Table) -> Vec<(String, Value)> {
         Value::String(s) => (1, 0, s.to_string_lossy()),
         other => (2, 0, other.type_name().to_owned()),
     };
-    entries.sort_by(|a, b| rank(&a.0).cmp(&rank(&b.0)));
+    entries.sort_by_key(|a| rank(&a.0));
     entries
         .into_iter()
         .map(|(k, v)| {
@@ -667,7 +667,7 @@ mod tests {
                 let l = locals(lua, 0)?;
                 let u = upvalues(lua, 0)?;
                 let mut s = s.lock().unwrap();
-                for (n, v) in l.into_iter().chain(u) {
+                for (n, v) in l.into_iter().chain(u).filter(|(n, _)| n != "_ENV") {
                     s.push(format!("{n}={}", show(&v).0));
                 }
                 let v = eval_with(lua, Some(0), None, "a + b * up").unwrap();
@@ -677,7 +677,7 @@ mod tests {
         })
         .unwrap();
         lua.load(
-            "local up = 10\nlocal function f(a)\n  local b = a * 2\n  return a + b + up\nend\nreturn f(3)",
+            "local up = 10\nlocal function f(a)\n  local b = math.floor(a * 2)\n  return a + b + up\nend\nreturn f(3)",
         )
         .exec()
         .unwrap();

@@ -96,7 +96,9 @@ mod tests {
     fn a_framed_message_round_trips() {
         let mut out = Vec::new();
         write_message(&mut out, &serde_json::json!({"seq": 1, "type": "request"})).unwrap();
-        assert!(out.starts_with(b"Content-Length: 27\r\n\r\n"));
+        let text = String::from_utf8(out.clone()).unwrap();
+        let (head, body) = text.split_once("\r\n\r\n").unwrap();
+        assert_eq!(head, format!("Content-Length: {}", body.len()));
         let Some(Incoming::Message(v)) = read(&out).unwrap() else {
             panic!("no message");
         };
