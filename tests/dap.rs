@@ -197,9 +197,14 @@ struct Shoal {
 
 impl Shoal {
     fn test(file: &str, filter: &str) -> Self {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_shoal"));
+        cmd.args(["test", file, "--filter", filter, "--dap", "127.0.0.1:0"]);
+        Self::spawn(cmd)
+    }
+
+    fn spawn(mut cmd: Command) -> Self {
+        let mut child = cmd
             .current_dir(repo())
-            .args(["test", file, "--filter", filter, "--dap", "127.0.0.1:0"])
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
@@ -382,6 +387,77 @@ fn malformed_and_unknown_messages_get_errors_and_disconnect_resumes() {
     assert!(out.contains("1 passed"), "{out}");
 }
 
+/// An X server for `shoal run` (as `tests/window_run.rs` starts one); killed when dropped.
+struct Xvfb {
+    child: Child,
+    display: u32,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start_xvfb() -> Xvfb {
+    const XVFB: &str = "/usr/bin/Xvfb";
+    assert!(
+        Path::new(XVFB).exists(),
+        "{XVFB} is missing: install it (Debian: apt install xvfb) — CI installs it in .ci/run"
+    );
+    let display = (400..700)
+        .map(|n| n + std::process::id() % 200)
+        .find(|n| {
+            !Path::new(&format!("/tmp/.X{n}-lock")).exists()
+                && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
+        })
+        .expect("a free X display number");
+    let child = Command::new(XVFB)
+        .arg(format!(":{display}"))
+        .args(["-screen", "0", "1280x800x24", "-nolisten", "tcp"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("Xvfb starts");
+    let xvfb = Xvfb { child, display };
+    let socket = format!("/tmp/.X11-unix/X{display}");
+    let start = std::time::Instant::now();
+    while !Path::new(&socket).exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "Xvfb :{display} did not come up"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    xvfb
+}
+
+/// `shoal run --dap` on the default scene (its forage fish) in a window: stop, look, go on, and
+/// the window presents its frames and says so; the client hears `terminated`.
+#[test]
+fn shoal_run_dap_stops_in_the_window_and_goes_on() {
+    let xvfb = start_xvfb();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_shoal"));
+    cmd.args(["run", "--frames", "20", "--dap", "127.0.0.1:0"])
+        .env("DISPLAY", format!(":{}", xvfb.display))
+        .env_remove("WAYLAND_DISPLAY");
+    let shoal = Shoal::spawn(cmd);
+    let mut c = Client::connect(shoal.addr);
+    c.handshake();
+    c.set_breakpoints(&forage(), json!([{"line": 19}]));
+    c.ok("configurationDone", json!({}));
+    assert_eq!(c.event("stopped")["body"]["reason"], "breakpoint");
+    assert_eq!(c.top(), ("forage.lua".into(), 19, "intend".into()));
+    assert_eq!(c.evaluate("fish.behavior", None), "\"forage\"");
+    c.set_breakpoints(&forage(), json!([]));
+    c.ok("continue", json!({"threadId": 1}));
+    c.event("terminated");
+    let (ok, out) = shoal.finish();
+    assert!(ok, "{out}");
+    assert!(out.contains("presented 20 frames"), "{out}");
+}
+
 #[test]
 fn a_remote_address_is_refused_without_the_flag() {
     let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
@@ -431,9 +507,13 @@ fn continuing_from_a_breakpoint_changes_nothing() {
     let client = std::thread::spawn(move || {
         let mut c = Client::connect(addr);
         c.handshake();
-        c.set_breakpoints(&forage(), json!([{"line": 19}]));
         c.ok("configurationDone", json!({}));
-        c.event("stopped");
+        // Pause stops the next decision that starts, at its first line.
+        c.ok("pause", json!({"threadId": 1}));
+        assert_eq!(c.event("stopped")["body"]["reason"], "pause");
+        c.set_breakpoints(&forage(), json!([{"line": 19}]));
+        c.ok("continue", json!({"threadId": 1}));
+        assert_eq!(c.event("stopped")["body"]["reason"], "breakpoint");
         let (_, line, _) = c.top();
         assert_eq!(line, 19);
         assert_eq!(c.evaluate("fish.memory ~= nil", Some(1)), "true");
