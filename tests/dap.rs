@@ -547,3 +547,59 @@ fn continuing_from_a_breakpoint_changes_nothing() {
         "{hooked} decisions hooked in a second"
     );
 }
+
+/// A script error reaches the client's debug console (once), without stopping anything.
+#[test]
+fn script_errors_are_shown_in_the_debug_console() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(&repo().join("scripts"), &dir.path().join("scripts"));
+    copy_dir(&repo().join("assets"), &dir.path().join("assets"));
+    std::fs::write(
+        dir.path().join("scripts/behaviors/broken.lua"),
+        "local M = {}\nfunction M.tick(fish)\n  error(\"boom\")\nend\nreturn M\n",
+    )
+    .unwrap();
+    let debugger = Debugger::new();
+    let addr = server::listen("127.0.0.1:0".parse().unwrap(), &debugger).unwrap();
+    let mut sim = Simulation::empty(dir.path(), 1).unwrap();
+    sim.attach_debugger(debugger.clone()).unwrap();
+    sim.spawn(
+        "black_porgy",
+        glam::Vec3::new(0.0, 200.0, 0.0),
+        0.0,
+        0.0,
+        None,
+        Some("broken"),
+    )
+    .unwrap();
+    let mut c = Client::connect(addr);
+    c.handshake();
+    c.ok("configurationDone", json!({}));
+    debugger.wait_for_configuration();
+    for _ in 0..30 {
+        sim.step();
+    }
+    let out = c.event("output");
+    assert_eq!(out["body"]["category"], "stderr");
+    let text = out["body"]["output"].as_str().unwrap();
+    assert!(
+        text.contains("broken.lua:3") && text.contains("boom"),
+        "{text}"
+    );
+    // Shown once, not once per decision.
+    c.ok("threads", json!({}));
+    assert!(!c.output_so_far().contains("boom"), "{}", c.output_so_far());
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}

@@ -236,6 +236,8 @@ pub struct Debugger {
     configured_cv: Condvar,
     /// Decisions run with the line hook (for tests and cost checks).
     hooked_decisions: AtomicU64,
+    /// Script errors already shown in the client's console (each once, as the console does).
+    errors_shown: Mutex<std::collections::HashSet<String>>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -259,6 +261,7 @@ impl Debugger {
             configured: Mutex::new(false),
             configured_cv: Condvar::new(),
             hooked_decisions: AtomicU64::new(0),
+            errors_shown: Mutex::new(std::collections::HashSet::new()),
         })
     }
 
@@ -327,6 +330,7 @@ impl Debugger {
             };
             self.update_active(&s);
         }
+        lock(&self.errors_shown).clear();
         self.resume(None);
     }
 
@@ -367,6 +371,14 @@ impl Debugger {
             text.push('\n');
         }
         self.send_event("output", json!({"category": category, "output": text}));
+    }
+
+    /// Shows a script error (`file:line: message`) in the client's console, once per distinct
+    /// message.
+    pub fn script_error(&self, message: &str) {
+        if lock(&self.errors_shown).insert(message.to_owned()) {
+            self.output("stderr", message);
+        }
     }
 
     fn send(&self, mut message: Value) {

@@ -156,12 +156,16 @@ impl Lane {
                 let started = Instant::now();
                 let hooked =
                     debugger.is_some_and(|dbg| debug::begin_decision(dbg, host, module, d.id));
-                let failed = host
-                    .run_fish(module, d.id, species, behavior, time_s)
-                    .is_err();
-                if hooked && let Some(dbg) = debugger {
-                    debug::end_decision(dbg, host);
+                let outcome = host.run_fish(module, d.id, species, behavior, time_s);
+                if let Some(dbg) = debugger {
+                    if hooked {
+                        debug::end_decision(dbg, host);
+                    }
+                    if let Err(e) = &outcome {
+                        dbg.script_error(e);
+                    }
                 }
+                let failed = outcome.is_err();
                 let took = started.elapsed().as_nanos() as u64;
                 let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 if profile.len() <= module {
