@@ -21,6 +21,11 @@
 //! duration of that call, and are metered by the instruction budget from their first
 //! instruction (the watchdog's delayed metering would replace the line hook).
 //!
+//! Measured (callgrind, `shoal bench sim --fish 1000 --seconds 0.5 --lanes 1`, 90 ticks, debug
+//! build, 2026-11-27): the tick stage ran 1,751.9 M instructions before this module and 1,752.1 M
+//! with it and no `--dap` (+0.009 %, about 10 instructions per decision — the size of the Lua
+//! VM's own run-to-run variation: `luaV_execute` differed by as much).
+//!
 //! Files: [`wire`] (framing), [`server`] (the network thread and the requests it answers
 //! itself), `paused.rs` (the Lua side: the hook, the paused stack, evaluation).
 
