@@ -63,7 +63,10 @@ pub enum DapError {
         why: String,
     },
     /// Listening failed (port in use, permission).
-    #[error("--dap {addr}: cannot listen there: {source}")]
+    #[error(
+        "--dap {addr}: cannot listen there: {source} (is another shoal listening? pick another \
+         port, or 0 for any free one)"
+    )]
     Bind {
         /// The address.
         addr: SocketAddr,
@@ -91,6 +94,12 @@ pub fn parse_addr(spec: &str, allow_remote: bool) -> Result<SocketAddr, DapError
     } else {
         spec.to_owned()
     };
+    if spec.ends_with(".lua") || spec.contains('/') {
+        return Err(refuse(format!(
+            "this looks like a path, not an address: write the paths first \
+             (`shoal test PATH --dap`) or give the address (`--dap {DEFAULT_ADDR} PATH`)"
+        )));
+    }
     let addr = spec_full
         .to_socket_addrs()
         .map_err(|e| {
@@ -493,6 +502,8 @@ mod tests {
         assert!(e.contains("--dap-allow-remote"), "{e}");
         assert!(parse_addr("0.0.0.0:4711", true).is_ok());
         assert!(parse_addr("nonsense", false).is_err());
+        let path = parse_addr("tests/behavior/forage_test.lua", false).unwrap_err();
+        assert!(path.to_string().contains("paths first"), "{path}");
     }
 
     #[test]
