@@ -447,6 +447,8 @@ struct ActiveCall {
     eval_instructions: u64,
     /// Chunk name → canonical path, for the files seen in this call.
     paths: HashMap<String, Option<PathBuf>>,
+    /// Wall time the call has been held stopped.
+    stopped_ns: u64,
 }
 
 /// Before a decision of `module` for `fish`: arms the line hook if the debugger wants it.
@@ -473,20 +475,23 @@ pub(crate) fn begin_decision(
         budget: Arc::clone(host.budget()),
         eval_instructions: host.limits().instructions_per_call,
         paths: HashMap::new(),
+        stopped_ns: 0,
     });
     host.set_line_hook(true);
     true
 }
 
 /// After a decision [`begin_decision`] hooked: the hook is off again; a step that did not stop
-/// in this decision stops at the next behaviour line anywhere.
-pub(crate) fn end_decision(debugger: &Debugger, host: &mut ScriptHost) {
+/// in this decision stops at the next behaviour line anywhere. Returns the nanoseconds the
+/// decision was held stopped (no cost of the script's, for the profile).
+pub(crate) fn end_decision(debugger: &Debugger, host: &mut ScriptHost) -> u64 {
     host.set_line_hook(false);
-    host.lua().remove_app_data::<ActiveCall>();
+    let call = host.lua().remove_app_data::<ActiveCall>();
     let mut s = lock(&debugger.shared);
     if let Some(step) = &mut s.step {
         step.depth = None;
     }
+    call.map_or(0, |c| c.stopped_ns)
 }
 
 #[cfg(test)]

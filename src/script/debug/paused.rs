@@ -211,6 +211,7 @@ fn log_message(lua: &Lua, message: &str) -> String {
 /// where a step starts.
 fn stop_here(lua: &Lua, d: &Arc<Debugger>, reason: &str, ids: Vec<i64>) {
     let _one_at_a_time = lock(&d.gate);
+    let since = std::time::Instant::now();
     {
         let mut s = lock(&d.shared);
         s.step = None;
@@ -249,6 +250,9 @@ fn stop_here(lua: &Lua, d: &Arc<Debugger>, reason: &str, ids: Vec<i64>) {
         let _ = reply.send(session.answer(&command, &args));
     }
     drop(receiver);
+    if let Some(mut c) = lua.app_data_mut::<ActiveCall>() {
+        c.stopped_ns += since.elapsed().as_nanos() as u64;
+    }
     let here = depth(lua);
     let mut s = lock(&d.shared);
     if let Some(step) = &mut s.step

@@ -128,6 +128,8 @@ impl Lane {
         let profile = &mut self.profile;
         let due = &mut self.due[..self.num_due];
         let claims = &mut self.claims;
+        let mut stopped = 0u64;
+        let stopped_ns = &mut stopped;
         let result = (|| {
             host.set_stage(Some((time_s, world)))?;
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -157,16 +159,19 @@ impl Lane {
                 let hooked =
                     debugger.is_some_and(|dbg| debug::begin_decision(dbg, host, module, d.id));
                 let outcome = host.run_fish(module, d.id, species, behavior, time_s);
+                // Time held at a breakpoint is no cost of the script.
+                let mut held_ns = 0;
                 if let Some(dbg) = debugger {
                     if hooked {
-                        debug::end_decision(dbg, host);
+                        held_ns = debug::end_decision(dbg, host);
                     }
                     if let Err(e) = &outcome {
                         dbg.script_error(e);
                     }
                 }
+                *stopped_ns += held_ns;
                 let failed = outcome.is_err();
-                let took = started.elapsed().as_nanos() as u64;
+                let took = (started.elapsed().as_nanos() as u64).saturating_sub(held_ns);
                 let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 if profile.len() <= module {
                     profile.resize(module + 1, ModuleStats::default());
@@ -206,7 +211,7 @@ impl Lane {
             );
         }
         self.perception_ns = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
-        self.total_ns = start.elapsed().as_nanos() as u64;
+        self.total_ns = (start.elapsed().as_nanos() as u64).saturating_sub(stopped);
     }
 }
 
