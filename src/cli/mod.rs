@@ -60,6 +60,43 @@ pub enum Command {
     Compare(compare::Args),
 }
 
+/// `--dap [ADDR]` and `--dap-allow-remote` of `shoal run` and `shoal test`: debug the scripts
+/// from an editor over the Debug Adapter Protocol (see `script::debug`).
+#[derive(Debug, Default, Clone, clap::Args)]
+pub struct DapArg {
+    /// Serve the Debug Adapter Protocol on ADDR (HOST:PORT or a port; default 127.0.0.1:4711)
+    /// and wait for a client (VS Code: see scripts/README.md) before simulating. Scripts then
+    /// run in one lane; a breakpoint pauses the whole simulation.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1,
+          default_missing_value = crate::script::debug::DEFAULT_ADDR)]
+    pub dap: Option<String>,
+    /// Let --dap listen on an address that is not loopback (whoever connects can run Lua).
+    #[arg(long, requires = "dap")]
+    pub dap_allow_remote: bool,
+}
+
+impl DapArg {
+    /// With `--dap`: listens, says where, waits for the client's `configurationDone`, and
+    /// attaches the debugger to every simulation made from then on.
+    pub fn start(&self) -> anyhow::Result<Option<std::sync::Arc<crate::script::debug::Debugger>>> {
+        use crate::script::debug;
+        let Some(spec) = &self.dap else {
+            return Ok(None);
+        };
+        let addr = debug::parse_addr(spec, self.dap_allow_remote)?;
+        let debugger = debug::Debugger::new();
+        let local = debug::server::listen(addr, &debugger)?;
+        debug::attach_globally(&debugger);
+        println!(
+            "DAP server listening on {local}: waiting for a debugger to attach (how: \
+             scripts/README.md, \"Debugging behaviours from an editor\")"
+        );
+        debugger.wait_for_configuration();
+        println!("DAP client attached: simulating");
+        Ok(Some(debugger))
+    }
+}
+
 /// `--scripts DIR` (or `SHOAL_SCRIPTS`): where behaviours, species and scenes come from.
 #[derive(Debug, Default, Clone, clap::Args)]
 pub struct ScriptsArg {

@@ -52,21 +52,34 @@ pub struct Args {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Debugging the behaviours from an editor (`--dap [ADDR]`). While a breakpoint holds the
+    /// simulation, the window does not redraw.
+    #[command(flatten)]
+    pub dap: super::DapArg,
 }
 
 /// Runs `shoal run`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let source = args.scripts.resolve()?;
     println!("{source}");
+    let debugger = args.dap.start()?;
+    let result = run_with(&args, &source);
+    if let Some(d) = debugger {
+        d.finish(i32::from(result.is_err()));
+    }
+    result
+}
+
+fn run_with(args: &Args, source: &super::ScriptSource) -> anyhow::Result<ExitCode> {
     if let Some(run) = &args.open {
-        return open(&args, &source, run);
+        return open(args, source, run);
     }
     if let Some(spec) = &args.split {
-        return run_split(&args, &source, spec);
+        return run_split(args, source, spec);
     }
-    let sim = super::render::load_scene(&source, args.scene.as_deref(), args.seed, args.fish)?;
+    let sim = super::render::load_scene(source, args.scene.as_deref(), args.seed, args.fish)?;
     let select = super::render::check_select(args.select, sim.world())?;
-    let presented = run_window(sim, options(&args, select))?;
+    let presented = run_window(sim, options(args, select))?;
     println!("presented {presented} frames");
     Ok(ExitCode::SUCCESS)
 }

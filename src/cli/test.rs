@@ -30,6 +30,9 @@ pub struct Args {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Debugging the behaviours from an editor (`--dap [ADDR]`).
+    #[command(flatten)]
+    pub dap: super::DapArg,
 }
 
 /// The root the tests run against: `source.root` itself when the scripts are its `scripts/`,
@@ -72,8 +75,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         trace_dir: args.trace.clone(),
         root: root.clone(),
     };
+    let debugger = args.dap.start()?;
     if !args.watch {
-        let summary = run_once(&paths, &options)?;
+        let summary = run_once(&paths, &options);
+        if let Some(d) = &debugger {
+            let failed = !summary.as_ref().is_ok_and(|s| s.failed == 0);
+            if let Ok(s) = &summary {
+                d.output("console", &s.to_string());
+            }
+            d.finish(i32::from(failed));
+        }
+        let summary = summary?;
         return Ok(if summary.failed == 0 {
             ExitCode::SUCCESS
         } else {
@@ -86,8 +98,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 /// Runs the tests once, printing each outcome as it finishes and the summary line.
 fn run_once(paths: &[PathBuf], options: &RunOptions) -> anyhow::Result<Summary> {
     let files = testing::discover(paths)?;
+    let debugger = crate::script::debug::global();
     let outcomes = testing::run_files(&files, options, |outcome| {
-        println!("{}", testing::format_outcome(outcome));
+        let line = testing::format_outcome(outcome);
+        println!("{line}");
+        if let Some(d) = &debugger {
+            d.output("console", &line);
+        }
     });
     if outcomes.is_empty()
         && let Some(filter) = &options.filter

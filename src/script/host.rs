@@ -31,7 +31,7 @@ use super::watchdog::{Meter, Metered};
 use crate::world::FishId;
 
 /// Registry key of the table of per-fish tables (fish index → fish table).
-const FISH_KEY: &str = "shoal.fish";
+pub(crate) const FISH_KEY: &str = "shoal.fish";
 
 /// Runs one decision: the layers of a module for one fish. Host-private: scripts never see it.
 const DRIVER: &str = r#"
@@ -131,6 +131,8 @@ pub struct ScriptHost {
     /// The scene's `params` of each fish that has some, by slot index with the generation they
     /// belong to; copied into the fish's table as `fish.params` when the table is made.
     fish_params: HashMap<u32, (u32, Arc<serde_json::Value>)>,
+    /// The next decisions run with the debugger's line hook (see [`super::debug`]).
+    line_hook: bool,
 }
 
 impl ScriptHost {
@@ -163,6 +165,7 @@ impl ScriptHost {
             error_history: Vec::new(),
             last_call_hit_limit: false,
             fish_params: HashMap::new(),
+            line_hook: false,
         })
     }
 
@@ -502,7 +505,9 @@ impl ScriptHost {
     /// Arms the per-call budget for a behaviour call, unmetered for [`Limits::metered_after`]
     /// where the watchdog can watch this state; the call is metered while the guard lives.
     fn begin_call(&self) -> Metered<'_> {
-        let unmetered = if self.meter.watched() {
+        // Under the debugger's line hook, metered from the first instruction: the watchdog's
+        // delayed metering would replace the line hook with its own.
+        let unmetered = if self.meter.watched() && !self.line_hook {
             self.limits.metered_after
         } else {
             Duration::ZERO
@@ -524,6 +529,9 @@ impl ScriptHost {
     fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
         let table = self.modules.get(module)?.table.as_ref()?;
         let _metered = self.begin_call();
+        if self.line_hook {
+            super::debug::add_line_hook(&self.lua);
+        }
         Some(self.driver.call::<()>((table, fish)))
     }
 
@@ -602,6 +610,22 @@ impl ScriptHost {
     /// or the memory limit.
     pub fn last_call_hit_limit(&self) -> bool {
         self.last_call_hit_limit
+    }
+
+    /// The file of behaviour module `module` (canonical).
+    pub fn module_path(&self, module: ModuleIndex) -> Option<&Path> {
+        self.modules.get(module).map(|m| m.path.as_path())
+    }
+
+    /// Runs the next decisions with the debugger's line hook (`true`) or without (see
+    /// [`super::debug`]).
+    pub(crate) fn set_line_hook(&mut self, on: bool) {
+        self.line_hook = on;
+    }
+
+    /// The state's instruction budget (the debugger meters evaluations with it).
+    pub(crate) fn budget(&self) -> &Arc<Budget> {
+        &self.budget
     }
 
     /// The behaviour name of module `module`.

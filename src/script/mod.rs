@@ -17,9 +17,11 @@
 //! - [`scene`]: species and scene files read through serde.
 //! - [`reload`]: the directory watcher behind hot reload.
 //! - [`sim`]: [`Simulation`], the fixed-tick loop tying scripts to the [`crate::world`].
+//! - [`debug`]: a Debug Adapter Protocol server (breakpoints, steps, variables) for editors.
 //! - [`fish_state`]: a lane's per-fish state copied and put back (rewinding a simulation).
 
 pub mod api;
+pub mod debug;
 pub mod error;
 pub mod fish_state;
 pub mod host;

@@ -25,6 +25,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use mlua::chunk::ChunkMode;
+use mlua::debug::DebugEvent;
 use mlua::{Function, HookTriggers, Lua, LuaOptions, StdLib, Table, Value, VmState};
 
 use super::error::{ScriptError, describe};
@@ -147,6 +148,19 @@ impl Budget {
             u64::try_from(unmetered.as_micros()).unwrap_or(u64::MAX),
             Ordering::Relaxed,
         );
+        self.abort.store(0, Ordering::Relaxed);
+    }
+
+    /// Instructions left in the current call (the debugger keeps them aside while it evaluates
+    /// an expression under a budget of its own).
+    pub(crate) fn remaining(&self) -> i64 {
+        self.remaining.load(Ordering::Relaxed)
+    }
+
+    /// Gives the current call back the `remaining` instructions [`Budget::remaining`] read,
+    /// clearing a stop an evaluation meanwhile ran into.
+    pub(crate) fn restore(&self, remaining: i64) {
+        self.remaining.store(remaining, Ordering::Relaxed);
         self.abort.store(0, Ordering::Relaxed);
     }
 
@@ -563,6 +577,10 @@ fn install_budget_hook(lua: &Lua, budget: &Arc<Budget>) -> mlua::Result<()> {
     lua.set_global_hook(
         HookTriggers::new().every_nth_instruction(HOOK_INTERVAL),
         move |lua, debug| {
+            if !matches!(debug.event(), DebugEvent::Count) {
+                // Line events exist only while the debugger steps through a decision.
+                return super::debug::on_hook(lua, debug);
+            }
             let left = b.remaining.load(Ordering::Relaxed) - i64::from(HOOK_INTERVAL);
             b.remaining.store(left, Ordering::Relaxed);
             if let Some(e) = b.stopped() {

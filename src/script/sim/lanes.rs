@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::SpeciesSlot;
 use crate::script::api::{self, Ctx};
+use crate::script::debug::{self, Debugger};
 use crate::script::error::{ScriptError, describe};
 use crate::script::host::{ModuleIndex, ScriptHost};
 use crate::script::log::LogLevel;
@@ -110,8 +111,9 @@ impl Lane {
         self.num_due += 1;
     }
 
-    /// Runs the queued decisions against the shared world, one after another.
-    fn run(&mut self, world: &Arc<World>, time_s: f64) {
+    /// Runs the queued decisions against the shared world, one after another (under `debugger`'s
+    /// breakpoints, if one is attached).
+    fn run(&mut self, world: &Arc<World>, time_s: f64, debugger: Option<&Arc<Debugger>>) {
         let start = Instant::now();
         let lua = self.host.lua().clone();
         if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -126,6 +128,8 @@ impl Lane {
         let profile = &mut self.profile;
         let due = &mut self.due[..self.num_due];
         let claims = &mut self.claims;
+        let mut stopped = 0u64;
+        let stopped_ns = &mut stopped;
         let result = (|| {
             host.set_stage(Some((time_s, world)))?;
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -152,10 +156,22 @@ impl Lane {
                 let species = &world.species(sid).desc.name;
                 let sensed_before = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 let started = Instant::now();
-                let failed = host
-                    .run_fish(module, d.id, species, behavior, time_s)
-                    .is_err();
-                let took = started.elapsed().as_nanos() as u64;
+                let hooked =
+                    debugger.is_some_and(|dbg| debug::begin_decision(dbg, host, module, d.id));
+                let outcome = host.run_fish(module, d.id, species, behavior, time_s);
+                // Time held at a breakpoint is no cost of the script.
+                let mut held_ns = 0;
+                if let Some(dbg) = debugger {
+                    if hooked {
+                        held_ns = debug::end_decision(dbg, host);
+                    }
+                    if let Err(e) = &outcome {
+                        dbg.script_error(e);
+                    }
+                }
+                *stopped_ns += held_ns;
+                let failed = outcome.is_err();
+                let took = (started.elapsed().as_nanos() as u64).saturating_sub(held_ns);
                 let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 if profile.len() <= module {
                     profile.resize(module + 1, ModuleStats::default());
@@ -195,7 +211,7 @@ impl Lane {
             );
         }
         self.perception_ns = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
-        self.total_ns = start.elapsed().as_nanos() as u64;
+        self.total_ns = (start.elapsed().as_nanos() as u64).saturating_sub(stopped);
     }
 }
 
@@ -219,6 +235,8 @@ pub struct Scripts {
     pub(super) lanes: Vec<Lane>,
     /// Per species: its file and decision period.
     pub(super) species: Vec<SpeciesSlot>,
+    /// The debugger breakpoints come from, if one is attached (then there is one lane).
+    pub(super) debugger: Option<Arc<Debugger>>,
 }
 
 impl Behavior for Scripts {
@@ -257,15 +275,16 @@ impl Behavior for Scripts {
             }
         }
         let shared: &Arc<World> = world;
+        let debugger = self.debugger.as_ref();
         let busy = self.lanes.iter().filter(|l| l.num_due > 0).count();
         if busy > 1 {
             self.lanes
                 .par_iter_mut()
                 .with_max_len(1)
-                .for_each(|lane| lane.run(shared, time_s));
+                .for_each(|lane| lane.run(shared, time_s, debugger));
         } else {
             for lane in &mut self.lanes {
-                lane.run(shared, time_s);
+                lane.run(shared, time_s, debugger);
             }
         }
         let mut claims = Vec::new();

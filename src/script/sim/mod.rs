@@ -172,6 +172,17 @@ impl Simulation {
         self.rebuild_lanes(self.host().limits(), n.max(1))
     }
 
+    /// Runs the scripts under `debugger`'s breakpoints from now on, in one lane (like
+    /// [`Simulation::set_lanes`], this rebuilds the Lua states: call it before the first tick).
+    pub fn attach_debugger(
+        &mut self,
+        debugger: Arc<super::debug::Debugger>,
+    ) -> Result<(), ScriptError> {
+        self.rebuild_lanes(self.host().limits(), 1)?;
+        self.sim.behavior.debugger = Some(debugger);
+        Ok(())
+    }
+
     /// Number of script lanes.
     pub fn num_lanes(&self) -> usize {
         self.sim.behavior.lanes.len()
@@ -225,7 +236,15 @@ impl Simulation {
         let scripts_dir = host.root().dir.clone();
         let limits = host.limits();
         let mut lanes = vec![Lane::with_host(host)?];
-        for _ in 1..default_lanes() {
+        // Under a debugger the scripts run in one lane, on the simulation's thread (see
+        // `script::debug`); results do not depend on the number of lanes.
+        let debugger = super::debug::global();
+        let num_lanes = if debugger.is_some() {
+            1
+        } else {
+            default_lanes()
+        };
+        for _ in 1..num_lanes {
             lanes.push(Lane::new(&scripts_dir, limits)?);
         }
         let tank = tank_of(&desc.tank, "scene tank")?;
@@ -235,6 +254,7 @@ impl Simulation {
         let scripts = Scripts {
             lanes,
             species: Vec::new(),
+            debugger,
         };
         Ok(Self {
             sim: Sim::new(world, scripts),
