@@ -153,7 +153,10 @@ fn test_api_definitions_match_the_test_handles() {
     let mut documented = BTreeSet::new();
     let mut in_handle_class = false;
     for line in defs.lines() {
-        if let Some(class) = line.strip_prefix("---@class shoal.") {
+        if let Some(class) = line
+            .strip_prefix("---@class shoal.")
+            .or_else(|| line.strip_prefix("---@class (exact) shoal."))
+        {
             in_handle_class = ["Test", "TestWorld", "TestFish", "TestFood"]
                 .contains(&class.split_whitespace().next().unwrap_or(""));
         } else if let Some(f) = line.strip_prefix("---@field ")
