@@ -61,7 +61,7 @@ fn test_shipped_scripts_and_tests_have_no_diagnostics() {
 /// runs: a string where the API declares a number, and a misspelt global.
 const BAD: &str = r#"local M = {}
 
-function M.tick(fish)
+function M.tick(_fish)
   shoal.swim("fast")
   shaol.stop()
 end
