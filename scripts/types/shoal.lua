@@ -1,7 +1,8 @@
 ---@meta
--- LuaLS definitions of the shoal scripting API (https://luals.github.io/). Point your editor's
--- Lua language server at scripts/ (or add scripts/types to `workspace.library`) to get completion
--- and type checks in behaviour, species and scene files.
+-- LuaLS definitions of the shoal scripting API (https://luals.github.io/). The workspace configs
+-- at the repository root (.luarc.json for LuaLS, .emmyrc.json for EmmyLua and `shoal check`) load
+-- this directory, so editors complete and check behaviour, species and scene files with no setup;
+-- `shoal check` runs the same checks (emmylua_check) from the command line and in CI.
 --
 -- Conventions: angles in radians (use math.rad(90)); heading is counter-clockwise seen from
 -- above, 0 = +x; a bearing is relative to the fish's heading, positive to its left; depth is

@@ -439,13 +439,25 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("notes.txt"), "").unwrap();
         let missing = dir.path().join("nope");
-        let err = plan(&[missing.clone()], dir.path(), "c".into(), "k".into()).unwrap_err();
+        let err = plan(
+            std::slice::from_ref(&missing),
+            dir.path(),
+            "c".into(),
+            "k".into(),
+        )
+        .unwrap_err();
         assert_eq!(
             err.to_string(),
             format!("{}: no such file or directory", missing.display())
         );
         let txt = dir.path().join("notes.txt");
-        let err = plan(&[txt.clone()], dir.path(), "c".into(), "k".into()).unwrap_err();
+        let err = plan(
+            std::slice::from_ref(&txt),
+            dir.path(),
+            "c".into(),
+            "k".into(),
+        )
+        .unwrap_err();
         assert_eq!(
             err.to_string(),
             format!("{}: not a .lua file", txt.display())
