@@ -31,9 +31,11 @@ const EXIT_NOT_INSTALLED: u8 = 2;
 #[derive(Debug, Default, clap::Args)]
 #[command(after_help = format!(
     "Runs {CHECKER} (install it with `cargo install --locked {CHECKER}@{CHECKER_VERSION}`) over \
-     the given Lua files and directories with the shipped config ({CONFIG_FILE}; the definitions \
-     are scripts/types/shoal.lua and shoal_test.lua) and prints each diagnostic as \
-     `file:line:column: severity: message [code]`.\n\n\
+     the given Lua files and directories with the shipped config ({CONFIG_FILE} beside the \
+     scripts directory, else shoal's source tree's; the definitions are the scripts' \
+     types/shoal.lua and shoal_test.lua) and prints each diagnostic in those paths as \
+     `file:line:column: severity: message [code]`. Errors, warnings and hints (an unused local: \
+     name it `_x`) all count.\n\n\
      Exit status: 0 when there is no diagnostic, 1 when there are any (or a path does not \
      exist), 2 when {CHECKER} is not installed."
 ))]
