@@ -153,7 +153,10 @@ fn test_api_definitions_match_the_test_handles() {
     let mut documented = BTreeSet::new();
     let mut in_handle_class = false;
     for line in defs.lines() {
-        if let Some(class) = line.strip_prefix("---@class shoal.") {
+        if let Some(class) = line
+            .strip_prefix("---@class shoal.")
+            .or_else(|| line.strip_prefix("---@class (exact) shoal."))
+        {
             in_handle_class = ["Test", "TestWorld", "TestFish", "TestFood"]
                 .contains(&class.split_whitespace().next().unwrap_or(""));
         } else if let Some(f) = line.strip_prefix("---@field ")
@@ -176,4 +179,67 @@ fn test_api_definitions_match_the_test_handles() {
         "in shoal_test.lua but not registered: {stale:?}"
     );
     assert!(registered.len() > 35, "{registered:?}");
+}
+
+/// The `---@field` names of `---@class shoal.<class>` (or `(exact)`) in a definitions file.
+fn class_fields(defs: &str, class: &str) -> BTreeSet<String> {
+    let mut fields = BTreeSet::new();
+    let mut inside = false;
+    for line in defs.lines() {
+        if let Some(rest) = line.strip_prefix("---@class ") {
+            let name = rest
+                .trim_start_matches("(exact) ")
+                .split_whitespace()
+                .next();
+            inside = name == Some(&format!("shoal.{class}"));
+        } else if !line.starts_with("---") {
+            inside = false;
+        } else if let Some(f) = line.strip_prefix("---@field ")
+            && inside
+        {
+            fields.insert(f.split(['?', ' ']).next().unwrap().to_owned());
+        }
+    }
+    assert!(!fields.is_empty(), "no class shoal.{class}");
+    fields
+}
+
+fn keys(v: &serde_json::Value) -> BTreeSet<String> {
+    v.as_object().unwrap().keys().cloned().collect()
+}
+
+/// The species file format in `shoal.lua` (`shoal.SpeciesFile`, its `motion` and `drives`) has
+/// exactly the fields a species description has, and a test fish's `params`
+/// (`shoal.TestMotionParams`) exactly those of its motion parameters: a field added in Rust
+/// and not in the definitions (or removed) fails here.
+#[test]
+fn test_data_format_definitions_match_the_species_description() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let defs = std::fs::read_to_string(root.join("scripts/types/shoal.lua")).unwrap();
+    let test_defs = std::fs::read_to_string(root.join("scripts/types/shoal_test.lua")).unwrap();
+    for desc in [
+        shoal::species::SpeciesDesc::black_porgy(),
+        shoal::species::SpeciesDesc::eel(),
+    ] {
+        let json = serde_json::to_value(&desc).unwrap();
+        let mut top = keys(&json);
+        // Read by the species loader beside the description (src/script/scene.rs).
+        top.extend(["base".to_owned(), "decision_hz".to_owned()]);
+        assert_eq!(class_fields(&defs, "SpeciesFile"), top, "shoal.SpeciesFile");
+        assert_eq!(
+            class_fields(&defs, "MotionParams"),
+            keys(&json["motion"]),
+            "shoal.MotionParams"
+        );
+        assert_eq!(
+            class_fields(&defs, "Drives"),
+            keys(&json["drives"]),
+            "shoal.Drives"
+        );
+        assert_eq!(
+            class_fields(&test_defs, "TestMotionParams"),
+            keys(&json["motion"]),
+            "shoal.TestMotionParams"
+        );
+    }
 }

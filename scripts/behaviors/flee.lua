@@ -22,7 +22,7 @@ function M.intend(fish, p)
   return "wander"
 end
 
-function M.behave(fish, intention, p)
+function M.behave(fish, intention)
   if intention == "flee" then
     common.escape(fish)
   elseif intention == "avoid" then

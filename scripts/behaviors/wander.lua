@@ -1,5 +1,4 @@
 -- Wander: cruise about the tank, avoiding rocks and walls.
-local shoal = shoal
 local common = require("behaviors.lib.common")
 
 local M = {}
@@ -17,7 +16,7 @@ function M.intend(fish, p)
   return "wander"
 end
 
-function M.behave(fish, intention, p)
+function M.behave(fish, intention)
   if intention == "avoid" then
     common.avoid(fish)
   else

@@ -2,7 +2,8 @@
 -- surface every few seconds (hungry porgies break off to eat it), two eels wandering near the
 -- floor, and a barracuda patrolling that hunts porgies and scatters the school as it passes.
 -- Edit and save: the panel offers to restart the scene.
-return {
+---@type shoal.Scene
+local scene = {
   -- 20 x 8 x 12 porgy body lengths; y is up, the surface is max.y.
   tank = { min = { -500, 0, -300 }, max = { 500, 400, 300 } },
 
@@ -30,3 +31,4 @@ return {
     { pos = { 0, 200, 0 }, radius = 150, velocity = { 8, 0, 0 } },
   },
 }
+return scene

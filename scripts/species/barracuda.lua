@@ -1,7 +1,8 @@
 -- The predator of the default scene: the black porgy's body scaled up to 1.6 times the length,
 -- tinted rust-red, marked as a predator (porgies see it as one and flee), faster and
 -- farther-sighted.
-return {
+---@type shoal.SpeciesFile
+local species = {
   base = "black_porgy",
   name = "barracuda",
   predator = true,
@@ -16,3 +17,4 @@ return {
   max_speed = 170,
   decision_hz = 10,
 }
+return species

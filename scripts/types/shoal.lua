@@ -1,7 +1,8 @@
 ---@meta
--- LuaLS definitions of the shoal scripting API (https://luals.github.io/). Point your editor's
--- Lua language server at scripts/ (or add scripts/types to `workspace.library`) to get completion
--- and type checks in behaviour, species and scene files.
+-- LuaLS definitions of the shoal scripting API (https://luals.github.io/). The workspace configs
+-- at the repository root (.luarc.json for LuaLS, .emmyrc.json for EmmyLua and `shoal check`) load
+-- this directory, so editors complete and check behaviour, species and scene files with no setup;
+-- `shoal check` runs the same checks (emmylua_check) from the command line and in CI.
 --
 -- Conventions: angles in radians (use math.rad(90)); heading is counter-clockwise seen from
 -- above, 0 = +x; a bearing is relative to the fish's heading, positive to its left; depth is
@@ -63,6 +64,15 @@
 ---@field motion string       # "swim", "accelerate", "stop", "normal_turn", "quick_turn", "serial_turn", "ascend", "descend", "idle"
 ---@field queue integer       # motion requests waiting behind the current one
 
+---The tank's box, world units (y up; the water surface is max_y).
+---@class shoal.Tank
+---@field min_x number
+---@field min_y number
+---@field min_z number
+---@field max_x number
+---@field max_y number
+---@field max_z number
+
 ---The fish's species data.
 ---@class shoal.Species
 ---@field name string
@@ -85,11 +95,11 @@
 
 ---@alias shoal.Vec3 number[]  # {x, y, z}
 
----@class shoal.Box
+---@class (exact) shoal.Box
 ---@field min shoal.Vec3        # lower corner, below max on every axis
 ---@field max shoal.Vec3        # upper corner
 
----@class shoal.FishGroup
+---@class (exact) shoal.FishGroup
 ---@field species string        # a file species/<name>.lua
 ---@field count? integer        # how many fish, 0 to 200000 (default 1)
 ---@field behavior? string      # a file behaviors/<name>.lua (none: the fish only swims)
@@ -99,22 +109,22 @@
 ---@field speed? number         # start speed, units/s >= 0 (default the species' motion.s)
 ---@field params? table         # plain data each fish reads as fish.params
 
----@class shoal.FoodDrops
+---@class (exact) shoal.FoodDrops
 ---@field every number          # seconds between drops, > 0
 ---@field count? integer        # pellets per drop (default 1)
 ---@field start? number         # time of the first drop, seconds (default `every`)
 ---@field region? shoal.Box     # where pellets appear (default a thin layer under the surface)
 
----@class shoal.Obstacle
+---@class (exact) shoal.Obstacle
 ---@field pos shoal.Vec3
 ---@field radius number         # > 0
 
----@class shoal.Current
+---@class (exact) shoal.Current
 ---@field pos shoal.Vec3
 ---@field radius number         # > 0
 ---@field velocity shoal.Vec3   # drift, units/s
 
----@class shoal.Scene
+---@class (exact) shoal.Scene
 ---@field tank shoal.Box
 ---@field assets? string        # models directory relative to the repository root (default "assets")
 ---@field species? string[]     # species to load although no group starts with them
@@ -124,8 +134,11 @@
 ---@field obstacles? shoal.Obstacle[]
 ---@field currents? shoal.Current[]
 
----@class shoal.MotionParams
+---@class (exact) shoal.MotionParams
 ---@field p? number             # pivot, fraction of body length from the head (> 0.1424)
+---@field turn_axis? number     # where the body turns about, fraction of body length (default: p)
+---@field front_amp? number     # front wave amplitude at the snout, fraction of body length
+---@field front_wave? "recoil"|"travelling"  # carangiform recoil or an anguilliform travelling wave
 ---@field s? number             # cruising speed, units/s
 ---@field l? number             # body length, units (the model is scaled to it)
 ---@field max_amp? number       # maxAmp of A(x), units
@@ -135,13 +148,13 @@
 ---@field f? number             # turn amplitude weight, 1 to 2
 ---@field turn_angle? number    # default turn angle, radians
 
----@class shoal.Drives
+---@class (exact) shoal.Drives
 ---@field hunger_per_s? number
 ---@field satiation_per_food? number
 ---@field fear_decay_per_s? number
 ---@field sociability? number
 
----@class shoal.SpeciesFile
+---@class (exact) shoal.SpeciesFile
 ---@field base? "black_porgy"|"eel"  # start from this built-in description
 ---@field name? string
 ---@field asset? string         # skinned glTF model relative to assets/
@@ -151,7 +164,8 @@
 ---@field view_angle_deg? number  # degrees
 ---@field max_speed? number     # units/s
 ---@field predator? boolean
----@field color_tint? number[]  # {r, g, b} linear multiplier
+---@field power_profile? "fig5"|"uniform"  # how the driven joints' bends are weighted
+---@field color_tint? [number, number, number]  # {r, g, b} linear multiplier
 ---@field alpha_cutoff? number  # draw the model's alpha as a mask cut here, in (0, 1]
 ---@field drives? shoal.Drives
 ---@field decision_hz? number   # decisions per second, (0, 60]
@@ -182,7 +196,7 @@ function shoal.body() end
 function shoal.species() end
 
 ---The tank's box, world units (y up; the surface is max_y).
----@return { min_x: number, min_y: number, min_z: number, max_x: number, max_y: number, max_z: number }
+---@return shoal.Tank
 function shoal.tank() end
 
 ---Simulated time, seconds.
@@ -196,6 +210,9 @@ function shoal.motion() end
 
 ---The fish's own seeded random generator (runs are reproducible). Like math.random:
 ---no argument → float in [0, 1); (m) → integer in [1, m]; (m, n) → integer in [m, n].
+---@overload fun(): number
+---@overload fun(m: integer): integer
+---@overload fun(m: integer, n: integer): integer
 ---@param m? integer
 ---@param n? integer
 ---@return number
@@ -270,15 +287,17 @@ function shoal.steer(heading, depth, speed) end
 ---@return boolean ate
 function shoal.eat(food) end
 
--- Steering helpers (computed in Rust). Each returns a desired heading, depth and speed, or nil
--- when it has nothing to say (no neighbours, nothing to avoid).
+-- Steering helpers (computed in Rust). Each returns a desired heading, depth and speed. seek,
+-- flee, arrive and wander always answer; the others return three nils when they have nothing to
+-- say (no neighbours, nothing to avoid), so after `if heading then` the depth and speed are
+-- numbers too (`---@return_overload`: emmylua narrows them; LuaLS ignores the tag).
 
 ---Towards a point.
 ---@param x number
 ---@param y number
 ---@param z number
 ---@param speed? number  default: cruise speed
----@return number? heading, number? depth, number? speed
+---@return number heading, number depth, number speed
 function shoal.seek(x, y, z, speed) end
 
 ---Away from a point.
@@ -286,7 +305,7 @@ function shoal.seek(x, y, z, speed) end
 ---@param y number
 ---@param z number
 ---@param speed? number  default: max speed
----@return number? heading, number? depth, number? speed
+---@return number heading, number depth, number speed
 function shoal.flee(x, y, z, speed) end
 
 ---Towards a point, slowing down within `slow_radius` (default 2 body lengths).
@@ -295,7 +314,7 @@ function shoal.flee(x, y, z, speed) end
 ---@param z number
 ---@param slow_radius? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number heading, number depth, number speed
 function shoal.arrive(x, y, z, slow_radius, speed) end
 
 ---A small random change of heading (up to `max_turn` radians, default 0.6) and depth (up to
@@ -303,25 +322,37 @@ function shoal.arrive(x, y, z, slow_radius, speed) end
 ---@param max_turn? number
 ---@param max_depth_change? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number heading, number depth, number speed
 function shoal.wander(max_turn, max_depth_change, speed) end
 
 ---Away from fish closer than `radius` (default 1 body length).
 ---@param radius? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.separation(radius, speed) end
 
 ---The mean heading of same-species fish within `radius` (default 3 body lengths).
 ---@param radius? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.alignment(radius, speed) end
 
 ---Towards the centre of same-species fish within `radius` (default 4 body lengths).
 ---@param radius? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.cohesion(radius, speed) end
 
 ---Around the rock ahead within `lookahead` (default 3 body lengths), keeping `clearance`
@@ -329,14 +360,22 @@ function shoal.cohesion(radius, speed) end
 ---@param lookahead? number
 ---@param clearance? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.avoid_obstacles(lookahead, clearance, speed) end
 
 ---Back into the tank when within `margin` (default 2 body lengths) of a wall, the floor or the
 ---surface; nil otherwise.
 ---@param margin? number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.avoid_walls(margin, speed) end
 
 ---The crowding rules of a school in one pass over the neighbours: separation from any fish within
@@ -350,12 +389,20 @@ function shoal.avoid_walls(margin, speed) end
 ---@param coh_radius number
 ---@param coh_weight number
 ---@param speed? number
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.crowd(sep_radius, sep_weight, ali_radius, ali_weight, coh_radius, coh_weight, speed) end
 
 ---Weighted mix of steering wishes: groups of heading, depth, speed, weight. Groups whose heading
 ---is nil are skipped; nil when no group remains. Keep helper results in locals first (a call in
 ---the middle of an argument list gives only its first value).
 ---@param ... number?
----@return number? heading, number? depth, number? speed
+---@return number? heading
+---@return number? depth
+---@return number? speed
+---@return_overload number, number, number
+---@return_overload nil, nil, nil
 function shoal.blend(...) end

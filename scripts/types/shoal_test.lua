@@ -3,10 +3,10 @@
 -- see "Testing a behaviour" in scripts/README.md). Vectors are `{x, y, z}` arrays; times are
 -- simulated seconds; angles in radians unless a name says degrees.
 
----@alias shoal.Vec3 number[]  # {x, y, z}
+-- shoal.Vec3 ({x, y, z}) is defined in shoal.lua.
 
 ---A test's options for `t:world`.
----@class shoal.TestWorldOptions
+---@class (exact) shoal.TestWorldOptions
 ---@field seed? integer            # the world's seed (default 1)
 ---@field scene? string            # a scene file (`scenes/default.lua`); default: the empty tank
 ---@field tank? {min: shoal.Vec3, max: shoal.Vec3}  # the tank's corners
@@ -14,7 +14,7 @@
 ---@field allow_errors? boolean    # script errors are expected (check them with `w:errors()`)
 
 ---What `w:spawn` takes.
----@class shoal.TestSpawn
+---@class (exact) shoal.TestSpawn
 ---@field species string           # a species of scripts/species/
 ---@field pos shoal.Vec3           # the head's position
 ---@field heading? number          # radians, 0 = +x, counter-clockwise seen from above
@@ -140,15 +140,15 @@ function TestWorld:write_script(relative, source) end
 ---@class shoal.TestFish
 ---@field id integer
 ---@field alive boolean
----@field pos shoal.Vec3
----@field heading? number
----@field pitch? number
----@field speed? number
----@field depth? number        # below the surface
----@field behavior? string
----@field motion? string       # the motion playing
----@field params? table        # the species' motion parameters
----@field species? string
+---@field pos shoal.Vec3       # the head's position ({0, 0, 0} once the fish is gone)
+---@field heading number       # radians; this and the fields below to `species` are nil once the fish is gone (check `alive`)
+---@field pitch number
+---@field speed number
+---@field depth number         # below the surface
+---@field params shoal.TestMotionParams  # the species' motion parameters
+---@field species string
+---@field motion string        # the motion playing ("idle" when none)
+---@field behavior? string     # nil: no behaviour (only requested motions)
 ---@field memory? table        # its script's `fish.memory` (a copy)
 ---@field intention? any       # what its last decision intended
 ---@field percepts? table      # what its last decision perceived
@@ -179,6 +179,21 @@ function TestFish:descend(depth) end
 ---@param name? string
 ---@return boolean
 function TestFish:set_behavior(name) end
+
+---A test fish's motion parameters (its species' `motion`, docs/motion.md; units as there).
+---@class shoal.TestMotionParams
+---@field p number            # pivot, fraction of body length from the head
+---@field s number            # cruising speed, units/s
+---@field l number            # body length, units
+---@field max_amp number      # tail amplitude maxAmp, units
+---@field lambda number       # body wavelength, units
+---@field omega number        # wave frequency
+---@field tt number           # turning time Tt, seconds
+---@field f number            # turn amplitude weight
+---@field turn_angle number   # default turn angle, radians
+---@field turn_axis? number   # where the body turns about (nil: about the pivot p)
+---@field front_amp number    # front wave amplitude, fraction of body length
+---@field front_wave "recoil"|"travelling"
 
 ---A food pellet a test dropped.
 ---@class shoal.TestFood

@@ -8,6 +8,7 @@ pub mod asset;
 pub mod bench;
 pub mod bench_history;
 pub mod bench_peer;
+pub mod check;
 pub mod compare;
 pub mod kinematics;
 pub mod motion;
@@ -46,6 +47,8 @@ pub enum Command {
     Asset(asset::Args),
     /// Run Lua behaviour tests headless.
     Test(test::Args),
+    /// Check the Lua scripts' types (emmylua_check with the shipped definitions).
+    Check(check::Args),
     /// Benchmarks: simulation and rendering.
     Bench(bench::Args),
     /// Record a run of a scene headless: every fish's pose at every tick, with the scene, seed
@@ -208,6 +211,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Skin(args)) => skin::run(args),
         Some(Command::Asset(args)) => asset::run(args),
         Some(Command::Test(args)) => test::run(args),
+        Some(Command::Check(args)) => check::run(args),
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Record(args)) => timeline::record(args),
         Some(Command::Replay(args)) => timeline::replay(args),

@@ -12,7 +12,7 @@ test("fleeing increases distance from a predator", function(t)
   local start = gap()
   w:run(6)
   t:greater(gap(), start, "the prey ends farther from the predator than it started")
-  t:greater(prey.memory.fear or 0, 0, "the prey is afraid")
+  t:greater(assert(prey.memory).fear or 0, 0, "the prey is afraid")
 end)
 
 test("a porgy that does not flee is caught up with", function(t)

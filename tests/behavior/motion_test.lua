@@ -5,11 +5,19 @@ local function wrap(a)
 end
 
 -- Runs until `fish` has started the motion `name` and then finished it (bounded by `max` s).
+---@param w shoal.TestWorld
+---@param fish shoal.TestFish
+---@param name string
+---@param max? number
+---@return boolean finished, number time
 local function play(w, fish, name, max)
   w:run_until(function() return fish.motion == name end, 1)
   return w:run_until(function() return fish.motion ~= name end, max or 15)
 end
 
+---@param w shoal.TestWorld
+---@param heading? number
+---@return shoal.TestFish
 local function swimmer(w, heading)
   local fish = w:spawn{ species = "black_porgy", pos = {-300, 200, 0}, heading = heading or 0 }
   fish:swim(fish.params.s)

@@ -11,7 +11,7 @@ end
 return M
 ]])
   local bad = w:spawn{ species = "black_porgy", pos = {-200, 200, -100}, heading = 0, behavior = "broken" }
-  local good = w:spawn{ species = "black_porgy", pos = {-200, 200, 100}, heading = 0, behavior = "forage" }
+  w:spawn{ species = "black_porgy", pos = {-200, 200, 100}, heading = 0, behavior = "forage" }
   local food = w:food{ pos = {-50, 200, 120} }
   w:run(15)
   t:expect(food.eaten, "the healthy fish still forages")
@@ -37,7 +37,7 @@ return M
 ]])
   local fish = w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, behavior = "counter" }
   w:run(2)
-  local before = fish.memory.count
+  local before = assert(fish.memory).count
   t:greater(before, 5, "the counter ran for two seconds")
   w:write_script("behaviors/counter.lua", [[
 local M = {}
@@ -48,8 +48,8 @@ end
 return M
 ]])
   w:run(1)
-  t:greater(fish.memory.count, before, "memory survived the reload and kept counting")
-  t:expect(fish.memory.version == 2, "the new code runs")
+  t:greater(assert(fish.memory).count, before, "memory survived the reload and kept counting")
+  t:expect(assert(fish.memory).version == 2, "the new code runs")
 end)
 
 test("a reload that fails keeps the last good version", function(t)
@@ -63,9 +63,9 @@ return M
   w:run(1)
   local result = w:write_script("behaviors/steady.lua", "local M = {\nfunction M.behave(\nreturn M\n")
   t:expect(result:find("steady.lua", 1, true) ~= nil, "the failed reload names the file: " .. result)
-  local before = fish.memory.ticks
+  local before = assert(fish.memory).ticks
   w:run(1)
-  t:greater(fish.memory.ticks, before, "the old version keeps running")
+  t:greater(assert(fish.memory).ticks, before, "the old version keeps running")
   local errors = w:errors()
   t:expect(#errors == 1 and errors[1]:find("steady.lua", 1, true) ~= nil,
     "the failed reload is the one script error: " .. table.concat(errors, "; "))

@@ -1,8 +1,11 @@
 -- Crowding (paper 3.1): porgies that start facing every which way form an aligned school and keep
 -- about a body length apart.
 
+---@param w shoal.TestWorld
+---@param n integer
+---@return shoal.TestFish[]
 local function spawn_school(w, n)
-  local fishes = {}
+  local fishes = {} ---@type shoal.TestFish[]
   for i = 1, n do
     local row, col = (i - 1) // 4, (i - 1) % 4
     fishes[i] = w:spawn{
@@ -21,7 +24,7 @@ test("a school's polarization rises above 0.8", function(t)
   local w = t:world{ seed = 11, tank = { min = {-2000, 0, -2000}, max = {2000, 400, 2000} } }
   local fishes = spawn_school(w, 12)
   t:less(w:polarization(fishes), 0.5, "headings start spread out")
-  local aligned, at = w:run_until(function() return w:polarization(fishes) > 0.8 end, 30)
+  local aligned = w:run_until(function() return w:polarization(fishes) > 0.8 end, 30)
   t:expect(aligned, "polarization above 0.8 within 30 s")
   w:run(5)
   t:greater(w:polarization(fishes), 0.8, "and it stays aligned")

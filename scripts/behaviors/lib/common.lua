@@ -16,10 +16,16 @@ local C = {}
 
 -- What every layer of one decision needs, read once at its start by C.begin (decisions run one
 -- after another, so one table serves them all): time, species data, body sensor.
-local cur = { now = 0, me = nil, body = nil }
+---@class common.Decision
+---@field now number          # simulated time, seconds
+---@field me shoal.Species    # set by C.begin before any layer reads it
+---@field body shoal.Body
+local cur = { now = 0 }   -- me and body: C.begin sets them before any layer reads them
 C.cur = cur
 
 -- Starts a decision: refreshes `cur` and returns the fish's percept table (reused).
+---@param fish shoal.Fish
+---@return table percepts
 function C.begin(fish)
   cur.now = shoal.time()
   cur.me = shoal.species()
@@ -39,6 +45,8 @@ C.NEAR_FOOD = 3                   -- ... and this close (body lengths): turn on 
 C.WANDER_HOLD = { 2, 5 }  -- seconds a wander direction is held (random in this range)
 
 -- Seconds since this fish's previous decision (0 on its first).
+---@param fish shoal.Fish
+---@return number seconds
 function C.elapsed(fish)
   local m = fish.memory
   local now = cur.now
@@ -48,6 +56,9 @@ function C.elapsed(fish)
 end
 
 -- Updates hunger; returns it.
+---@param fish shoal.Fish
+---@param dt number  seconds since the previous decision
+---@return number hunger
 function C.hunger(fish, dt)
   local m = fish.memory
   local h = (m.hunger or 0.5) + cur.me.hunger_per_s * dt
@@ -57,6 +68,10 @@ function C.hunger(fish, dt)
 end
 
 -- Updates fear from the predator in p (if any) and remembers where it was; returns fear.
+---@param fish shoal.Fish
+---@param p table  percepts (predator_* from C.keep)
+---@param dt number  seconds since the previous decision
+---@return number fear
 function C.fear(fish, p, dt)
   local m = fish.memory
   local f = (m.fear or 0) - cur.me.fear_decay_per_s * dt
@@ -75,6 +90,7 @@ end
 -- Side walls are seen early: where the fish will be in WALL_LOOKAHEAD seconds, a body length in
 -- from the walls, must still be inside, else it turns for the middle of the tank (a steady wish,
 -- so the motion layer carries out one whole turn). Floor and surface use shoal.avoid_walls.
+---@param p table  percepts
 function C.sense_collision(p)
   p.rock_heading, p.rock_depth, p.rock_speed = shoal.avoid_obstacles()
   local b, s, t = cur.body, cur.me, shoal.tank()
@@ -105,6 +121,10 @@ local AVOID_KEYS = {
   wall = { heading = "wall_heading", depth = "wall_depth", speed = "wall_speed" },
 }
 
+---@param fish shoal.Fish
+---@param p table  percepts (from C.sense_collision)
+---@param which "rock"|"wall"
+---@return boolean
 function C.avoiding(fish, p, which)
   local m = fish.memory
   local now = cur.now
@@ -126,6 +146,8 @@ end
 
 -- Carries out the held avoidance: a sharp one as a quick turn (halting, small radius: the fish
 -- spins away from the wall) unless `smooth`, anything else through shoal.steer.
+---@param fish shoal.Fish
+---@param smooth? boolean
 function C.avoid(fish, smooth)
   local m = fish.memory
   local b = cur.body
@@ -139,6 +161,17 @@ function C.avoid(fish, smooth)
 end
 
 -- Key names per prefix, built once (no string concatenation per decision).
+---@class common.Keys
+---@field id string
+---@field x string
+---@field y string
+---@field z string
+---@field distance string
+---@field heading string
+---@field speed string
+---@field bearing string
+
+---@type table<string, common.Keys>
 local KEYS = setmetatable({}, { __index = function(t, prefix)
   local k = { id = prefix .. "_id", x = prefix .. "_x", y = prefix .. "_y", z = prefix .. "_z",
               distance = prefix .. "_distance", heading = prefix .. "_heading",
@@ -148,6 +181,9 @@ local KEYS = setmetatable({}, { __index = function(t, prefix)
 end })
 
 -- Copies the fields of a (reused) percept table into p under a prefix, or clears them.
+---@param p table  percepts
+---@param prefix string
+---@param percept shoal.Percept?
 function C.keep(p, prefix, percept)
   local k = KEYS[prefix]
   if percept then
@@ -164,12 +200,16 @@ function C.keep(p, prefix, percept)
 end
 
 -- Escape: flat out away from where the predator was last seen.
+---@param fish shoal.Fish
 function C.escape(fish)
   local m = fish.memory
   shoal.steer(shoal.flee(m.threat_x, m.threat_y, m.threat_z))
 end
 
 -- Go for the food in p; eat it when within reach. Returns true if it ate.
+---@param fish shoal.Fish
+---@param p table  percepts (food_* from C.keep)
+---@return boolean ate
 function C.feed(fish, p)
   local ate = false
   if p.food_distance < 0.5 * cur.me.length then
@@ -196,6 +236,8 @@ end
 
 -- Wander: a new random direction every few seconds (up to `turn` radians from the current
 -- heading, default 0.6), held in between.
+---@param fish shoal.Fish
+---@param turn? number  radians
 function C.wander(fish, turn)
   local m = fish.memory
   local now = cur.now
