@@ -27,8 +27,36 @@ pub enum SortBy {
     Calls,
     /// Errors and limit stops, most first.
     Errors,
+    /// Bytes allocated per simulated second, most first.
+    Memory,
     /// Module name.
     Name,
+}
+
+/// How the top-functions table is sorted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FunctionSort {
+    /// Estimated CPU milliseconds per simulated second of the function's own code, most first.
+    #[default]
+    SelfTime,
+    /// Estimated CPU milliseconds per simulated second with what it calls, most first.
+    TotalTime,
+    /// Share of its module's samples, most first.
+    Share,
+    /// Function name.
+    Name,
+}
+
+/// Rows of the top-functions table.
+pub const TOP_FUNCTIONS: usize = 12;
+
+/// One row of the top-functions table: a function of a module.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopFunction {
+    /// The behaviour module whose decisions ran it.
+    pub module: String,
+    /// The function's figures.
+    pub function: crate::script::profiler::FunctionProfile,
 }
 
 /// One watch expression and what it has shown.
@@ -49,6 +77,13 @@ pub struct ScriptsPanel {
     pub sort: SortBy,
     /// The profile as of the last frame.
     pub profile: Vec<ModuleProfile>,
+    /// Whether the profile samples the Lua stacks for the top-functions table (off by default:
+    /// see docs/performance.md for what it costs).
+    pub sample_functions: bool,
+    /// The top-functions table's order.
+    pub function_sort: FunctionSort,
+    /// The top functions of every module, in `function_sort` order (at most [`TOP_FUNCTIONS`]).
+    pub top_functions: Vec<TopFunction>,
     /// The console's input line.
     pub repl_input: String,
     /// The new watch's input line.
@@ -227,8 +262,36 @@ impl ScriptsPanel {
             SortBy::Cost => p.sort_by(|a, b| b.ms_per_sim_s.total_cmp(&a.ms_per_sim_s)),
             SortBy::Calls => p.sort_by_key(|m| std::cmp::Reverse(m.calls)),
             SortBy::Errors => p.sort_by_key(|m| std::cmp::Reverse(m.errors + m.limit_stops)),
+            SortBy::Memory => {
+                p.sort_by(|a, b| b.alloc_kib_per_sim_s.total_cmp(&a.alloc_kib_per_sim_s));
+            }
             SortBy::Name => p.sort_by(|a, b| a.module.cmp(&b.module)),
         }
+        let mut top: Vec<TopFunction> = self
+            .profile
+            .iter()
+            .flat_map(|m| {
+                m.functions.iter().map(|f| TopFunction {
+                    module: m.module.clone(),
+                    function: f.clone(),
+                })
+            })
+            .collect();
+        let key = |t: &TopFunction| match self.function_sort {
+            FunctionSort::SelfTime => t.function.self_ms_per_sim_s,
+            FunctionSort::TotalTime => t.function.total_ms_per_sim_s,
+            FunctionSort::Share => t.function.self_share,
+            FunctionSort::Name => 0.0,
+        };
+        top.sort_by(|a, b| {
+            key(b)
+                .total_cmp(&key(a))
+                .then_with(|| a.function.frame.name.cmp(&b.function.frame.name))
+                .then_with(|| a.module.cmp(&b.module))
+                .then_with(|| a.function.frame.cmp(&b.function.frame))
+        });
+        top.truncate(TOP_FUNCTIONS);
+        self.top_functions = top;
     }
 }
 
@@ -379,6 +442,9 @@ fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
 }
 
 fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) {
+    if scene.sim().function_sampling() != st.sample_functions {
+        scene.sim_mut().set_function_sampling(st.sample_functions);
+    }
     if st.profile.is_empty() {
         ui.label("no behaviour has decided yet");
         return;
@@ -389,6 +455,7 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
             ("cost", SortBy::Cost),
             ("calls", SortBy::Calls),
             ("errors", SortBy::Errors),
+            ("memory", SortBy::Memory),
             ("name", SortBy::Name),
         ] {
             if ui.selectable_label(st.sort == by, label).clicked() {
@@ -400,9 +467,16 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
     let total: f64 = st.profile.iter().map(|p| p.ms_per_sim_s).sum();
     egui::Grid::new("script profile")
         .striped(true)
-        .num_columns(5)
+        .num_columns(6)
         .show(ui, |ui| {
-            for h in ["module", "CPU ms / sim s", "calls", "µs / call", "errors"] {
+            for h in [
+                "module",
+                "CPU ms / sim s",
+                "calls",
+                "µs / call",
+                "KiB alloc / sim s",
+                "errors",
+            ] {
                 ui.strong(h);
             }
             ui.end_row();
@@ -420,6 +494,11 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
                 );
                 ui.label(p.calls.to_string());
                 ui.label(format!("{:.1}", p.us_per_call));
+                ui.label(format!("{:.1}", p.alloc_kib_per_sim_s))
+                    .on_hover_text(format!(
+                        "{:.0} bytes allocated per decision: garbage the collector sweeps",
+                        p.alloc_bytes_per_call
+                    ));
                 let bad = p.errors + p.limit_stops;
                 if bad > 0 {
                     ui.colored_label(
@@ -435,7 +514,70 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
     if ui.button("reset profile").clicked() {
         scene.sim_mut().reset_profile();
         st.profile.clear();
+        st.top_functions.clear();
     }
+    ui.add_space(4.0);
+    top_functions(ui, st);
+}
+
+/// The top functions of every module by the stack samples, with file:line.
+fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut st.sample_functions, "sample functions")
+            .on_hover_text(
+                "samples the Lua stack about once a millisecond of a decision (no per-instruction \
+                 hook) to estimate where each module's time goes",
+            );
+        let samples: u64 = st.profile.iter().map(|p| p.samples).sum();
+        if samples > 0 || st.sample_functions {
+            ui.label(format!("{samples} samples"));
+        }
+    });
+    if st.top_functions.is_empty() {
+        if st.sample_functions {
+            ui.label("no samples yet: the decisions have not run long enough");
+        }
+        return;
+    }
+    ui.horizontal(|ui| {
+        ui.label("top functions by");
+        for (label, by) in [
+            ("self time", FunctionSort::SelfTime),
+            ("total time", FunctionSort::TotalTime),
+            ("share of module", FunctionSort::Share),
+            ("function name", FunctionSort::Name),
+        ] {
+            if ui.selectable_label(st.function_sort == by, label).clicked() {
+                st.function_sort = by;
+                st.sort_profile();
+            }
+        }
+    });
+    egui::Grid::new("top functions")
+        .striped(true)
+        .num_columns(6)
+        .show(ui, |ui| {
+            for h in ["function", "file:line", "share", "ms / sim s", "total", "samples"] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for t in &st.top_functions {
+                let f = &t.function;
+                ui.add(egui::Label::new(&f.frame.name).truncate())
+                    .on_hover_text(format!("in behaviour {}", t.module));
+                ui.label(format!("{}:{}", f.frame.file, f.frame.line));
+                ui.add(
+                    egui::ProgressBar::new(f.self_share as f32)
+                        .desired_width(70.0)
+                        .text(format!("{:.0} %", 100.0 * f.self_share)),
+                )
+                .on_hover_text(format!("of the samples of behaviour {}", t.module));
+                ui.label(format!("{:.2}", f.self_ms_per_sim_s));
+                ui.label(format!("{:.2}", f.total_ms_per_sim_s));
+                ui.label(f.self_samples.to_string());
+                ui.end_row();
+            }
+        });
 }
 
 fn repl(

@@ -18,6 +18,8 @@
 //! - [`reload`]: the directory watcher behind hot reload.
 //! - [`sim`]: [`Simulation`], the fixed-tick loop tying scripts to the [`crate::world`].
 //! - [`fish_state`]: a lane's per-fish state copied and put back (rewinding a simulation).
+//! - [`watchdog`] and [`profiler`]: the budget hook turned on only for long calls, stack samples
+//!   per function and allocations per module, with no per-instruction hook.
 
 pub mod api;
 pub mod error;
@@ -25,6 +27,7 @@ pub mod fish_state;
 pub mod host;
 pub mod log;
 pub mod logpoints;
+pub mod profiler;
 pub mod reload;
 pub mod sandbox;
 pub mod scene;

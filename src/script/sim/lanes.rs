@@ -72,6 +72,8 @@ pub struct ModuleStats {
     pub errors: u64,
     /// Decisions stopped by the instruction budget, the time limit or the memory limit.
     pub limit_stops: u64,
+    /// Bytes the decisions allocated in Lua (see [`crate::script::profiler`]).
+    pub alloc_bytes: u64,
 }
 
 impl Lane {
@@ -151,11 +153,16 @@ impl Lane {
                 }
                 let species = &world.species(sid).desc.name;
                 let sensed_before = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+                // Stack samples taken during the decision are the module's.
+                host.meter().set_tag(Some(module));
+                let allocated_before = host.meter().allocated();
                 let started = Instant::now();
                 let failed = host
                     .run_fish(module, d.id, species, behavior, time_s)
                     .is_err();
                 let took = started.elapsed().as_nanos() as u64;
+                let allocated = host.meter().allocated().wrapping_sub(allocated_before);
+                host.meter().set_tag(None);
                 let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 if profile.len() <= module {
                     profile.resize(module + 1, ModuleStats::default());
@@ -166,6 +173,7 @@ impl Lane {
                 stats.sense_ns += sensed.saturating_sub(sensed_before);
                 stats.errors += u64::from(failed);
                 stats.limit_stops += u64::from(failed && host.last_call_hit_limit());
+                stats.alloc_bytes += allocated;
                 host.count_outcome(module, failed, time_s);
                 *decided += 1;
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {
