@@ -229,6 +229,8 @@ fn a_module_that_allocates_is_charged_its_bytes() {
     );
     // Once its fish have their tables, a decision of frugal allocates (next to) nothing.
     assert!(frugal.alloc_bytes_per_call < 64.0, "{frugal:?}");
-    assert!((hoarder.alloc_kib_per_sim_s - hoarder.alloc_bytes_per_call * 50.0 / 1024.0).abs() < 1.0);
+    assert!(
+        (hoarder.alloc_kib_per_sim_s - hoarder.alloc_bytes_per_call * 50.0 / 1024.0).abs() < 1.0
+    );
     assert!(sim.script_memory() > 0);
 }

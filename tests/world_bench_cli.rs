@@ -128,6 +128,9 @@ fn a_scene_bench_reports_modules_with_their_top_functions_and_memory() {
         assert_eq!(top["line"].as_u64(), Some(3));
         assert!(top["self_samples"].as_u64().unwrap() > 0);
         assert!(top["self_ms_per_sim_s"].as_f64().unwrap() > 0.0);
-        assert!(m["stacks"][0]["frames"].as_array().unwrap().len() >= 2, "{m}");
+        assert!(
+            m["stacks"][0]["frames"].as_array().unwrap().len() >= 2,
+            "{m}"
+        );
     }
 }

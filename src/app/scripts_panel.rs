@@ -557,7 +557,14 @@ fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
         .striped(true)
         .num_columns(6)
         .show(ui, |ui| {
-            for h in ["function", "file:line", "share", "ms / sim s", "total", "samples"] {
+            for h in [
+                "function",
+                "file:line",
+                "share",
+                "ms / sim s",
+                "total",
+                "samples",
+            ] {
                 ui.strong(h);
             }
             ui.end_row();

@@ -683,7 +683,9 @@ const TOP_FUNCTIONS: usize = 15;
 /// The top functions of every module by the stack samples, most estimated self time first.
 fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
     let samples: u64 = modules.iter().map(|m| m.samples).sum();
-    println!("\ntop functions ({samples} stack samples; time estimated as the share of its module's samples):");
+    println!(
+        "\ntop functions ({samples} stack samples; time estimated as the share of its module's samples):"
+    );
     if samples == 0 {
         println!("  none: no decision was running when the watchdog looked (or not on Linux)");
         return;

@@ -46,12 +46,15 @@ pub struct Frame {
     pub name: String,
 }
 
+/// Frame ids of the functions defined on one line, by their chunk's source bytes.
+type SameLine = Vec<(Box<[u8]>, u32)>;
+
 /// The samples of one Lua state, by tag (the module of the decision in flight) and stack.
 #[derive(Debug, Default)]
 struct Store {
     frames: Vec<Frame>,
-    /// Frame ids by line defined, then source bytes (a few sources share a line).
-    ids: HashMap<i32, Vec<(Box<[u8]>, u32)>>,
+    /// Frame ids by line defined (a few sources share a line).
+    ids: HashMap<i32, SameLine>,
     /// Sample counts by key: the tag, then frame ids from the outermost to the innermost.
     stacks: HashMap<Vec<u32>, u64>,
     /// The key being built (kept to spare an allocation per sample).
@@ -326,7 +329,11 @@ pub fn flame<'a>(
         .into_iter()
         .map(|(frames, samples)| StackProfile { frames, samples })
         .collect();
-    out.sort_by(|a, b| b.samples.cmp(&a.samples).then_with(|| a.frames.cmp(&b.frames)));
+    out.sort_by(|a, b| {
+        b.samples
+            .cmp(&a.samples)
+            .then_with(|| a.frames.cmp(&b.frames))
+    });
     out.truncate(keep);
     out
 }

@@ -401,7 +401,9 @@ mod watch {
     }
 
     pub(super) fn set_sampling(slot: usize, every: Option<Duration>) {
-        let ns = every.map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX).max(1));
+        let ns = every.map_or(0, |d| {
+            u64::try_from(d.as_nanos()).unwrap_or(u64::MAX).max(1)
+        });
         TABLE[slot].sample_ns.store(ns, Ordering::SeqCst);
     }
 

@@ -6,8 +6,8 @@ use std::time::Duration;
 use mlua::{Table, Value};
 
 use super::{ModuleStats, Simulation};
-use crate::script::profiler::{self, Frame, FunctionProfile, StackProfile};
 use crate::script::log::{LogEntry, LogLevel};
+use crate::script::profiler::{self, Frame, FunctionProfile, StackProfile};
 use crate::world::FishId;
 
 /// What one behaviour module's decisions cost, over every lane (see [`Simulation::profile`]).
