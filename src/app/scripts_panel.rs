@@ -84,6 +84,8 @@ pub struct ScriptsPanel {
     pub function_sort: FunctionSort,
     /// The top functions of every module, in `function_sort` order (at most [`TOP_FUNCTIONS`]).
     pub top_functions: Vec<TopFunction>,
+    /// The module the flame view shows (the most sampled one when unset or gone).
+    pub flame_module: Option<String>,
     /// The console's input line.
     pub repl_input: String,
     /// The new watch's input line.
@@ -518,6 +520,116 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
     }
     ui.add_space(4.0);
     top_functions(ui, st);
+    flame_view(ui, st);
+}
+
+/// Height of one frame's row in the flame view, points.
+const FLAME_ROW: f32 = 16.0;
+
+/// The most sampled stacks of one module as an icicle graph: the outermost function on top,
+/// each box as wide as its share of the samples shown, what it called below it.
+fn flame_view(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
+    let sampled: Vec<&ModuleProfile> = st.profile.iter().filter(|m| m.samples > 0).collect();
+    let Some(most) = sampled.iter().max_by_key(|m| m.samples) else {
+        return;
+    };
+    let chosen = st
+        .flame_module
+        .clone()
+        .filter(|n| sampled.iter().any(|m| &m.module == n))
+        .unwrap_or_else(|| most.module.clone());
+    egui::CollapsingHeader::new("flame view")
+        .default_open(false)
+        .show(ui, |ui| {
+            let mut pick = chosen.clone();
+            egui::ComboBox::from_label("module")
+                .selected_text(&pick)
+                .show_ui(ui, |ui| {
+                    for m in &sampled {
+                        ui.selectable_value(&mut pick, m.module.clone(), &m.module);
+                    }
+                });
+            let Some(m) = sampled.iter().find(|m| m.module == pick) else {
+                return;
+            };
+            let mut stacks = m.stacks.clone();
+            stacks.sort_by(|a, b| a.frames.cmp(&b.frames));
+            let shown: u64 = stacks.iter().map(|s| s.samples).sum();
+            ui.label(format!(
+                "{} of {} samples ({} most sampled stacks); outermost function on top",
+                shown,
+                m.samples,
+                stacks.len()
+            ));
+            let depth = stacks.iter().map(|s| s.frames.len()).max().unwrap_or(0);
+            if shown == 0 || depth == 0 {
+                return;
+            }
+            let width = ui.available_width().max(100.0);
+            let (rect, response) = ui.allocate_exact_size(
+                egui::vec2(width, FLAME_ROW * depth as f32),
+                egui::Sense::hover(),
+            );
+            let painter = ui.painter_at(rect);
+            let per_sample = width / shown as f32;
+            let mut hovered = None;
+            for row in 0..depth {
+                let mut x = 0u64;
+                let mut i = 0;
+                while i < stacks.len() {
+                    let s = &stacks[i];
+                    let Some(frame) = s.frames.get(row) else {
+                        x += s.samples;
+                        i += 1;
+                        continue;
+                    };
+                    // The run of stacks sharing this frame's path from the top.
+                    let path = &s.frames[..=row];
+                    let mut n = 0;
+                    let mut j = i;
+                    while j < stacks.len() && stacks[j].frames.get(..=row) == Some(path) {
+                        n += stacks[j].samples;
+                        j += 1;
+                    }
+                    let r = egui::Rect::from_min_size(
+                        rect.min + egui::vec2(x as f32 * per_sample, row as f32 * FLAME_ROW),
+                        egui::vec2(n as f32 * per_sample, FLAME_ROW - 1.0),
+                    );
+                    let hue = frame
+                        .bytes()
+                        .fold(7u32, |h, b| h.wrapping_mul(31) ^ u32::from(b));
+                    let color = egui::Color32::from_rgb(
+                        200 + (hue % 55) as u8,
+                        90 + (hue / 55 % 110) as u8,
+                        40 + (hue / 6050 % 40) as u8,
+                    );
+                    painter.rect_filled(r.shrink2(egui::vec2(0.5, 0.0)), 2.0, color);
+                    if r.width() > 30.0 {
+                        painter.with_clip_rect(r.intersect(rect)).text(
+                            r.left_center() + egui::vec2(3.0, 0.0),
+                            egui::Align2::LEFT_CENTER,
+                            frame,
+                            egui::FontId::monospace(10.0),
+                            egui::Color32::BLACK,
+                        );
+                    }
+                    if response.hover_pos().is_some_and(|p| r.contains(p)) {
+                        hovered = Some(format!(
+                            "{frame}: {n} samples, {:.0} % of those shown",
+                            100.0 * n as f64 / shown as f64
+                        ));
+                    }
+                    x += n;
+                    i = j;
+                }
+            }
+            if let Some(text) = hovered {
+                response.on_hover_text(text);
+            }
+            if pick != chosen {
+                st.flame_module = Some(pick);
+            }
+        });
 }
 
 /// The top functions of every module by the stack samples, with file:line.

@@ -203,6 +203,10 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                     );
                 }
                 let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+                if sampling {
+                    let samples: u64 = sim.profile().iter().map(|m| m.samples).sum();
+                    eprintln!("{fish} fish: {samples} stack samples taken");
+                }
                 if let Some(e) = sim.error_messages().first() {
                     eprintln!("script error during the bench: {e}");
                 }
@@ -689,6 +693,11 @@ fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
     if samples == 0 {
         println!("  none: no decision was running when the watchdog looked (or not on Linux)");
         return;
+    }
+    if samples < 300 {
+        println!(
+            "  (few samples, so the shares are rough: a longer --seconds gives about one per ms of Lua)"
+        );
     }
     let mut rows: Vec<(&str, &crate::script::profiler::FunctionProfile)> = modules
         .iter()
