@@ -667,32 +667,31 @@ fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
     });
     egui::Grid::new("top functions")
         .striped(true)
-        .num_columns(6)
+        .num_columns(5)
         .show(ui, |ui| {
-            for h in [
-                "function",
-                "file:line",
-                "share",
-                "ms / sim s",
-                "total",
-                "samples",
-            ] {
+            for h in ["function", "file:line", "share", "ms / sim s", "samples"] {
                 ui.strong(h);
             }
             ui.end_row();
             for t in &st.top_functions {
                 let f = &t.function;
-                ui.add(egui::Label::new(&f.frame.name).truncate())
+                ui.label(&f.frame.name)
                     .on_hover_text(format!("in behaviour {}", t.module));
-                ui.label(format!("{}:{}", f.frame.file, f.frame.line));
+                // As the logpoint field takes it: relative to the scripts directory.
+                let file = f.frame.file.strip_prefix("scripts/").unwrap_or(&f.frame.file);
+                ui.label(format!("{file}:{}", f.frame.line))
+                    .on_hover_text(&f.frame.file);
                 ui.add(
                     egui::ProgressBar::new(f.self_share as f32)
-                        .desired_width(70.0)
+                        .desired_width(48.0)
                         .text(format!("{:.0} %", 100.0 * f.self_share)),
                 )
                 .on_hover_text(format!("of the samples of behaviour {}", t.module));
-                ui.label(format!("{:.2}", f.self_ms_per_sim_s));
-                ui.label(format!("{:.2}", f.total_ms_per_sim_s));
+                ui.label(format!("{:.2}", f.self_ms_per_sim_s))
+                    .on_hover_text(format!(
+                        "its own code; {:.2} ms / sim s with what it calls",
+                        f.total_ms_per_sim_s
+                    ));
                 ui.label(f.self_samples.to_string());
                 ui.end_row();
             }
