@@ -234,3 +234,52 @@ fn a_module_that_allocates_is_charged_its_bytes() {
     );
     assert!(sim.script_memory() > 0);
 }
+
+/// A call metered from its first instruction is sampled by its budget hook, which is not re-armed
+/// for the samples: the instruction count, and so where the budget stops the call, is exactly
+/// what it is without sampling.
+#[cfg(target_os = "linux")]
+#[test]
+fn sampling_a_metered_call_leaves_its_instruction_count_exact() {
+    use shoal::script::{Limits, ScriptHost};
+    use shoal::world::FishId;
+    use std::time::Duration;
+
+    let (_dir, root) = common::scratch_repo();
+    std::fs::write(
+        root.join("scripts/behaviors/counter.lua"),
+        "return { tick = function(fish)\n  local m = fish.memory\n  for i = 1, math.huge do m.i = i end\nend }\n",
+    )
+    .unwrap();
+    let limits = Limits {
+        instructions_per_call: 5_000_000,
+        metered_after: Duration::ZERO,
+        time_per_call: Duration::from_secs(20),
+        ..Limits::default()
+    };
+    let fish = FishId {
+        index: 0,
+        generation: 0,
+    };
+    let stopped_at = |sample: bool| {
+        let mut h = ScriptHost::new(&root.join("scripts"), limits).unwrap();
+        let m = h.module("counter", 0.0).unwrap();
+        if sample {
+            h.meter()
+                .set_sampling(Some(shoal::script::sim::SAMPLE_EVERY));
+        }
+        h.meter().set_tag(Some(m));
+        let t = h.fish_table(fish, "black_porgy", "counter").unwrap();
+        let err = h.run(m, fish, &t, 0.0).unwrap_err();
+        assert!(
+            err.starts_with("scripts/behaviors/counter.lua:3: instruction budget exceeded"),
+            "{err}"
+        );
+        (h.memory_json(fish)["i"].as_i64().unwrap(), h.meter().sampler().taken())
+    };
+    let (plain, none) = stopped_at(false);
+    let (sampled, samples) = stopped_at(true);
+    assert_eq!(none, 0);
+    assert!(samples >= 5, "{samples} samples of a call of tens of ms");
+    assert_eq!(plain, sampled, "the budget stops the loop at the same iteration");
+}
