@@ -275,11 +275,17 @@ fn sampling_a_metered_call_leaves_its_instruction_count_exact() {
             err.starts_with("scripts/behaviors/counter.lua:3: instruction budget exceeded"),
             "{err}"
         );
-        (h.memory_json(fish)["i"].as_i64().unwrap(), h.meter().sampler().taken())
+        (
+            h.memory_json(fish)["i"].as_i64().unwrap(),
+            h.meter().sampler().taken(),
+        )
     };
     let (plain, none) = stopped_at(false);
     let (sampled, samples) = stopped_at(true);
     assert_eq!(none, 0);
     assert!(samples >= 5, "{samples} samples of a call of tens of ms");
-    assert_eq!(plain, sampled, "the budget stops the loop at the same iteration");
+    assert_eq!(
+        plain, sampled,
+        "the budget stops the loop at the same iteration"
+    );
 }

@@ -678,7 +678,11 @@ fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
                 ui.label(&f.frame.name)
                     .on_hover_text(format!("in behaviour {}", t.module));
                 // As the logpoint field takes it: relative to the scripts directory.
-                let file = f.frame.file.strip_prefix("scripts/").unwrap_or(&f.frame.file);
+                let file = f
+                    .frame
+                    .file
+                    .strip_prefix("scripts/")
+                    .unwrap_or(&f.frame.file);
                 ui.label(format!("{file}:{}", f.frame.line))
                     .on_hover_text(&f.frame.file);
                 ui.add(
