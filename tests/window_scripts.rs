@@ -374,6 +374,13 @@ fn sampling_functions_lists_the_hot_function_with_its_file_and_line() {
     assert!(h.query_by_label("behaviors/split.lua:6").is_some());
     // And the memory column is there.
     assert!(h.query_by_label("KiB alloc / sim s").is_some());
+    // The flame view opens on the most sampled module.
+    h.get_by_label("flame view").click();
+    h.run();
+    assert!(
+        h.query_by_label_contains("most sampled stacks").is_some(),
+        "the flame view says what it shows"
+    );
     // Sortable: by name.
     h.get_by_label("function name").click();
     h.run();
