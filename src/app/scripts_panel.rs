@@ -651,7 +651,8 @@ fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
         }
         return;
     }
-    ui.horizontal(|ui| {
+    // Wrapped: this row must not widen the side panel.
+    ui.horizontal_wrapped(|ui| {
         ui.label("top functions by");
         for (label, by) in [
             ("self time", FunctionSort::SelfTime),
