@@ -317,3 +317,81 @@ fn a_logpoint_prints_its_message_where_the_line_runs_without_pausing() {
         .unwrap_err();
     assert!(e.contains("no such script"), "{e}");
 }
+
+/// A behaviour whose `tick` calls `heavy` (defined at line 1) and `light` (line 6), heavy doing
+/// ten times light's work.
+const SPLIT: &str = "\
+local function heavy(n)
+  local x = 0
+  for i = 1, n * 10 do x = x + math.sin(i) end
+  return x
+end
+local function light(n)
+  local x = 0
+  for i = 1, n do x = x + math.sin(i) end
+  return x
+end
+return { tick = function(fish)
+  fish.memory.x = heavy(2000) + light(2000)
+end }
+";
+
+#[cfg(target_os = "linux")]
+#[test]
+fn sampling_functions_lists_the_hot_function_with_its_file_and_line() {
+    let (_dir, root) = common::scratch_repo();
+    std::fs::write(root.join("scripts/behaviors/split.lua"), SPLIT).unwrap();
+    let mut sim = common::sim_in(&root, 3);
+    for k in 0..20 {
+        let pos = glam::Vec3::new(-200.0 + 20.0 * k as f32, 150.0, 0.0);
+        sim.spawn("black_porgy", pos, 0.0, 0.0, Some(40.0), Some("split"))
+            .unwrap();
+    }
+    let mut h = harness(Aquarium::new(Box::new(sim), AppOptions::default()));
+    play(&mut h, 30);
+    assert!(
+        h.state().scripts().top_functions.is_empty(),
+        "no samples before the box is ticked"
+    );
+    h.get_by_label("sample functions").click();
+    h.run();
+    let mut samples = 0;
+    for _ in 0..40 {
+        play(&mut h, 30);
+        samples = h.state().scripts().profile.iter().map(|p| p.samples).sum();
+        if samples >= 100 {
+            break;
+        }
+    }
+    assert!(samples >= 100, "{samples} samples");
+    let top = &h.state().scripts().top_functions;
+    assert_eq!(top[0].function.frame.name, "heavy", "{top:#?}");
+    assert_eq!(top[0].module, "split");
+    // The table shows it with its file:line, as the designer reads it (and types it into the
+    // logpoint field: relative to the scripts directory).
+    assert!(h.query_by_label("heavy").is_some());
+    assert!(h.query_by_label("behaviors/split.lua:1").is_some());
+    assert!(h.query_by_label("behaviors/split.lua:6").is_some());
+    // And the memory column is there.
+    assert!(h.query_by_label("KiB alloc / sim s").is_some());
+    // The flame view opens on the most sampled module.
+    h.get_by_label("flame view").click();
+    h.run();
+    assert!(
+        h.query_by_label_contains("most sampled stacks").is_some(),
+        "the flame view says what it shows"
+    );
+    // Sortable: by name.
+    h.get_by_label("function name").click();
+    h.run();
+    let names: Vec<String> = h
+        .state()
+        .scripts()
+        .top_functions
+        .iter()
+        .map(|t| t.function.frame.name.clone())
+        .collect();
+    let mut sorted = names.clone();
+    sorted.sort();
+    assert_eq!(names, sorted);
+}

@@ -1,6 +1,8 @@
 //! `shoal bench sim` runs both drivers and reports one result per fish count (no timing is
 //! asserted: speed is measured by the benchmark, not by tests).
 
+mod common;
+
 use std::process::Command;
 
 fn bench(args: &[&str]) -> serde_json::Value {
@@ -83,4 +85,52 @@ fn bad_arguments_are_errors_naming_them() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--seconds"));
+}
+
+#[test]
+fn a_scene_bench_reports_modules_with_their_top_functions_and_memory() {
+    let (_dir, root) = common::scratch_repo();
+    let root = root.as_path();
+    std::fs::write(
+        root.join("scripts/behaviors/burner.lua"),
+        "local M = {}\n\nfunction M.burn(n)\n  local x = 0\n  for i = 1, n do x = x + math.sin(i) end\n  return x\nend\n\nfunction M.tick(fish)\n  fish.memory.x = M.burn(20000)\n  fish.memory.t = { fish.memory.x }\nend\n\nreturn M\n",
+    )
+    .unwrap();
+    let scene = root.join("scripts/scenes/burn.lua");
+    std::fs::write(
+        &scene,
+        "return {\n  tank = { min = { -500, 0, -300 }, max = { 500, 400, 300 } },\n  fish = { { species = \"black_porgy\", count = 12, behavior = \"burner\",\n             region = { min = { -200, 150, -120 }, max = { 200, 260, 120 } } } },\n}\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .current_dir(root)
+        .args(["bench", "sim", "--seconds", "2", "--json", "--scene"])
+        .arg(&scene)
+        .args(["--root"])
+        .arg(root)
+        .output()
+        .expect("run shoal");
+    assert!(
+        out.status.success(),
+        "shoal bench sim --scene failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let m = &report["modules"]["burner"];
+    assert_eq!(m["calls"].as_u64(), Some(240), "12 fish at 10 Hz for 2 s");
+    assert!(m["alloc_bytes_per_call"].as_f64().unwrap() > 40.0, "{m}");
+    assert!(report["script_memory_bytes"].as_u64().unwrap() > 0);
+    assert_eq!(report["function_sampling"].as_bool(), Some(true));
+    if cfg!(target_os = "linux") {
+        let top = &m["functions"][0];
+        assert_eq!(top["name"].as_str(), Some("burn"), "{m}");
+        assert_eq!(top["file"].as_str(), Some("scripts/behaviors/burner.lua"));
+        assert_eq!(top["line"].as_u64(), Some(3));
+        assert!(top["self_samples"].as_u64().unwrap() > 0);
+        assert!(top["self_ms_per_sim_s"].as_f64().unwrap() > 0.0);
+        assert!(
+            m["stacks"][0]["frames"].as_array().unwrap().len() >= 2,
+            "{m}"
+        );
+    }
 }

@@ -27,8 +27,36 @@ pub enum SortBy {
     Calls,
     /// Errors and limit stops, most first.
     Errors,
+    /// Bytes allocated per simulated second, most first.
+    Memory,
     /// Module name.
     Name,
+}
+
+/// How the top-functions table is sorted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FunctionSort {
+    /// Estimated CPU milliseconds per simulated second of the function's own code, most first.
+    #[default]
+    SelfTime,
+    /// Estimated CPU milliseconds per simulated second with what it calls, most first.
+    TotalTime,
+    /// Share of its module's samples, most first.
+    Share,
+    /// Function name.
+    Name,
+}
+
+/// Rows of the top-functions table.
+pub const TOP_FUNCTIONS: usize = 12;
+
+/// One row of the top-functions table: a function of a module.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopFunction {
+    /// The behaviour module whose decisions ran it.
+    pub module: String,
+    /// The function's figures.
+    pub function: crate::script::profiler::FunctionProfile,
 }
 
 /// One watch expression and what it has shown.
@@ -49,6 +77,15 @@ pub struct ScriptsPanel {
     pub sort: SortBy,
     /// The profile as of the last frame.
     pub profile: Vec<ModuleProfile>,
+    /// Whether the profile samples the Lua stacks for the top-functions table (off by default:
+    /// see docs/performance.md for what it costs).
+    pub sample_functions: bool,
+    /// The top-functions table's order.
+    pub function_sort: FunctionSort,
+    /// The top functions of every module, in `function_sort` order (at most [`TOP_FUNCTIONS`]).
+    pub top_functions: Vec<TopFunction>,
+    /// The module the flame view shows (the most sampled one when unset or gone).
+    pub flame_module: Option<String>,
     /// The console's input line.
     pub repl_input: String,
     /// The new watch's input line.
@@ -227,8 +264,36 @@ impl ScriptsPanel {
             SortBy::Cost => p.sort_by(|a, b| b.ms_per_sim_s.total_cmp(&a.ms_per_sim_s)),
             SortBy::Calls => p.sort_by_key(|m| std::cmp::Reverse(m.calls)),
             SortBy::Errors => p.sort_by_key(|m| std::cmp::Reverse(m.errors + m.limit_stops)),
+            SortBy::Memory => {
+                p.sort_by(|a, b| b.alloc_kib_per_sim_s.total_cmp(&a.alloc_kib_per_sim_s));
+            }
             SortBy::Name => p.sort_by(|a, b| a.module.cmp(&b.module)),
         }
+        let mut top: Vec<TopFunction> = self
+            .profile
+            .iter()
+            .flat_map(|m| {
+                m.functions.iter().map(|f| TopFunction {
+                    module: m.module.clone(),
+                    function: f.clone(),
+                })
+            })
+            .collect();
+        let key = |t: &TopFunction| match self.function_sort {
+            FunctionSort::SelfTime => t.function.self_ms_per_sim_s,
+            FunctionSort::TotalTime => t.function.total_ms_per_sim_s,
+            FunctionSort::Share => t.function.self_share,
+            FunctionSort::Name => 0.0,
+        };
+        top.sort_by(|a, b| {
+            key(b)
+                .total_cmp(&key(a))
+                .then_with(|| a.function.frame.name.cmp(&b.function.frame.name))
+                .then_with(|| a.module.cmp(&b.module))
+                .then_with(|| a.function.frame.cmp(&b.function.frame))
+        });
+        top.truncate(TOP_FUNCTIONS);
+        self.top_functions = top;
     }
 }
 
@@ -379,6 +444,9 @@ fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
 }
 
 fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) {
+    if scene.sim().function_sampling() != st.sample_functions {
+        scene.sim_mut().set_function_sampling(st.sample_functions);
+    }
     if st.profile.is_empty() {
         ui.label("no behaviour has decided yet");
         return;
@@ -389,6 +457,7 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
             ("cost", SortBy::Cost),
             ("calls", SortBy::Calls),
             ("errors", SortBy::Errors),
+            ("memory", SortBy::Memory),
             ("name", SortBy::Name),
         ] {
             if ui.selectable_label(st.sort == by, label).clicked() {
@@ -400,9 +469,16 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
     let total: f64 = st.profile.iter().map(|p| p.ms_per_sim_s).sum();
     egui::Grid::new("script profile")
         .striped(true)
-        .num_columns(5)
+        .num_columns(6)
         .show(ui, |ui| {
-            for h in ["module", "CPU ms / sim s", "calls", "µs / call", "errors"] {
+            for h in [
+                "module",
+                "CPU ms / sim s",
+                "calls",
+                "µs / call",
+                "KiB alloc / sim s",
+                "errors",
+            ] {
                 ui.strong(h);
             }
             ui.end_row();
@@ -420,6 +496,11 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
                 );
                 ui.label(p.calls.to_string());
                 ui.label(format!("{:.1}", p.us_per_call));
+                ui.label(format!("{:.1}", p.alloc_kib_per_sim_s))
+                    .on_hover_text(format!(
+                        "{:.0} bytes allocated per decision: garbage the collector sweeps",
+                        p.alloc_bytes_per_call
+                    ));
                 let bad = p.errors + p.limit_stops;
                 if bad > 0 {
                     ui.colored_label(
@@ -435,7 +516,191 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
     if ui.button("reset profile").clicked() {
         scene.sim_mut().reset_profile();
         st.profile.clear();
+        st.top_functions.clear();
     }
+    ui.add_space(4.0);
+    top_functions(ui, st);
+    flame_view(ui, st);
+}
+
+/// Height of one frame's row in the flame view, points.
+const FLAME_ROW: f32 = 16.0;
+
+/// The most sampled stacks of one module as an icicle graph: the outermost function on top,
+/// each box as wide as its share of the samples shown, what it called below it.
+fn flame_view(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
+    let sampled: Vec<&ModuleProfile> = st.profile.iter().filter(|m| m.samples > 0).collect();
+    let Some(most) = sampled.iter().max_by_key(|m| m.samples) else {
+        return;
+    };
+    let chosen = st
+        .flame_module
+        .clone()
+        .filter(|n| sampled.iter().any(|m| &m.module == n))
+        .unwrap_or_else(|| most.module.clone());
+    egui::CollapsingHeader::new("flame view")
+        .default_open(false)
+        .show(ui, |ui| {
+            let mut pick = chosen.clone();
+            egui::ComboBox::from_label("module")
+                .selected_text(&pick)
+                .show_ui(ui, |ui| {
+                    for m in &sampled {
+                        ui.selectable_value(&mut pick, m.module.clone(), &m.module);
+                    }
+                });
+            let Some(m) = sampled.iter().find(|m| m.module == pick) else {
+                return;
+            };
+            let mut stacks = m.stacks.clone();
+            stacks.sort_by(|a, b| a.frames.cmp(&b.frames));
+            let shown: u64 = stacks.iter().map(|s| s.samples).sum();
+            ui.label(format!(
+                "{} of {} samples ({} most sampled stacks); outermost function on top",
+                shown,
+                m.samples,
+                stacks.len()
+            ));
+            let depth = stacks.iter().map(|s| s.frames.len()).max().unwrap_or(0);
+            if shown == 0 || depth == 0 {
+                return;
+            }
+            let width = ui.available_width().max(100.0);
+            let (rect, response) = ui.allocate_exact_size(
+                egui::vec2(width, FLAME_ROW * depth as f32),
+                egui::Sense::hover(),
+            );
+            let painter = ui.painter_at(rect);
+            let per_sample = width / shown as f32;
+            let mut hovered = None;
+            for row in 0..depth {
+                let mut x = 0u64;
+                let mut i = 0;
+                while i < stacks.len() {
+                    let s = &stacks[i];
+                    let Some(frame) = s.frames.get(row) else {
+                        x += s.samples;
+                        i += 1;
+                        continue;
+                    };
+                    // The run of stacks sharing this frame's path from the top.
+                    let path = &s.frames[..=row];
+                    let mut n = 0;
+                    let mut j = i;
+                    while j < stacks.len() && stacks[j].frames.get(..=row) == Some(path) {
+                        n += stacks[j].samples;
+                        j += 1;
+                    }
+                    let r = egui::Rect::from_min_size(
+                        rect.min + egui::vec2(x as f32 * per_sample, row as f32 * FLAME_ROW),
+                        egui::vec2(n as f32 * per_sample, FLAME_ROW - 1.0),
+                    );
+                    let hue = frame
+                        .bytes()
+                        .fold(7u32, |h, b| h.wrapping_mul(31) ^ u32::from(b));
+                    let color = egui::Color32::from_rgb(
+                        200 + (hue % 55) as u8,
+                        90 + (hue / 55 % 110) as u8,
+                        40 + (hue / 6050 % 40) as u8,
+                    );
+                    painter.rect_filled(r.shrink2(egui::vec2(0.5, 0.0)), 2.0, color);
+                    if r.width() > 30.0 {
+                        painter.with_clip_rect(r.intersect(rect)).text(
+                            r.left_center() + egui::vec2(3.0, 0.0),
+                            egui::Align2::LEFT_CENTER,
+                            frame,
+                            egui::FontId::monospace(10.0),
+                            egui::Color32::BLACK,
+                        );
+                    }
+                    if response.hover_pos().is_some_and(|p| r.contains(p)) {
+                        hovered = Some(format!(
+                            "{frame}: {n} samples, {:.0} % of those shown",
+                            100.0 * n as f64 / shown as f64
+                        ));
+                    }
+                    x += n;
+                    i = j;
+                }
+            }
+            if let Some(text) = hovered {
+                response.on_hover_text(text);
+            }
+            if pick != chosen {
+                st.flame_module = Some(pick);
+            }
+        });
+}
+
+/// The top functions of every module by the stack samples, with file:line.
+fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut st.sample_functions, "sample functions")
+            .on_hover_text(
+                "samples the Lua stack about once a millisecond of a decision (no per-instruction \
+                 hook) to estimate where each module's time goes",
+            );
+        let samples: u64 = st.profile.iter().map(|p| p.samples).sum();
+        if samples > 0 || st.sample_functions {
+            ui.label(format!("{samples} samples"));
+        }
+    });
+    if st.top_functions.is_empty() {
+        if st.sample_functions {
+            ui.label("no samples yet: the decisions have not run long enough");
+        }
+        return;
+    }
+    // Wrapped: this row must not widen the side panel.
+    ui.horizontal_wrapped(|ui| {
+        ui.label("top functions by");
+        for (label, by) in [
+            ("self time", FunctionSort::SelfTime),
+            ("total time", FunctionSort::TotalTime),
+            ("share of module", FunctionSort::Share),
+            ("function name", FunctionSort::Name),
+        ] {
+            if ui.selectable_label(st.function_sort == by, label).clicked() {
+                st.function_sort = by;
+                st.sort_profile();
+            }
+        }
+    });
+    egui::Grid::new("top functions")
+        .striped(true)
+        .num_columns(5)
+        .show(ui, |ui| {
+            for h in ["function", "file:line", "share", "ms / sim s", "samples"] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for t in &st.top_functions {
+                let f = &t.function;
+                ui.label(&f.frame.name)
+                    .on_hover_text(format!("in behaviour {}", t.module));
+                // As the logpoint field takes it: relative to the scripts directory.
+                let file = f
+                    .frame
+                    .file
+                    .strip_prefix("scripts/")
+                    .unwrap_or(&f.frame.file);
+                ui.label(format!("{file}:{}", f.frame.line))
+                    .on_hover_text(&f.frame.file);
+                ui.add(
+                    egui::ProgressBar::new(f.self_share as f32)
+                        .desired_width(48.0)
+                        .text(format!("{:.0} %", 100.0 * f.self_share)),
+                )
+                .on_hover_text(format!("of the samples of behaviour {}", t.module));
+                ui.label(format!("{:.2}", f.self_ms_per_sim_s))
+                    .on_hover_text(format!(
+                        "its own code; {:.2} ms / sim s with what it calls",
+                        f.total_ms_per_sim_s
+                    ));
+                ui.label(f.self_samples.to_string());
+                ui.end_row();
+            }
+        });
 }
 
 fn repl(

@@ -165,6 +165,15 @@ pub trait SimView {
     }
     /// Starts the profile over.
     fn reset_profile(&mut self) {}
+    /// Turns the per-function stack sampling of the profile on or off (see
+    /// [`Simulation::set_function_sampling`]).
+    fn set_function_sampling(&mut self, on: bool) {
+        let _ = on;
+    }
+    /// Whether the profile samples functions.
+    fn function_sampling(&self) -> bool {
+        false
+    }
     /// Evaluates Lua in fish `id`'s context (the console and watches).
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         let _ = (id, code);
@@ -224,6 +233,12 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn reset_profile(&mut self) {
         (**self).reset_profile();
     }
+    fn set_function_sampling(&mut self, on: bool) {
+        (**self).set_function_sampling(on);
+    }
+    fn function_sampling(&self) -> bool {
+        (**self).function_sampling()
+    }
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         (**self).eval_fish(id, code)
     }
@@ -245,6 +260,13 @@ impl SimView for Simulation {
     }
     fn reset_profile(&mut self) {
         Simulation::reset_profile(self);
+    }
+    fn set_function_sampling(&mut self, on: bool) {
+        let every = on.then_some(crate::script::sim::SAMPLE_EVERY);
+        Simulation::set_function_sampling(self, every);
+    }
+    fn function_sampling(&self) -> bool {
+        Simulation::function_sampling(self).is_some()
     }
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         Simulation::eval_fish(self, id, code)

@@ -30,6 +30,7 @@ use rand_pcg::Pcg32;
 use crate::app::WorldScene;
 use crate::render::{Camera, Gpu, OffscreenTarget, Renderer};
 use crate::script::Simulation;
+use crate::script::sim::SAMPLE_EVERY;
 use crate::world::bench::{
     RustSim, SimBenchResult, bench_positions, bench_tank, bench_world, measure,
 };
@@ -94,6 +95,10 @@ pub struct SimArgs {
     /// `--fish` and `--driver` do not apply.
     #[arg(long)]
     pub scene: Option<PathBuf>,
+    /// Sample the Lua stacks for the per-function profile (`--sample-functions=false` to turn
+    /// it off). Default: on with `--scene`, off for the layouts.
+    #[arg(long, num_args = 0..=1, default_missing_value = "true")]
+    pub sample_functions: Option<bool>,
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
@@ -188,10 +193,20 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             }
             None => {
                 let mut sim = lua_sim(&args.root, fish, args.seed, args.lanes)?;
+                let sampling = args.sample_functions.unwrap_or(false);
+                sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
                 if results.is_empty() && !args.json {
-                    println!("script lanes: {}", sim.num_lanes());
+                    println!(
+                        "script lanes: {}, function sampling {}",
+                        sim.num_lanes(),
+                        if sampling { "on" } else { "off" }
+                    );
                 }
                 let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+                if sampling {
+                    let samples: u64 = sim.profile().iter().map(|m| m.samples).sum();
+                    eprintln!("{fish} fish: {samples} stack samples taken");
+                }
                 if let Some(e) = sim.error_messages().first() {
                     eprintln!("script error during the bench: {e}");
                 }
@@ -257,6 +272,8 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         }
         sim.set_lanes(n)?;
     }
+    let sampling = args.sample_functions.unwrap_or(true);
+    sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
     // One second of warm-up, then the per-module profile counts the measured ticks only.
     for _ in 0..TICK_HZ as usize {
         sim.step();
@@ -264,6 +281,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
     sim.reset_profile();
     let result = measure(sim.sim_mut(), 0, ticks);
     let modules = sim.profile();
+    let memory = sim.script_memory();
     let errors = sim.error_messages();
     let switched_off = sim.switched_off();
     if args.json {
@@ -273,6 +291,8 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
                 "scene": scene.display().to_string(),
                 "tick_hz": TICK_HZ,
                 "results": [result],
+                "function_sampling": sampling,
+                "script_memory_bytes": memory,
                 "script_errors": errors.len(),
                 "switched_off": switched_off.iter().map(|(n, _)| n).collect::<Vec<_>>(),
                 "modules": modules
@@ -288,7 +308,10 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
             sim.num_lanes()
         );
         print_row(&result, true, Driver::Lua);
-        print_profile(&modules);
+        print_profile(&modules, memory);
+        if sampling {
+            print_functions(&modules);
+        }
         if !errors.is_empty() {
             println!(
                 "{} distinct script errors; first: {}",
@@ -618,34 +641,91 @@ fn plot_sim(path: &Path, results: &[SimBenchResult], title: &str) -> anyhow::Res
 }
 
 /// The per-module table of `shoal bench sim --scene`: what each behaviour costs, the most
-/// expensive first.
-fn print_profile(modules: &[crate::script::sim::ModuleProfile]) {
+/// expensive first, with what it allocates; `memory` is what the Lua states hold at the end.
+fn print_profile(modules: &[crate::script::sim::ModuleProfile], memory: usize) {
     if modules.is_empty() {
         return;
     }
     println!("\nper behaviour module (CPU time over every lane, measured ticks):");
     println!(
-        "  {:<14} {:>9} {:>12} {:>11} {:>10} {:>13} {:>7} {:>7}",
+        "  {:<14} {:>9} {:>12} {:>11} {:>10} {:>13} {:>11} {:>11} {:>7} {:>7}",
         "module",
         "calls",
         "behaviour ms",
         "sensing ms",
         "µs/call",
         "ms per sim s",
+        "B alloc/call",
+        "KiB/sim s",
         "errors",
         "limits"
     );
     for m in modules {
         println!(
-            "  {:<14} {:>9} {:>12.2} {:>11.2} {:>10.2} {:>13.2} {:>7} {:>7}",
+            "  {:<14} {:>9} {:>12.2} {:>11.2} {:>10.2} {:>13.2} {:>11.0} {:>11.1} {:>7} {:>7}",
             m.module,
             m.calls,
             m.behavior_ms,
             m.sensing_ms,
             m.us_per_call,
             m.ms_per_sim_s,
+            m.alloc_bytes_per_call,
+            m.alloc_kib_per_sim_s,
             m.errors,
             m.limit_stops
+        );
+    }
+    println!(
+        "  (allocated: bytes the decisions asked Lua's allocator for; the Lua states hold {:.1} MiB now)",
+        memory as f64 / (1024.0 * 1024.0)
+    );
+}
+
+/// Rows of the top-functions table of `shoal bench sim --scene`.
+const TOP_FUNCTIONS: usize = 15;
+
+/// The top functions of every module by the stack samples, most estimated self time first.
+fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
+    let samples: u64 = modules.iter().map(|m| m.samples).sum();
+    println!(
+        "\ntop functions ({samples} stack samples; time estimated as the share of its module's samples):"
+    );
+    if samples == 0 {
+        println!("  none: no decision was running when the watchdog looked (or not on Linux)");
+        return;
+    }
+    if samples < 300 {
+        println!(
+            "  (few samples, so the shares are rough: a longer --seconds gives about one per ms of Lua)"
+        );
+    }
+    let mut rows: Vec<(&str, &crate::script::profiler::FunctionProfile)> = modules
+        .iter()
+        .flat_map(|m| m.functions.iter().map(move |f| (m.module.as_str(), f)))
+        .collect();
+    rows.sort_by(|a, b| b.1.self_ms_per_sim_s.total_cmp(&a.1.self_ms_per_sim_s));
+    let width = rows
+        .iter()
+        .take(TOP_FUNCTIONS)
+        .map(|(_, f)| f.frame.file.len() + 6)
+        .max()
+        .unwrap_or(10)
+        .max(10);
+    println!(
+        "  {:<24} {:<12} {:<width$} {:>7} {:>10} {:>10} {:>8}",
+        "function", "module", "file:line", "share", "self ms/s", "total ms/s", "samples"
+    );
+    for (module, f) in rows.into_iter().take(TOP_FUNCTIONS) {
+        let place = format!("{}:{}", f.frame.file, f.frame.line);
+        println!(
+            "  {:<24} {:<12} {:<width$} {:>6.1}% {:>10.3} {:>10.3} {:>8}",
+            f.frame.name,
+            module,
+            place,
+            100.0 * f.self_share,
+            f.self_ms_per_sim_s,
+            f.total_ms_per_sim_s,
+            f.self_samples
         );
     }
 }

@@ -773,6 +773,19 @@ impl ScriptHost {
     pub fn from_lua<T: serde::de::DeserializeOwned>(&self, v: Value) -> mlua::Result<T> {
         self.lua.from_value(v)
     }
+
+    /// The state's meter: its stack sampler, allocation count and profile tag (see
+    /// [`super::profiler`]).
+    pub fn meter(&self) -> &Meter {
+        &self.meter
+    }
+}
+
+impl Drop for ScriptHost {
+    fn drop(&mut self) {
+        // While the state is still open (the fields drop after this).
+        self.meter.stop_counting_allocations();
+    }
 }
 
 /// A Lua value as JSON, tables up to a few levels deep; arrays stay arrays.

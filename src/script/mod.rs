@@ -19,6 +19,8 @@
 //! - [`sim`]: [`Simulation`], the fixed-tick loop tying scripts to the [`crate::world`].
 //! - [`debug`]: a Debug Adapter Protocol server (breakpoints, steps, variables) for editors.
 //! - [`fish_state`]: a lane's per-fish state copied and put back (rewinding a simulation).
+//! - [`watchdog`] and [`profiler`]: the budget hook turned on only for long calls, stack samples
+//!   per function and allocations per module, with no per-instruction hook.
 
 pub mod api;
 pub mod debug;
@@ -27,6 +29,7 @@ pub mod fish_state;
 pub mod host;
 pub mod log;
 pub mod logpoints;
+pub mod profiler;
 pub mod reload;
 pub mod sandbox;
 pub mod scene;

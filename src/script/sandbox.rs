@@ -318,7 +318,8 @@ pub const LOADED_KEY: &str = "shoal.loaded";
 const RAW_LOAD_KEY: &str = "shoal.raw_load";
 
 /// Creates the sandboxed state. The returned [`Budget`] must be armed before every call into
-/// Lua ([`Budget::arm`]) and the call made while a [`Meter::call`] guard lives.
+/// Lua ([`Budget::arm`]) and the call made while a [`Meter::call`] guard lives. The meter counts
+/// the state's allocations: call [`Meter::stop_counting_allocations`] before dropping the state.
 pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter), ScriptError> {
     let root = ScriptRoot::new(root)?;
     let libs = StdLib::TABLE
@@ -345,12 +346,16 @@ pub fn new_state(root: &Path, limits: Limits) -> Result<(Lua, Arc<Budget>, Meter
         message: Mutex::new(String::new()),
     });
     install(&lua, &root, &budget, limits).map_err(|e| ScriptError::Lua(describe(&e)))?;
-    let meter =
+    let mut meter =
         Meter::take_over(&lua, HOOK_INTERVAL).map_err(|e| ScriptError::Lua(describe(&e)))?;
     if let Some(slot) = meter.slot() {
         budget.slot.store(slot, Ordering::Relaxed);
     }
     lua.set_memory_limit(limits.memory_bytes)
+        .map_err(|e| ScriptError::Lua(describe(&e)))?;
+    // After the limit: mlua changes the limit only on its own allocator.
+    meter
+        .count_allocations(&lua)
         .map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.set_app_data(root);
     lua.set_app_data(ScriptLog::default());

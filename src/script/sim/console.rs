@@ -1,10 +1,13 @@
 //! What a simulation reports: inspector lines of a fish, its script table as JSON, the console
 //! log of every lane, and the errors so far.
 
+use std::time::Duration;
+
 use mlua::{Table, Value};
 
 use super::{ModuleStats, Simulation};
 use crate::script::log::{LogEntry, LogLevel};
+use crate::script::profiler::{self, Frame, FunctionProfile, StackProfile};
 use crate::world::FishId;
 
 /// What one behaviour module's decisions cost, over every lane (see [`Simulation::profile`]).
@@ -27,14 +30,36 @@ pub struct ModuleProfile {
     pub errors: u64,
     /// Decisions stopped by the instruction budget, time limit or memory limit.
     pub limit_stops: u64,
+    /// KiB the decisions allocated in Lua per simulated second: the garbage the collector
+    /// sweeps on the module's behalf.
+    pub alloc_kib_per_sim_s: f64,
+    /// Bytes allocated per decision.
+    pub alloc_bytes_per_call: f64,
+    /// Stack samples taken during the module's decisions (0 while function sampling is off:
+    /// [`Simulation::set_function_sampling`]).
+    pub samples: u64,
+    /// The module's functions by the samples, most time of their own first (with file:line).
+    pub functions: Vec<FunctionProfile>,
+    /// The module's most sampled stacks, for a flame view (at most [`FLAME_STACKS`]).
+    pub stacks: Vec<StackProfile>,
 }
+
+/// Stacks kept per module in [`ModuleProfile::stacks`].
+pub const FLAME_STACKS: usize = 24;
+
+/// How often the Lua stack is sampled while function sampling is on: about every look of the
+/// watchdog, which looks every millisecond.
+pub const SAMPLE_EVERY: Duration = Duration::from_millis(1);
 
 impl Simulation {
     /// What each behaviour module's decisions have cost since the simulation started (or since
     /// [`Simulation::reset_profile`]), summed over the lanes, the most expensive first. Timed per
-    /// decision on the lane's thread, so it is CPU time; no Lua hook is involved.
+    /// decision on the lane's thread, so it is CPU time; no Lua hook is involved. Allocations are
+    /// counted by the state's allocator; the per-function figures come from stack samples, taken
+    /// while [`Simulation::set_function_sampling`] is on.
     pub fn profile(&self) -> Vec<ModuleProfile> {
         let mut by_name: Vec<(String, ModuleStats)> = Vec::new();
+        let mut stacks: Vec<(String, Vec<Frame>, u64)> = Vec::new();
         for lane in &self.sim.behavior.lanes {
             for (i, s) in lane.profile.iter().enumerate() {
                 let Some(name) = lane.host.module_name(i) else {
@@ -50,23 +75,43 @@ impl Simulation {
                         t.sense_ns += s.sense_ns;
                         t.errors += s.errors;
                         t.limit_stops += s.limit_stops;
+                        t.alloc_bytes += s.alloc_bytes;
                     }
                     None => by_name.push((name.to_owned(), *s)),
+                }
+            }
+            for (tag, frames, n) in lane.host.meter().sampler().stacks() {
+                if let Some(name) = lane.host.module_name(tag as usize) {
+                    stacks.push((name.to_owned(), frames, n));
                 }
             }
         }
         let span = (self.sim.world().time() - self.profile_since_s).max(1e-9);
         let mut out: Vec<ModuleProfile> = by_name
             .into_iter()
-            .map(|(module, s)| ModuleProfile {
-                module,
-                calls: s.calls,
-                behavior_ms: s.total_ns.saturating_sub(s.sense_ns) as f64 / 1e6,
-                sensing_ms: s.sense_ns as f64 / 1e6,
-                us_per_call: s.total_ns as f64 / 1e3 / s.calls as f64,
-                ms_per_sim_s: s.total_ns as f64 / 1e6 / span,
-                errors: s.errors,
-                limit_stops: s.limit_stops,
+            .map(|(module, s)| {
+                let ms_per_sim_s = s.total_ns as f64 / 1e6 / span;
+                let mine = || {
+                    stacks
+                        .iter()
+                        .filter(|(m, _, _)| *m == module)
+                        .map(|(_, f, n)| (f.as_slice(), *n))
+                };
+                ModuleProfile {
+                    calls: s.calls,
+                    behavior_ms: s.total_ns.saturating_sub(s.sense_ns) as f64 / 1e6,
+                    sensing_ms: s.sense_ns as f64 / 1e6,
+                    us_per_call: s.total_ns as f64 / 1e3 / s.calls as f64,
+                    ms_per_sim_s,
+                    errors: s.errors,
+                    limit_stops: s.limit_stops,
+                    alloc_kib_per_sim_s: s.alloc_bytes as f64 / 1024.0 / span,
+                    alloc_bytes_per_call: s.alloc_bytes as f64 / s.calls as f64,
+                    samples: mine().map(|(_, n)| n).sum(),
+                    functions: profiler::functions(mine(), ms_per_sim_s),
+                    stacks: profiler::flame(mine(), FLAME_STACKS),
+                    module,
+                }
             })
             .collect();
         out.sort_by(|a, b| {
@@ -81,8 +126,36 @@ impl Simulation {
     pub fn reset_profile(&mut self) {
         for lane in &mut self.sim.behavior.lanes {
             lane.profile.clear();
+            lane.host.meter().sampler().clear();
         }
         self.profile_since_s = self.sim.world().time();
+    }
+
+    /// Samples the Lua stacks of the decisions about every `every` of their run, for the
+    /// per-function profile (`None`: off, the default; [`SAMPLE_EVERY`] is the usual
+    /// interval). No hook runs per instruction: see [`crate::script::profiler`]. Only on Linux,
+    /// where the watchdog watches the lanes; elsewhere nothing is sampled.
+    pub fn set_function_sampling(&mut self, every: Option<Duration>) {
+        self.sample_every = every;
+        for lane in &self.sim.behavior.lanes {
+            lane.host.meter().set_sampling(every);
+        }
+    }
+
+    /// Whether function sampling is on, and how often (see
+    /// [`Simulation::set_function_sampling`]).
+    pub fn function_sampling(&self) -> Option<Duration> {
+        self.sample_every
+    }
+
+    /// Bytes the lanes' Lua states hold now (live data and garbage not yet collected), summed.
+    pub fn script_memory(&self) -> usize {
+        self.sim
+            .behavior
+            .lanes
+            .iter()
+            .map(|l| l.host.lua().used_memory())
+            .sum()
     }
 
     /// Key/value lines describing a fish for the inspector panel: species, behaviour, motion,

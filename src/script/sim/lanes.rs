@@ -73,6 +73,8 @@ pub struct ModuleStats {
     pub errors: u64,
     /// Decisions stopped by the instruction budget, the time limit or the memory limit.
     pub limit_stops: u64,
+    /// Bytes the decisions allocated in Lua (see [`crate::script::profiler`]).
+    pub alloc_bytes: u64,
 }
 
 impl Lane {
@@ -155,6 +157,9 @@ impl Lane {
                 }
                 let species = &world.species(sid).desc.name;
                 let sensed_before = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+                // Stack samples taken during the decision are the module's.
+                host.meter().set_tag(Some(module));
+                let allocated_before = host.meter().allocated();
                 let started = Instant::now();
                 let hooked =
                     debugger.is_some_and(|dbg| debug::begin_decision(dbg, host, module, d.id));
@@ -172,6 +177,8 @@ impl Lane {
                 *stopped_ns += held_ns;
                 let failed = outcome.is_err();
                 let took = (started.elapsed().as_nanos() as u64).saturating_sub(held_ns);
+                let allocated = host.meter().allocated().wrapping_sub(allocated_before);
+                host.meter().set_tag(None);
                 let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 if profile.len() <= module {
                     profile.resize(module + 1, ModuleStats::default());
@@ -182,6 +189,7 @@ impl Lane {
                 stats.sense_ns += sensed.saturating_sub(sensed_before);
                 stats.errors += u64::from(failed);
                 stats.limit_stops += u64::from(failed && host.last_call_hit_limit());
+                stats.alloc_bytes += allocated;
                 host.count_outcome(module, failed, time_s);
                 *decided += 1;
                 if let Some(mut c) = lua.app_data_mut::<Ctx>() {

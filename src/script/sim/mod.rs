@@ -49,7 +49,7 @@ mod lanes;
 mod reload;
 mod snapshot;
 
-pub use console::ModuleProfile;
+pub use console::{FLAME_STACKS, ModuleProfile, SAMPLE_EVERY};
 use lanes::Lane;
 pub use lanes::{ModuleStats, Scripts, default_lanes, lane_index};
 pub use reload::ReloadEvent;
@@ -82,6 +82,8 @@ pub struct Simulation {
     fish_params: std::collections::HashMap<FishId, Arc<serde_json::Value>>,
     /// Simulated time [`Simulation::profile`] counts from.
     profile_since_s: f64,
+    /// How often the lanes' Lua stacks are sampled (see [`Simulation::set_function_sampling`]).
+    sample_every: Option<std::time::Duration>,
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
@@ -193,6 +195,7 @@ impl Simulation {
             .map(|_| Lane::new(&self.scripts_dir, limits))
             .collect::<Result<Vec<_>, _>>()?;
         self.sim.behavior.lanes = lanes;
+        self.set_function_sampling(self.sample_every);
         for (&id, params) in &self.fish_params {
             let lane = lane_index(id, n);
             self.sim.behavior.lanes[lane]
@@ -269,6 +272,7 @@ impl Simulation {
             reload_events: Vec::new(),
             fish_params: std::collections::HashMap::new(),
             profile_since_s: 0.0,
+            sample_every: None,
         })
     }
 
