@@ -578,3 +578,64 @@ fn test_nearest_agrees_with_the_full_vision_list() {
     assert_ne!(m["grid"][1], "none");
     assert_ne!(m["grid"][2], "none");
 }
+
+#[test]
+fn test_reused_answers_never_carry_another_fishs_values() {
+    // One lane runs both fish one after another, sharing the API's reused tables and its caches
+    // of species tables and names: a barracuda that sees a porgy (a percept with a species)
+    // decides just before a porgy that sees only food (a percept without one), and each asks
+    // for its own species. Were a previous decision's answer to leak, the porgy would read
+    // the barracuda's species, or the porgy's name on its pellet.
+    let (_d, mut sim) = probe(
+        "return { tick = function(fish)\n  local m = fish.memory\n  local me = shoal.species()\n  m.me = me.name\n  m.predator = me.predator\n  if me.name == 'barracuda' then\n    local n = shoal.nearest('fish')\n    m.saw = n and n.species\n    m.saw_kind = n and n.kind\n  else\n    local f = shoal.nearest('food')\n    m.food_species = f and (f.species or 'none')\n    m.food_kind = f and f.kind\n    m.nothing = shoal.nearest('predator', 'no_such_species') == nil\n  end\n  m.motion = shoal.body().motion\nend }\n",
+    );
+    sim.set_lanes(1).unwrap();
+    let mut pairs = Vec::new();
+    for k in 0..6 {
+        let x = -300.0 + 120.0 * k as f32;
+        let barracuda = sim
+            .spawn(
+                "barracuda",
+                Vec3::new(x, 200.0, 0.0),
+                0.0,
+                0.0,
+                Some(0.0),
+                Some("probe"),
+            )
+            .unwrap();
+        // Ahead of the barracuda; the porgy looks away from it, at a pellet.
+        let porgy = sim
+            .spawn(
+                "black_porgy",
+                Vec3::new(x + 40.0, 200.0, 0.0),
+                0.0,
+                0.0,
+                Some(0.0),
+                Some("probe"),
+            )
+            .unwrap();
+        sim.world_mut().add_food(Vec3::new(x + 70.0, 200.0, 0.0));
+        pairs.push((barracuda, porgy));
+    }
+    sim.world_mut().rebuild_grid();
+    sim.run(0.5);
+    assert!(
+        sim.error_messages().is_empty(),
+        "{:?}",
+        sim.error_messages()
+    );
+    for (barracuda, porgy) in pairs {
+        let b = mem(&sim, barracuda);
+        assert_eq!(b["me"], "barracuda", "{b}");
+        assert_eq!(b["predator"], true, "{b}");
+        assert_eq!(b["saw"], "black_porgy", "{b}");
+        assert_eq!(b["saw_kind"], "fish", "{b}");
+        let p = mem(&sim, porgy);
+        assert_eq!(p["me"], "black_porgy", "{p}");
+        assert_eq!(p["predator"], false, "{p}");
+        assert_eq!(p["food_species"], "none", "a pellet has no species: {p}");
+        assert_eq!(p["food_kind"], "food", "{p}");
+        assert_eq!(p["nothing"], true, "{p}");
+        assert!(p["motion"].is_string(), "{p}");
+    }
+}

@@ -33,9 +33,16 @@ use crate::world::FishId;
 /// Registry key of the table of per-fish tables (fish index → fish table).
 pub(crate) const FISH_KEY: &str = "shoal.fish";
 
+/// Registry key of the table the driver writes what it knows of the deciding fish into before
+/// each decision: `species`, its species index + 1 (nil when the caller did not say). The
+/// `shoal` API answers `shoal.species()` from it without a call into Rust.
+pub const DECISION_KEY: &str = "shoal.decision";
+
 /// Runs one decision: the layers of a module for one fish. Host-private: scripts never see it.
 const DRIVER: &str = r#"
-return function(mod, fish)
+local decision = ...
+return function(mod, fish, species)
+  decision.species = species
   local tick = mod.tick
   if tick then
     local i = tick(fish)
@@ -141,10 +148,13 @@ impl ScriptHost {
         let (lua, budget, meter) = sandbox::new_state(scripts_dir, limits)?;
         let root = ScriptRoot::new(scripts_dir)?;
         let lua_err = |e: mlua::Error| ScriptError::Lua(describe(&e));
+        let decision = lua.create_table().map_err(lua_err)?;
+        lua.set_named_registry_value(DECISION_KEY, &decision)
+            .map_err(lua_err)?;
         let driver: Function = lua
             .load(DRIVER)
             .set_name("=shoal driver")
-            .eval()
+            .call(decision)
             .map_err(lua_err)?;
         let fish_tables = lua.create_table().map_err(lua_err)?;
         lua.set_named_registry_value(FISH_KEY, &fish_tables)
@@ -471,20 +481,21 @@ impl ScriptHost {
         fish: &Table,
         time_s: f64,
     ) -> Result<(), String> {
-        let Some(result) = self.call_driver(module, fish) else {
+        let Some(result) = self.call_driver(module, fish, None) else {
             return Ok(());
         };
         self.after_run(result, module, id, time_s)
     }
 
     /// [`ScriptHost::run`] for the fish's own table, created (from its species and behaviour
-    /// names) if it has none yet, and passed by reference (no handle cloned per decision). An
-    /// error making the table is logged and returned too.
+    /// names) if it has none yet, and passed by reference (no handle cloned per decision). The
+    /// driver tells the `shoal` API the fish's species (`species_id`). An error making the
+    /// table is logged and returned too.
     pub fn run_fish(
         &mut self,
         module: ModuleIndex,
         id: FishId,
-        species: &str,
+        (species_id, species): (crate::world::SpeciesId, &str),
         behavior: &str,
         time_s: f64,
     ) -> Result<(), String> {
@@ -496,7 +507,7 @@ impl ScriptHost {
         let Some(fish) = self.cached_table(id) else {
             return Ok(());
         };
-        let Some(result) = self.call_driver(module, fish) else {
+        let Some(result) = self.call_driver(module, fish, Some(species_id.0 + 1)) else {
             return Ok(());
         };
         self.after_run(result, module, id, time_s)
@@ -526,13 +537,19 @@ impl ScriptHost {
     }
 
     /// Runs a decision under the per-call budget; `None` if the module never loaded.
-    fn call_driver(&self, module: ModuleIndex, fish: &Table) -> Option<mlua::Result<()>> {
+    /// `species_number` is the fish's species index + 1, for `shoal.species()`.
+    fn call_driver(
+        &self,
+        module: ModuleIndex,
+        fish: &Table,
+        species_number: Option<u16>,
+    ) -> Option<mlua::Result<()>> {
         let table = self.modules.get(module)?.table.as_ref()?;
         let _metered = self.begin_call();
         if self.line_hook {
             super::debug::add_line_hook(&self.lua);
         }
-        Some(self.driver.call::<()>((table, fish)))
+        Some(self.driver.call::<()>((table, fish, species_number)))
     }
 
     /// Logs and remembers the error of a decision, if it failed.

@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use mlua::{Function, Lua, LuaString, Table, Value};
 
-use crate::motion::{MotionRequest, Side, TurnKind};
+use crate::motion::{MotionKind, MotionRequest, Side, TurnKind};
 use crate::world::steer::Steer;
 use crate::world::{FishControls, FishId, FishRef, FoodId, Percept, PerceptKind, SpeciesId, World};
 
@@ -28,6 +28,11 @@ mod steering;
 
 use perception::register_perception;
 use steering::{cruise_and_length, register_crowding, register_steering};
+
+/// A script lane times the sensor queries of one decision in this many, counting each timed
+/// one this many times (see [`Ctx::sense_weight`]): an unbiased estimate of the sensing time
+/// that reads the clock a quarter as often.
+pub const SENSE_SAMPLE: u32 = 4;
 
 /// Default number of percepts `shoal.see` returns.
 pub const DEFAULT_SEE_MAX: usize = 32;
@@ -65,11 +70,15 @@ pub struct Ctx {
     pub claims: Vec<(FishId, FoodId)>,
     /// Sensor time spent in this stage, nanoseconds (taken out of the Lua time).
     pub perception_ns: u64,
+    /// How many times the sensor queries of the running decision count their time in
+    /// `perception_ns`: 1 (the default) times every query; a lane sets [`SENSE_SAMPLE`] on one
+    /// decision in that many and 0 on the others, because reading the clock twice per query
+    /// (~60 ns on the reference VM) costs more than the body sensor it would time.
+    pub sense_weight: u32,
     /// The fish `percepts` holds the vision of (one query per decision, shared by `see` and
     /// `nearest`); reset whenever `fish` changes.
     pub percepts_of: Option<FishId>,
     percepts: Vec<Percept>,
-    motion_names: Vec<(&'static str, LuaString)>,
     keys: Keys,
     species_names: Vec<Option<LuaString>>,
     species_tables: Vec<Option<Table>>,
@@ -93,10 +102,17 @@ fn rt(msg: impl Into<String>) -> mlua::Error {
 }
 
 fn outside(name: &str) -> mlua::Error {
-    rt(format!(
-        "shoal.{name} can only be called while a fish's behaviour runs (from tick, perceive, intend or behave)"
-    ))
+    rt(outside_message(name))
 }
+
+fn outside_message(name: &str) -> String {
+    format!(
+        "shoal.{name} can only be called while a fish's behaviour runs (from tick, perceive, intend or behave)"
+    )
+}
+
+/// The percept kinds scripts name, as the error of a bad one lists them.
+const KINDS: &str = "\"fish\", \"food\", \"obstacle\" or \"predator\"";
 
 /// Runs `f` with the world (read-only: decisions of different lanes share it), the current fish
 /// and the rest of the API context. The context stays borrowed while `f` runs, so `f` must not
@@ -189,12 +205,25 @@ fn finite_arg(name: &str, what: &str, v: f32) -> mlua::Result<f32> {
     }
 }
 
-/// Runs a sensor query, adding its time to the stage's perception time.
+/// Runs a sensor query, adding its time to the stage's perception time when this decision's
+/// queries are timed (see [`Ctx::sense_weight`]).
 fn timed<R>(ctx: &mut Ctx, f: impl FnOnce() -> R) -> R {
-    let start = Instant::now();
+    let start = sense_start(ctx);
     let r = f();
-    ctx.perception_ns += start.elapsed().as_nanos() as u64;
+    sense_end(ctx, start);
     r
+}
+
+/// The clock at the start of a sensor query, if this decision's queries are timed.
+fn sense_start(ctx: &Ctx) -> Option<Instant> {
+    (ctx.sense_weight > 0).then(Instant::now)
+}
+
+/// Adds the time since `start` (weighted) to the perception time.
+fn sense_end(ctx: &mut Ctx, start: Option<Instant>) {
+    if let Some(start) = start {
+        ctx.perception_ns += start.elapsed().as_nanos() as u64 * u64::from(ctx.sense_weight);
+    }
 }
 
 /// Creates the `shoal` global and the API context: the context, then each group of functions
@@ -206,16 +235,72 @@ pub fn register(lua: &Lua) -> mlua::Result<()> {
     register_motion(lua, &shoal)?;
     register_steering(lua, &shoal)?;
     register_crowding(lua, &shoal)?;
+    // The host's driver stores the deciding fish's species here (a host without one: nobody
+    // does, and `shoal.species()` always asks Rust).
+    let decision: Table = match lua.named_registry_value::<Option<Table>>(DECISION_KEY)? {
+        Some(t) => t,
+        None => {
+            let t = lua.create_table()?;
+            lua.set_named_registry_value(DECISION_KEY, &t)?;
+            t
+        }
+    };
+    let motion_names = lua.create_sequence_from(MOTION_KINDS.map(MotionKind::name))?;
     // Tables are filled on the Lua side: a field store there is a VM instruction, while one
     // made from Rust is a protected call under the memory limit.
-    let (stage, readonly): (Function, Function) = lua
-        .load(WRAPPERS)
-        .set_name("=shoal api")
-        .call((&shoal, raw.body, raw.nearest, raw.outside))?;
+    let (stage, readonly, forget_species): (Function, Function, Function) =
+        lua.load(WRAPPERS).set_name("=shoal api").call((
+            &shoal,
+            raw,
+            decision,
+            motion_names,
+            format!("shoal.nearest: kind must be {KINDS}"),
+        ))?;
     lua.set_named_registry_value(STAGE_KEY, stage)?;
     lua.set_named_registry_value(READONLY_KEY, readonly)?;
+    lua.set_named_registry_value(FORGET_SPECIES_KEY, forget_species)?;
     lua.globals().set("shoal", shoal)?;
     Ok(())
+}
+
+/// Forgets the species names and tables the API cached in `lua` (after a species changed).
+pub fn invalidate_species(lua: &Lua) -> mlua::Result<()> {
+    if let Some(mut c) = lua.app_data_mut::<Ctx>() {
+        c.invalidate_species();
+    }
+    match lua.named_registry_value::<Option<Function>>(FORGET_SPECIES_KEY)? {
+        Some(f) => f.call(()),
+        None => Ok(()),
+    }
+}
+
+/// Every [`MotionKind`], in the order `shoal.body()` numbers them (1-based on the Lua side).
+const MOTION_KINDS: [MotionKind; 9] = [
+    MotionKind::Idle,
+    MotionKind::Swim,
+    MotionKind::Accelerate,
+    MotionKind::Stop,
+    MotionKind::NormalTurn,
+    MotionKind::QuickTurn,
+    MotionKind::SerialTurn,
+    MotionKind::Ascend,
+    MotionKind::Descend,
+];
+
+/// The number `shoal.body()` passes for `k`: its 1-based place in [`MOTION_KINDS`] (a match, so
+/// a new kind does not compile until it has one).
+fn motion_number(k: MotionKind) -> u8 {
+    match k {
+        MotionKind::Idle => 1,
+        MotionKind::Swim => 2,
+        MotionKind::Accelerate => 3,
+        MotionKind::Stop => 4,
+        MotionKind::NormalTurn => 5,
+        MotionKind::QuickTurn => 6,
+        MotionKind::SerialTurn => 7,
+        MotionKind::Ascend => 8,
+        MotionKind::Descend => 9,
+    }
 }
 
 /// The API context ([`Ctx`]) in the Lua state's app data, with its interned keys and tables.
@@ -248,9 +333,9 @@ fn install_context(lua: &Lua) -> mlua::Result<()> {
         controls: FishControls::default(),
         claims: Vec::new(),
         perception_ns: 0,
+        sense_weight: 1,
         percepts_of: None,
         percepts: Vec::with_capacity(64),
-        motion_names: Vec::new(),
         keys,
         species_names: Vec::new(),
         species_tables: Vec::new(),
@@ -369,6 +454,13 @@ const STAGE_KEY: &str = "shoal.stage";
 /// Registry key of `readonly(t, what)`: a read-only view of `t` (see [`WRAPPERS`]).
 const READONLY_KEY: &str = "shoal.readonly";
 
+/// Registry key of `forget_species()`, which empties the Lua side's species caches.
+const FORGET_SPECIES_KEY: &str = "shoal.forget_species";
+
+/// Registry key of the table the host's driver writes the deciding fish's species into
+/// (`decision.species`, the species index + 1) before each decision.
+pub use crate::script::host::DECISION_KEY;
+
 /// Tells the Lua side of the API that a behaviour stage starts at `time` in `world`'s tank
 /// (`Some`) or has ended (`None`).
 pub fn set_stage(lua: &Lua, stage: Option<(f64, &World)>) -> mlua::Result<()> {
@@ -382,17 +474,26 @@ pub fn set_stage(lua: &Lua, stage: Option<(f64, &World)>) -> mlua::Result<()> {
     }
 }
 
-/// `shoal.body`, `shoal.nearest` and `shoal.tank`: Rust returns plain values, these fill one
-/// reused table each; `shoal.time` and `shoal.tank` answer from the stage's values. Returns the
-/// stage function (see [`set_stage`]) and `readonly`. The reused tables are shared by every module
-/// of the lane: their metatables are locked.
+/// `shoal.body`, `shoal.nearest`, `shoal.species` and `shoal.tank`: Rust returns plain values
+/// (numbers, indices), these fill one reused table each; `shoal.time` and `shoal.tank` answer
+/// from the stage's values. Names cross as small integers and are looked up here: the percept
+/// kind (`KIND`), the species (`species_name`, interned once per lane) and the motion
+/// (`MOTION`), so no string handle is made per call. `shoal.species()` answers from a per-lane
+/// cache by the deciding fish's species index, which the host's driver stores in `decision`
+/// (see [`DECISION_KEY`]) before each decision, so it costs no call into Rust once warm.
+/// Returns the stage function (see [`set_stage`]), `readonly` and `forget_species`. The reused
+/// tables are shared by every module of the lane: their metatables are locked.
 const WRAPPERS: &str = r#"
-local shoal, body_raw, nearest_raw, outside = ...
+local shoal, raw, decision, MOTION, BAD_KIND = ...
+local body_raw, nearest_raw, species_raw, species_name_raw, outside =
+  raw.body, raw.nearest, raw.species, raw.species_name, raw.outside
 local setmetatable, error, next = setmetatable, error, next
 local locked = { __metatable = false }
 local body = setmetatable({}, locked)
 local near = setmetatable({}, locked)
 local tank = setmetatable({}, locked)
+local KIND = { fish = 1, food = 2, obstacle = 3, predator = 4 }
+local species_tables, species_names = {}, {}
 local function readonly(t, what)
   return setmetatable({}, {
     __index = t,
@@ -406,33 +507,58 @@ local now, x0, y0, z0, x1, y1, z1
 local function stage(time, ...)
   now = time
   x0, y0, z0, x1, y1, z1 = ...
+  decision.species = nil
+end
+local function forget_species()
+  species_tables, species_names = {}, {}
 end
 function shoal.body()
   local b = body
+  local motion, queue
   b.x, b.y, b.z, b.depth, b.to_floor, b.to_surface, b.to_wall,
-    b.wall_x, b.wall_y, b.wall_z, b.contact, b.speed, b.heading, b.pitch, b.motion,
-    b.queue = body_raw()
+    b.wall_x, b.wall_y, b.wall_z, b.contact, b.speed, b.heading, b.pitch, motion,
+    queue = body_raw()
+  b.motion, b.queue = MOTION[motion], queue
   return b
 end
 function shoal.nearest(kind, species)
-  local k, sp, id, dist, bearing, elev, x, y, z, heading, speed = nearest_raw(kind, species)
-  if k == nil then return nil end   -- nothing seen: no table to fill
+  local k = KIND[kind]
+  if k == nil then error(BAD_KIND, 2) end
+  local sp, id, dist, bearing, elev, x, y, z, heading, speed = nearest_raw(k, species)
+  if sp == nil then return nil end   -- nothing seen: no table to fill
+  local name = false
+  if sp > 0 then
+    name = species_names[sp]
+    if name == nil then
+      name = species_name_raw(sp)
+      species_names[sp] = name
+    end
+  end
   local n = near
-  n.kind, n.species, n.id, n.distance, n.bearing, n.elevation = k, sp, id, dist, bearing, elev
+  n.kind, n.species, n.id, n.distance, n.bearing, n.elevation = kind, name or nil, id, dist,
+    bearing, elev
   n.x, n.y, n.z, n.heading, n.speed = x, y, z, heading, speed
   return n
 end
+function shoal.species()
+  local sp = decision.species
+  local t = species_tables[sp or false]
+  if t then return t end
+  t = species_raw()   -- raises outside a decision
+  if sp then species_tables[sp] = t end
+  return t
+end
 function shoal.tank()
-  if now == nil then outside("tank") end
+  if now == nil then error(outside("tank"), 2) end
   local t = tank
   t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z = x0, y0, z0, x1, y1, z1
   return t
 end
 function shoal.time()
-  if now == nil then outside("time") end
+  if now == nil then error(outside("time"), 2) end
   return now
 end
-return stage, readonly
+return stage, readonly, forget_species
 "#;
 
 /// Names of the functions in the `shoal` table, sorted (for the LuaLS definitions test).

@@ -74,11 +74,11 @@ pub(super) fn fill_percept(
     Ok(())
 }
 
-/// A percept as the values `shoal.nearest` returns: kind, species, id, distance, bearing,
-/// elevation, x, y, z, heading, speed (all nil when nothing is seen).
+/// A percept as the values the raw `nearest` gives `shoal.nearest`'s wrapper: species number
+/// (its index + 1, 0 for none), id, distance, bearing, elevation, x, y, z, heading, speed (all
+/// nil when nothing is seen; the wrapper knows the kind it asked for).
 pub(super) type PerceptValues = (
-    Option<LuaString>,
-    Option<LuaString>,
+    Option<u16>,
     Option<u32>,
     Option<f32>,
     Option<f32>,
@@ -90,28 +90,17 @@ pub(super) type PerceptValues = (
     Option<f32>,
 );
 
-pub(super) const NOTHING_SEEN: PerceptValues = (
-    None, None, None, None, None, None, None, None, None, None, None,
-);
+pub(super) const NOTHING_SEEN: PerceptValues =
+    (None, None, None, None, None, None, None, None, None, None);
 
-pub(super) fn percept_values(
-    lua: &Lua,
-    ctx: &mut Ctx,
-    world: &World,
-    p: &Percept,
-) -> mlua::Result<PerceptValues> {
-    let species = match p.species {
-        Some(s) => Some(species_name(lua, ctx, world, s)?),
-        None => None,
-    };
+pub(super) fn percept_values(p: &Percept) -> PerceptValues {
     let id = p
         .fish
         .map(|f| f.index)
         .or(p.food.map(|f| f.0))
         .or(p.obstacle.map(|o| o.0));
-    Ok((
-        Some(kind_key(&ctx.keys, p.kind).clone()),
-        species,
+    (
+        Some(p.species.map_or(0, |s| s.0 + 1)),
         id,
         Some(p.distance),
         Some(p.bearing),
@@ -121,28 +110,24 @@ pub(super) fn percept_values(
         Some(p.pos.z),
         Some(p.heading),
         Some(p.speed),
-    ))
+    )
 }
 
-/// The motion layer's motion names, interned once.
-pub(super) fn motion_name(lua: &Lua, ctx: &mut Ctx, name: &'static str) -> mlua::Result<LuaString> {
-    if let Some((_, s)) = ctx.motion_names.iter().find(|(n, _)| *n == name) {
-        return Ok(s.clone());
-    }
-    let s = lua.create_string(name)?;
-    ctx.motion_names.push((name, s.clone()));
-    Ok(s)
+/// The percept kind numbered `k` on the Lua side (`KIND` in [`WRAPPERS`]).
+fn kind_numbered(k: u8) -> Option<PerceptKind> {
+    Some(match k {
+        1 => PerceptKind::Fish,
+        2 => PerceptKind::Food,
+        3 => PerceptKind::Obstacle,
+        4 => PerceptKind::Predator,
+        _ => return None,
+    })
 }
 
-/// The functions a raw perception query goes through on the Lua side (see [`WRAPPERS`]).
-pub(super) struct RawSenses {
-    pub(super) body: Function,
-    pub(super) nearest: Function,
-    pub(super) outside: Function,
-}
-
-/// Perception: `see`, `nearest`, `body`, `species`, `motion`, `random`.
-pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<RawSenses> {
+/// Perception: `see`, `motion`, `random` in `shoal`; the raw `body`, `nearest`, `species`,
+/// `species_name` and `outside` (a message) that [`WRAPPERS`] builds `shoal.body`,
+/// `shoal.nearest`, `shoal.species`, `shoal.tank` and `shoal.time` on, in the returned table.
+pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<Table> {
     shoal.set(
         "see",
         lua.create_function(|lua, (kind, max): (Option<LuaString>, Option<usize>)| {
@@ -154,7 +139,7 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<RawS
             };
             let max = max.unwrap_or(DEFAULT_SEE_MAX);
             with_ctx(lua, "see", |w, f, ctx| {
-                let start = Instant::now();
+                let start = sense_start(ctx);
                 if ctx.percepts_of != Some(f) {
                     w.vision(f, &mut ctx.percepts);
                     ctx.percepts_of = Some(f);
@@ -182,49 +167,53 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<RawS
                 for i in n + 1..=old {
                     out.raw_set(i, Value::Nil)?;
                 }
-                ctx.perception_ns += start.elapsed().as_nanos() as u64;
+                sense_end(ctx, start);
                 Ok(out)
             })
         })?,
     )?;
-    let nearest_raw =
-        lua.create_function(|lua, (kind, species): (LuaString, Option<LuaString>)| {
-            let kind = parse_kind(&kind.as_bytes()).ok_or_else(|| {
-                rt("shoal.nearest: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
-            })?;
-            with_ctx(lua, "nearest", |w, f, ctx| {
-                let start = Instant::now();
-                let want = match &species {
-                    Some(s) => match w.species_by_name(&s.to_str()?) {
-                        Some(id) => Some(id),
-                        None => return Ok(NOTHING_SEEN),
-                    },
-                    None => None,
-                };
-                let found = if ctx.percepts_of == Some(f) {
-                    // The full vision list is at hand (shoal.see ran this decision).
-                    ctx.percepts
-                        .iter()
-                        .find(|p| p.kind == kind && (want.is_none() || p.species == want))
-                        .copied()
-                } else {
-                    w.nearest_in_view(f, kind, want)
-                };
-                let r = match found {
-                    Some(p) => percept_values(lua, ctx, w, &p)?,
-                    None => NOTHING_SEEN,
-                };
-                ctx.perception_ns += start.elapsed().as_nanos() as u64;
-                Ok(r)
-            })
-        })?;
+    let nearest_raw = lua.create_function(|lua, (kind, species): (u8, Option<LuaString>)| {
+        let kind = kind_numbered(kind)
+            .ok_or_else(|| rt(format!("shoal.nearest: kind must be {KINDS}")))?;
+        with_ctx(lua, "nearest", |w, f, ctx| {
+            let start = sense_start(ctx);
+            let want = match &species {
+                Some(s) => match w.species_by_name(&s.to_str()?) {
+                    Some(id) => Some(id),
+                    None => return Ok(NOTHING_SEEN),
+                },
+                None => None,
+            };
+            let found = if ctx.percepts_of == Some(f) {
+                // The full vision list is at hand (shoal.see ran this decision).
+                ctx.percepts
+                    .iter()
+                    .find(|p| p.kind == kind && (want.is_none() || p.species == want))
+                    .copied()
+            } else {
+                w.nearest_in_view(f, kind, want)
+            };
+            sense_end(ctx, start);
+            Ok(found.as_ref().map_or(NOTHING_SEEN, percept_values))
+        })
+    })?;
+    let species_name_raw = lua.create_function(|lua, number: u16| {
+        with_ctx(lua, "nearest", |w, _, ctx| {
+            let s = number
+                .checked_sub(1)
+                .map(SpeciesId)
+                .filter(|s| w.try_species(*s).is_some())
+                .ok_or_else(|| rt(format!("shoal.nearest: no species numbered {number}")))?;
+            species_name(lua, ctx, w, s)
+        })
+    })?;
     let body_raw = lua.create_function(|lua, ()| {
         with_ctx(lua, "body", |w, f, ctx| {
             let (playing, queued) = (
-                ctx.controls.player().current_name(),
+                ctx.controls.player().current_kind(),
                 ctx.controls.player().queue_len(),
             );
-            let motion = motion_name(lua, ctx, playing)?;
+            let motion = motion_number(playing);
             let b = timed(ctx, || w.body_sense(f)).ok_or_else(|| outside("body"))?;
             let n = b.wall_normal;
             Ok((
@@ -247,42 +236,38 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<RawS
             ))
         })
     })?;
-    shoal.set(
-        "species",
-        lua.create_function(|lua, ()| {
-            with_ctx(lua, "species", |w, f, ctx| {
-                let s = w.species_of(f).ok_or_else(|| outside("species"))?;
-                let i = usize::from(s.0);
-                if ctx.species_tables.len() <= i {
-                    ctx.species_tables.resize(i + 1, None);
-                }
-                if let Some(t) = &ctx.species_tables[i] {
-                    return Ok(t.clone());
-                }
-                let d = &w.species(s).desc;
-                let t = lua.create_table()?;
-                t.raw_set("name", d.name.as_str())?;
-                t.raw_set("length", d.motion.l)?;
-                t.raw_set("cruise_speed", d.motion.s)?;
-                t.raw_set("max_speed", d.max_speed)?;
-                t.raw_set("view_range", d.view_range)?;
-                t.raw_set("view_angle", d.view_angle_deg.to_radians())?;
-                t.raw_set("turn_time", d.motion.tt)?;
-                t.raw_set("predator", d.predator)?;
-                t.raw_set("hunger_per_s", d.drives.hunger_per_s)?;
-                t.raw_set("satiation_per_food", d.drives.satiation_per_food)?;
-                t.raw_set("fear_decay_per_s", d.drives.fear_decay_per_s)?;
-                t.raw_set("sociability", d.drives.sociability)?;
-                // Shared by every fish of the species in the lane: read-only.
-                let readonly: Function = lua.named_registry_value(READONLY_KEY)?;
-                let t: Table = readonly.call((t, "shoal.species()"))?;
-                ctx.species_tables[i] = Some(t.clone());
-                Ok(t)
-            })
-        })?,
-    )?;
-    let outside_fn =
-        lua.create_function(|_, name: String| -> mlua::Result<()> { Err(outside(&name)) })?;
+    let species_raw = lua.create_function(|lua, ()| {
+        with_ctx(lua, "species", |w, f, ctx| {
+            let s = w.species_of(f).ok_or_else(|| outside("species"))?;
+            let i = usize::from(s.0);
+            if ctx.species_tables.len() <= i {
+                ctx.species_tables.resize(i + 1, None);
+            }
+            if let Some(t) = &ctx.species_tables[i] {
+                return Ok(t.clone());
+            }
+            let d = &w.species(s).desc;
+            let t = lua.create_table()?;
+            t.raw_set("name", d.name.as_str())?;
+            t.raw_set("length", d.motion.l)?;
+            t.raw_set("cruise_speed", d.motion.s)?;
+            t.raw_set("max_speed", d.max_speed)?;
+            t.raw_set("view_range", d.view_range)?;
+            t.raw_set("view_angle", d.view_angle_deg.to_radians())?;
+            t.raw_set("turn_time", d.motion.tt)?;
+            t.raw_set("predator", d.predator)?;
+            t.raw_set("hunger_per_s", d.drives.hunger_per_s)?;
+            t.raw_set("satiation_per_food", d.drives.satiation_per_food)?;
+            t.raw_set("fear_decay_per_s", d.drives.fear_decay_per_s)?;
+            t.raw_set("sociability", d.drives.sociability)?;
+            // Shared by every fish of the species in the lane: read-only.
+            let readonly: Function = lua.named_registry_value(READONLY_KEY)?;
+            let t: Table = readonly.call((t, "shoal.species()"))?;
+            ctx.species_tables[i] = Some(t.clone());
+            Ok(t)
+        })
+    })?;
+    let outside_fn = lua.create_function(|_, name: String| Ok(outside_message(&name)))?;
     shoal.set(
         "motion",
         lua.create_function(|lua, ()| {
@@ -305,9 +290,11 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<RawS
             })
         })?,
     )?;
-    Ok(RawSenses {
-        body: body_raw,
-        nearest: nearest_raw,
-        outside: outside_fn,
-    })
+    let raw = lua.create_table()?;
+    raw.raw_set("body", body_raw)?;
+    raw.raw_set("nearest", nearest_raw)?;
+    raw.raw_set("species", species_raw)?;
+    raw.raw_set("species_name", species_name_raw)?;
+    raw.raw_set("outside", outside_fn)?;
+    Ok(raw)
 }

@@ -56,6 +56,9 @@ pub(super) struct Lane {
     total_ns: u64,
     /// Decisions the lane's last stage ran.
     decided: u64,
+    /// Decisions the lane has begun (it times the sensing of one in [`api::SENSE_SAMPLE`]: the
+    /// first, then every that many).
+    sense_sampled: u32,
     /// Per behaviour module (by the host's module index): what its decisions cost so far.
     pub(super) profile: Vec<ModuleStats>,
 }
@@ -94,6 +97,7 @@ impl Lane {
             perception_ns: 0,
             total_ns: 0,
             decided: 0,
+            sense_sampled: 0,
             profile: Vec::new(),
         })
     }
@@ -132,6 +136,7 @@ impl Lane {
         let claims = &mut self.claims;
         let mut stopped = 0u64;
         let stopped_ns = &mut stopped;
+        let sampled = &mut self.sense_sampled;
         let result = (|| {
             host.set_stage(Some((time_s, world)))?;
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -150,20 +155,30 @@ impl Lane {
                     // Quarantined: the fish keeps its last motion, at no cost.
                     continue;
                 }
-                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                    c.fish = Some(d.id);
-                    c.percepts_of = None;
-                    std::mem::swap(&mut c.controls, &mut d.controls);
-                }
+                // One borrow of the API context before the decision and one after.
+                let sensed_before = match lua.app_data_mut::<Ctx>() {
+                    Some(mut c) => {
+                        c.fish = Some(d.id);
+                        c.percepts_of = None;
+                        c.sense_weight = if (*sampled).is_multiple_of(api::SENSE_SAMPLE) {
+                            api::SENSE_SAMPLE
+                        } else {
+                            0
+                        };
+                        *sampled = sampled.wrapping_add(1);
+                        std::mem::swap(&mut c.controls, &mut d.controls);
+                        c.perception_ns
+                    }
+                    None => 0,
+                };
                 let species = &world.species(sid).desc.name;
-                let sensed_before = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
                 // Stack samples taken during the decision are the module's.
                 host.meter().set_tag(Some(module));
                 let allocated_before = host.meter().allocated();
                 let started = Instant::now();
                 let hooked =
                     debugger.is_some_and(|dbg| debug::begin_decision(dbg, host, module, d.id));
-                let outcome = host.run_fish(module, d.id, species, behavior, time_s);
+                let outcome = host.run_fish(module, d.id, (sid, species), behavior, time_s);
                 // Time held at a breakpoint is no cost of the script.
                 let mut held_ns = 0;
                 if let Some(dbg) = debugger {
@@ -179,7 +194,15 @@ impl Lane {
                 let took = (started.elapsed().as_nanos() as u64).saturating_sub(held_ns);
                 let allocated = host.meter().allocated().wrapping_sub(allocated_before);
                 host.meter().set_tag(None);
-                let sensed = lua.app_data_ref::<Ctx>().map_or(0, |c| c.perception_ns);
+                let sensed = match lua.app_data_mut::<Ctx>() {
+                    Some(mut c) => {
+                        std::mem::swap(&mut c.controls, &mut d.controls);
+                        let order = d.order;
+                        claims.extend(c.claims.drain(..).map(|(f, food)| (order, f, food)));
+                        c.perception_ns
+                    }
+                    None => 0,
+                };
                 if profile.len() <= module {
                     profile.resize(module + 1, ModuleStats::default());
                 }
@@ -192,16 +215,12 @@ impl Lane {
                 stats.alloc_bytes += allocated;
                 host.count_outcome(module, failed, time_s);
                 *decided += 1;
-                if let Some(mut c) = lua.app_data_mut::<Ctx>() {
-                    std::mem::swap(&mut c.controls, &mut d.controls);
-                    let order = d.order;
-                    claims.extend(c.claims.drain(..).map(|(f, food)| (order, f, food)));
-                }
             }
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
                 c.fish = None;
                 c.percepts_of = None;
                 c.world = None;
+                c.sense_weight = 1;
             }
             host.set_stage(None)
         })();

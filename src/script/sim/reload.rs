@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::Simulation;
-use crate::script::api::Ctx;
+use crate::script::api;
 use crate::script::error::ScriptError;
 use crate::script::host::Reloaded;
 use crate::script::log::LogLevel;
@@ -147,9 +147,9 @@ impl Simulation {
                     Ok(()) => {
                         self.sim.behavior.species[i].period_ticks = period;
                         for lane in &self.sim.behavior.lanes {
-                            if let Some(mut c) = lane.host.lua().app_data_mut::<Ctx>() {
-                                c.invalidate_species();
-                            }
+                            // A failure here can only be out of memory; the caches then
+                            // hold the old names until the next reload.
+                            let _ = api::invalidate_species(lane.host.lua());
                         }
                         self.host_mut().log(
                             LogLevel::Info,
