@@ -232,8 +232,8 @@ fn jump_to_last_error_goes_to_the_moment_the_script_failed() {
     let wander = root.join("scripts/behaviors/wander.lua");
     let src = std::fs::read_to_string(&wander).unwrap();
     let edited = src.replace(
-        "function M.behave(fish, intention, p)\n",
-        "function M.behave(fish, intention, p)\n  if shoal.time() >= 1.5 and not fish.memory.boomed then\n    fish.memory.boomed = true\n    error('late boom')\n  end\n",
+        "function M.behave(fish, intention)\n",
+        "function M.behave(fish, intention)\n  if shoal.time() >= 1.5 and not fish.memory.boomed then\n    fish.memory.boomed = true\n    error('late boom')\n  end\n",
     );
     assert_ne!(src, edited);
     std::fs::write(&wander, edited).unwrap();
@@ -266,9 +266,10 @@ fn a_function_in_fish_memory_is_reported_once_and_the_aquarium_goes_on() {
     let wander = root.join("scripts/behaviors/wander.lua");
     let src = std::fs::read_to_string(&wander).unwrap();
     let edited = src.replace(
-        "function M.behave(fish, intention, p)\n",
-        "function M.behave(fish, intention, p)\n  fish.memory.callback = function() end\n",
+        "function M.behave(fish, intention)\n",
+        "function M.behave(fish, intention)\n  fish.memory.callback = function() end\n",
     );
+    assert_ne!(src, edited, "the edit applies");
     std::fs::write(&wander, edited).unwrap();
     let mut h = harness(default_aquarium(&root));
     h.run();
