@@ -407,35 +407,21 @@ impl AllocCount {
     /// collector's count). Call [`AllocCount::uninstall`] before the state is dropped, to hand
     /// mlua its allocator back (otherwise mlua cannot free its small allocator state).
     pub fn install(lua: &mlua::Lua) -> mlua::Result<Self> {
-        let mut out = None;
-        // SAFETY: `exec_raw` hands us a valid state on this thread; we read the main thread
-        // from the registry (push one value, pop it) and swap its allocator. Lua allows
-        // lua_setallocf at any time the state is not allocating, which it is not while we run.
-        unsafe {
-            lua.exec_raw::<()>((), |state| {
-                ffi::lua_rawgeti(state, ffi::LUA_REGISTRYINDEX, ffi::LUA_RIDX_MAINTHREAD);
-                let main = ffi::lua_tothread(state, -1);
-                ffi::lua_pop(state, 1);
-                if main.is_null() {
-                    return;
-                }
-                let mut inner_ud = std::ptr::null_mut();
-                let inner = ffi::lua_getallocf(main, &mut inner_ud);
-                let counting = Box::new(Counting {
-                    inner,
-                    inner_ud,
-                    allocated: AtomicU64::new(0),
-                });
-                let p: *const Counting = &*counting;
-                out = Some((main, counting, p));
-            })?;
-        }
-        let Some((state, counting, p)) = out else {
-            return Err(mlua::Error::runtime("the Lua state has no main thread"));
-        };
+        let state = crate::script::watchdog::main_thread(lua)?;
+        let mut inner_ud = std::ptr::null_mut();
+        // SAFETY: `state` is `lua`'s live main thread, read on the thread that owns it.
+        let inner = unsafe { ffi::lua_getallocf(state, &mut inner_ud) };
+        let counting = Box::new(Counting {
+            inner,
+            inner_ud,
+            allocated: AtomicU64::new(0),
+        });
+        let p: *const Counting = &*counting;
         // Kept by the state until after it closes (app data is dropped after lua_close).
         lua.set_app_data(CountingSlot(counting));
-        // SAFETY: as above; `p` points into the box now owned by the state's app data.
+        // SAFETY: `state` as above; `p` points into the box now owned by the state's app data.
+        // Lua allows lua_setallocf at any time the state is not allocating, which it is not
+        // while we run.
         unsafe { ffi::lua_setallocf(state, counting_alloc, p.cast_mut().cast()) };
         Ok(Self { state, counting: p })
     }

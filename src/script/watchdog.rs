@@ -87,24 +87,34 @@ unsafe impl Send for Meter {}
 // SAFETY: as above: all uses go through one thread at a time.
 unsafe impl Sync for Meter {}
 
+/// `lua`'s main thread (`lua_State*`, never null): the state the hooks and the allocator belong
+/// to, alive as long as `lua`. An error if the registry holds none (it always does).
+pub(crate) fn main_thread(lua: &Lua) -> mlua::Result<*mut ffi::lua_State> {
+    let mut main = std::ptr::null_mut();
+    // SAFETY: `exec_raw` hands us a valid state with room on its stack; we push one value (the
+    // main thread, from the registry) and pop it again.
+    unsafe {
+        lua.exec_raw::<()>((), |state| {
+            ffi::lua_rawgeti(state, ffi::LUA_REGISTRYINDEX, ffi::LUA_RIDX_MAINTHREAD);
+            main = ffi::lua_tothread(state, -1);
+            ffi::lua_pop(state, 1);
+        })?;
+    }
+    if main.is_null() {
+        return Err(mlua::Error::runtime("the Lua state has no main thread"));
+    }
+    Ok(main)
+}
+
 impl Meter {
     /// Takes over the hook mlua's `set_global_hook` just installed on `lua`'s main thread (every
     /// `interval` instructions): turns it off and keeps it for [`Meter::call`].
     pub fn take_over(lua: &Lua, interval: u32) -> mlua::Result<Self> {
-        let mut found: Option<(*mut ffi::lua_State, Option<ffi::lua_Hook>)> = None;
-        // SAFETY: `exec_raw` hands us a valid state with room on its stack; we push one value
-        // (the main thread, from the registry) and pop it again.
-        unsafe {
-            lua.exec_raw::<()>((), |state| {
-                ffi::lua_rawgeti(state, ffi::LUA_REGISTRYINDEX, ffi::LUA_RIDX_MAINTHREAD);
-                let main = ffi::lua_tothread(state, -1);
-                ffi::lua_pop(state, 1);
-                found = Some((main, ffi::lua_gethook(main)));
-            })?;
-        }
-        let (state, hook) = match found {
-            Some((state, Some(hook))) if !state.is_null() => (state, hook),
-            _ => {
+        let state = main_thread(lua)?;
+        // SAFETY: `state` is `lua`'s live main thread, read on the thread that owns it.
+        let hook = match unsafe { ffi::lua_gethook(state) } {
+            Some(hook) => hook,
+            None => {
                 return Err(mlua::Error::runtime(
                     "the budget hook is not set on the Lua state",
                 ));

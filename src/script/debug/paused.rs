@@ -78,26 +78,19 @@ fn path_of(lua: &Lua, chunk: &str) -> Option<PathBuf> {
 /// Adds line events to the hook of `lua`'s main thread, which [`crate::script::watchdog`] has
 /// just set to count instructions for the call about to start (its guard turns both off after).
 pub(crate) fn add_line_hook(lua: &Lua) {
-    // SAFETY: `exec_raw` hands a valid state; the main thread comes from the registry (always
-    // there) and is alive as long as `lua`. Reading its hook and setting it again with one more
-    // event in the mask happens on the thread that owns the state, between calls.
-    let _ = unsafe {
-        lua.exec_raw::<()>((), |state| {
-            ffi::lua_rawgeti(state, ffi::LUA_REGISTRYINDEX, ffi::LUA_RIDX_MAINTHREAD);
-            let main = ffi::lua_tothread(state, -1);
-            ffi::lua_pop(state, 1);
-            if main.is_null() {
-                return;
-            }
-            let hook = ffi::lua_gethook(main);
-            if hook.is_none() {
-                return;
-            }
-            let mask = ffi::lua_gethookmask(main) | ffi::LUA_MASKLINE;
-            let count = ffi::lua_gethookcount(main);
-            ffi::lua_sethook(main, hook, mask, count);
-        })
+    let Ok(main) = crate::script::watchdog::main_thread(lua) else {
+        return;
     };
+    // SAFETY: `main` is `lua`'s live main thread. Reading its hook and setting it again with one
+    // more event in the mask happens on the thread that owns the state, between calls.
+    unsafe {
+        let Some(hook) = ffi::lua_gethook(main) else {
+            return;
+        };
+        let mask = ffi::lua_gethookmask(main) | ffi::LUA_MASKLINE;
+        let count = ffi::lua_gethookcount(main);
+        ffi::lua_sethook(main, Some(hook), mask, count);
+    }
 }
 
 /// Number of frames on the stopped thread's stack.
