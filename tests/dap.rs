@@ -16,6 +16,8 @@ use serde_json::{Value, json};
 use shoal::script::Simulation;
 use shoal::script::debug::{Debugger, server};
 
+mod xvfb_common;
+
 /// Longest wait for any one message (only against hangs).
 const PATIENCE: Duration = Duration::from_secs(120);
 
@@ -387,57 +389,11 @@ fn malformed_and_unknown_messages_get_errors_and_disconnect_resumes() {
     assert!(out.contains("1 passed"), "{out}");
 }
 
-/// An X server for `shoal run` (as `tests/window_run.rs` starts one); killed when dropped.
-struct Xvfb {
-    child: Child,
-    display: u32,
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn start_xvfb() -> Xvfb {
-    const XVFB: &str = "/usr/bin/Xvfb";
-    assert!(
-        Path::new(XVFB).exists(),
-        "{XVFB} is missing: install it (Debian: apt install xvfb) — CI installs it in .ci/run"
-    );
-    let display = (400..700)
-        .map(|n| n + std::process::id() % 200)
-        .find(|n| {
-            !Path::new(&format!("/tmp/.X{n}-lock")).exists()
-                && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
-        })
-        .expect("a free X display number");
-    let child = Command::new(XVFB)
-        .arg(format!(":{display}"))
-        .args(["-screen", "0", "1280x800x24", "-nolisten", "tcp"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("Xvfb starts");
-    let xvfb = Xvfb { child, display };
-    let socket = format!("/tmp/.X11-unix/X{display}");
-    let start = std::time::Instant::now();
-    while !Path::new(&socket).exists() {
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "Xvfb :{display} did not come up"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    xvfb
-}
-
 /// `shoal run --dap` on the default scene (its forage fish) in a window: stop, look, go on, and
 /// the window presents its frames and says so; the client hears `terminated`.
 #[test]
 fn shoal_run_dap_stops_in_the_window_and_goes_on() {
-    let xvfb = start_xvfb();
+    let xvfb = xvfb_common::start(400..700);
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_shoal"));
     cmd.args(["run", "--frames", "20", "--dap", "127.0.0.1:0"])
         .env("DISPLAY", format!(":{}", xvfb.display))

@@ -5,53 +5,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-const XVFB: &str = "/usr/bin/Xvfb";
-
-/// Kills the Xvfb it owns when dropped.
-struct Xvfb {
-    child: Child,
-    display: u32,
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn start_xvfb() -> Xvfb {
-    assert!(
-        Path::new(XVFB).exists(),
-        "{XVFB} is missing: install it (Debian: apt install xvfb) — CI installs it in .ci/run"
-    );
-    // A display number no other server (or parallel test run) holds.
-    let display = (90..400)
-        .map(|n| n + std::process::id() % 200)
-        .find(|n| {
-            !Path::new(&format!("/tmp/.X{n}-lock")).exists()
-                && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
-        })
-        .expect("a free X display number");
-    let child = Command::new(XVFB)
-        .arg(format!(":{display}"))
-        .args(["-screen", "0", "1280x800x24", "-nolisten", "tcp"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("Xvfb starts");
-    let xvfb = Xvfb { child, display };
-    let socket = format!("/tmp/.X11-unix/X{display}");
-    let start = Instant::now();
-    while !Path::new(&socket).exists() {
-        assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "Xvfb :{display} did not come up"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    xvfb
-}
+mod xvfb_common;
 
 /// Waits for `child` with a limit, killing it if it runs over.
 fn wait_with_limit(mut child: Child, limit: Duration) -> std::process::Output {
@@ -75,7 +29,7 @@ fn wait_with_limit(mut child: Child, limit: Duration) -> std::process::Output {
 
 #[test]
 fn shoal_run_presents_30_frames_under_xvfb_and_exits_cleanly() {
-    let xvfb = start_xvfb();
+    let xvfb = xvfb_common::start(90..400);
     let child = Command::new(env!("CARGO_BIN_EXE_shoal"))
         .args(["run", "--frames", "30", "--select", "0", "--overlays"])
         .env("DISPLAY", format!(":{}", xvfb.display))
@@ -134,7 +88,7 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
         Path::new(XDOTOOL).exists(),
         "{XDOTOOL} is missing: install it (Debian: apt install xdotool) — CI installs it in .ci/run"
     );
-    let xvfb = start_xvfb();
+    let xvfb = xvfb_common::start(90..400);
     let display = format!(":{}", xvfb.display);
     let mut child = Command::new(env!("CARGO_BIN_EXE_shoal"))
         .args(["run", "--frames", "100000", "--select", "0"])
