@@ -69,24 +69,6 @@ fn get_calls(sim: &shoal::script::Simulation, name: &str) -> u64 {
         .map_or(0, |m| m.calls)
 }
 
-/// A behaviour whose `tick` (line 11) calls `heavy` (line 1) and `light` (line 6); heavy does
-/// ten times light's work per decision, in the same loop.
-const SPLIT: &str = "\
-local function heavy(n)
-  local x = 0
-  for i = 1, n * 10 do x = x + math.sin(i) end
-  return x
-end
-local function light(n)
-  local x = 0
-  for i = 1, n do x = x + math.sin(i) end
-  return x
-end
-return { tick = function(fish)
-  fish.memory.x = heavy(3000) + light(3000)
-end }
-";
-
 /// Spawns `count` porgies running `behavior` in a row.
 fn spawn_row(sim: &mut shoal::script::Simulation, behavior: &str, count: usize, y: f32) {
     for k in 0..count {
@@ -100,7 +82,11 @@ fn spawn_row(sim: &mut shoal::script::Simulation, behavior: &str, count: usize, 
 #[test]
 fn sampled_functions_split_as_the_work_is_split_and_name_their_lines() {
     let (_dir, root) = common::scratch_repo();
-    std::fs::write(root.join("scripts/behaviors/split.lua"), SPLIT).unwrap();
+    std::fs::write(
+        root.join("scripts/behaviors/split.lua"),
+        common::split_behavior(3000),
+    )
+    .unwrap();
     let mut sim = common::sim_in(&root, 3);
     sim.set_function_sampling(Some(shoal::script::sim::SAMPLE_EVERY));
     spawn_row(&mut sim, "split", 20, 150.0);

@@ -318,29 +318,15 @@ fn a_logpoint_prints_its_message_where_the_line_runs_without_pausing() {
     assert!(e.contains("no such script"), "{e}");
 }
 
-/// A behaviour whose `tick` calls `heavy` (defined at line 1) and `light` (line 6), heavy doing
-/// ten times light's work.
-const SPLIT: &str = "\
-local function heavy(n)
-  local x = 0
-  for i = 1, n * 10 do x = x + math.sin(i) end
-  return x
-end
-local function light(n)
-  local x = 0
-  for i = 1, n do x = x + math.sin(i) end
-  return x
-end
-return { tick = function(fish)
-  fish.memory.x = heavy(2000) + light(2000)
-end }
-";
-
 #[cfg(target_os = "linux")]
 #[test]
 fn sampling_functions_lists_the_hot_function_with_its_file_and_line() {
     let (_dir, root) = common::scratch_repo();
-    std::fs::write(root.join("scripts/behaviors/split.lua"), SPLIT).unwrap();
+    std::fs::write(
+        root.join("scripts/behaviors/split.lua"),
+        common::split_behavior(2000),
+    )
+    .unwrap();
     let mut sim = common::sim_in(&root, 3);
     for k in 0..20 {
         let pos = glam::Vec3::new(-200.0 + 20.0 * k as f32, 150.0, 0.0);

@@ -181,3 +181,26 @@ impl PosedPorgy {
         }
     }
 }
+
+/// A behaviour (`behaviors/split.lua`) whose `tick` calls `heavy` (defined at line 1) and `light`
+/// (line 6), heavy doing ten times light's work per decision (`n` and 10·`n` sines), in the
+/// same loop: the profiler tests' known cost split.
+pub fn split_behavior(n: u32) -> String {
+    format!(
+        "\
+local function heavy(n)
+  local x = 0
+  for i = 1, n * 10 do x = x + math.sin(i) end
+  return x
+end
+local function light(n)
+  local x = 0
+  for i = 1, n do x = x + math.sin(i) end
+  return x
+end
+return {{ tick = function(fish)
+  fish.memory.x = heavy({n}) + light({n})
+end }}
+"
+    )
+}
