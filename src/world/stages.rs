@@ -196,6 +196,7 @@ impl World {
                 .with_min_len(1024)
                 .for_each(|(out, &k)| *out = crowd::heading_vector(roots[k as usize].heading));
         }
+        self.refresh_predator_spots();
         self.grid_exact = true;
         self.grid_positions_current = true;
         self.spawned_since_grid.clear();
