@@ -16,7 +16,7 @@ use crate::motion::{MotionPlayer, MotionRequest, RootState};
 /// What a fish's behaviour may change while it decides, checked out of the world by
 /// [`World::check_out`]: its motion player, its steering memo and its random generator.
 pub struct FishControls {
-    player: MotionPlayer,
+    player: Box<MotionPlayer>,
     steer: SteerMemo,
     rng: Pcg32,
 }
@@ -24,7 +24,7 @@ pub struct FishControls {
 impl Default for FishControls {
     fn default() -> Self {
         Self {
-            player: MotionPlayer::new(),
+            player: Box::new(MotionPlayer::new()),
             steer: SteerMemo::default(),
             rng: Pcg32::seed_from_u64(0),
         }

@@ -34,7 +34,10 @@ pub(crate) struct FishStore {
     pub ids: Vec<FishId>,
     pub roots: Vec<RootState>,
     pub species: Vec<SpeciesId>,
-    pub players: Vec<MotionPlayer>,
+    /// Boxed: a decision checks a fish's player out of the world and back in (a sequential
+    /// step of the tick), which then moves a pointer instead of ~190 bytes each way.
+    #[allow(clippy::vec_box)]
+    pub players: Vec<Box<MotionPlayer>>,
     /// Driven joints' local yaw, radians; the first `body.power.len()` entries are used.
     pub yaw: Vec<[f32; MAX_DRIVEN_JOINTS]>,
     /// Midline lateral displacement at `body.joints_x`, world units; first `joints_x.len()` used.
@@ -75,7 +78,7 @@ impl FishStore {
         self.ids.push(id);
         self.roots.push(fish.root);
         self.species.push(fish.species);
-        self.players.push(fish.player);
+        self.players.push(Box::new(fish.player));
         self.yaw.push([0.0; MAX_DRIVEN_JOINTS]);
         self.lateral.push([0.0; MAX_DRIVEN_JOINTS + 1]);
         self.behaviors.push(fish.behavior);
