@@ -118,6 +118,17 @@ impl World {
         self.state.fish.ids.iter().copied()
     }
 
+    /// Fish that run a behaviour script, with their species, in dense order (read straight
+    /// from the fish arrays: the behaviour stage picks the fish due each tick from this).
+    pub fn scripted_fish(&self) -> impl Iterator<Item = (FishId, SpeciesId)> + '_ {
+        let f = &self.state.fish;
+        f.ids
+            .iter()
+            .zip(&f.species)
+            .zip(&f.behaviors)
+            .filter_map(|((&id, &species), b)| b.as_ref().map(|_| (id, species)))
+    }
+
     /// Live fish handles, dense order.
     pub fn fish_id_slice(&self) -> &[FishId] {
         &self.state.fish.ids

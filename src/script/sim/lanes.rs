@@ -13,11 +13,13 @@ use crate::script::host::{ModuleIndex, ScriptHost};
 use crate::script::log::LogLevel;
 use crate::script::sandbox::Limits;
 use crate::world::tick::exclusive;
-use crate::world::{Behavior, FishControls, FishId, FoodId, World};
+use crate::world::{Behavior, FishControls, FishId, FoodId, SpeciesId, World};
 
 /// A decision due this tick, in the lane of its fish.
 struct Due {
     id: FishId,
+    /// Its species (read when it was picked).
+    species: SpeciesId,
     /// Position in this tick's decision order (all lanes).
     order: u32,
     /// The fish's controls while it decides (checked out of the world).
@@ -103,13 +105,15 @@ impl Lane {
     }
 
     /// Queues a decision (reusing a buffer of an earlier tick).
-    fn push(&mut self, id: FishId, order: u32) {
+    fn push(&mut self, id: FishId, species: SpeciesId, order: u32) {
         if let Some(d) = self.due.get_mut(self.num_due) {
             d.id = id;
+            d.species = species;
             d.order = order;
         } else {
             self.due.push(Due {
                 id,
+                species,
                 order,
                 controls: FishControls::default(),
             });
@@ -144,8 +148,8 @@ impl Lane {
             }
             for d in due.iter_mut() {
                 // The fish's module and table are found here, in the lane's thread.
-                let (Some(behavior), Some(sid)) = (world.behavior_of(d.id), world.species_of(d.id))
-                else {
+                let sid = d.species;
+                let Some(behavior) = world.behavior_of(d.id) else {
                     continue;
                 };
                 let Some(module) = module_for(module_of, host, behavior, time_s) else {
@@ -280,25 +284,21 @@ impl Behavior for Scripts {
         }
         // Only picking the fish is sequential; each lane finds their modules and tables.
         let mut order = 0u32;
-        for id in world.fish_ids() {
-            let Some(sid) = world.species_of(id) else {
-                continue;
-            };
+        for (id, sid) in world.scripted_fish() {
             let period = self
                 .species
                 .get(usize::from(sid.0))
                 .map_or(6, |s| s.period_ticks);
-            if !(tick + u64::from(id.index)).is_multiple_of(period)
-                || world.behavior_of(id).is_none()
-            {
+            if !(tick + u64::from(id.index)).is_multiple_of(period) {
                 continue;
             }
-            self.lanes[lane_index(id, num_lanes)].push(id, order);
+            self.lanes[lane_index(id, num_lanes)].push(id, sid, order);
             order += 1;
         }
+        let w = exclusive(world);
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
-                exclusive(world).check_out(d.id, &mut d.controls);
+                w.check_out(d.id, &mut d.controls);
             }
         }
         let shared: &Arc<World> = world;
@@ -316,9 +316,10 @@ impl Behavior for Scripts {
         }
         let mut claims = Vec::new();
         let (mut perception, mut lanes_total, mut decisions) = (0u64, 0u64, 0u64);
+        let w = exclusive(world);
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {
-                exclusive(world).check_in(d.id, &mut d.controls);
+                w.check_in(d.id, &mut d.controls);
             }
             claims.append(&mut lane.claims);
             perception += lane.perception_ns;
