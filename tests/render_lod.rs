@@ -412,10 +412,13 @@ fn worst_bend_porgy() -> f32 {
         world.step_motion(1.0 / 60.0);
         world.step_motion(1.0 / 60.0);
         world.update_pose();
-        let palettes = world.palettes();
         world
             .fish_ids()
-            .map(|id| palettes[world.palette_range(id).unwrap()].to_vec())
+            .map(|id| {
+                let mut palette = Vec::new();
+                assert!(world.joint_palette(id, &mut palette));
+                palette
+            })
             .collect()
     });
     worst_of(&upload, frames)

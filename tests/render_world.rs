@@ -3,12 +3,13 @@
 
 mod common;
 
+use glam::{Mat4, Vec3};
 use shoal::app::WorldScene;
 use shoal::motion::MotionRequest;
 use shoal::render::{Gpu, OffscreenTarget, Renderer};
 use shoal::world::bench::{RustSim, bench_world};
 use shoal::world::driver::WanderDriver;
-use shoal::world::{Species, SpeciesDesc};
+use shoal::world::{SpawnParams, Species, SpeciesDesc, SpeciesId};
 
 fn porgy_scene(fish: usize) -> WorldScene<RustSim> {
     let assets = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets");
@@ -156,4 +157,192 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
     let input = scene.frame_input();
     assert_eq!(input.instances.len(), 7);
     assert_eq!(input.palettes.len(), scene.sim().world().palettes().len());
+}
+
+fn shipped(desc: SpeciesDesc) -> Species {
+    let assets = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets");
+    Species::load(desc, &assets).expect("shipped species load")
+}
+
+/// Ten porgies and ten eels two seconds into swimming, in a scene.
+fn porgy_and_eel_scene() -> WorldScene<RustSim> {
+    let mut world = bench_world(shipped(SpeciesDesc::black_porgy()), 10, 5).unwrap();
+    let eel = world.add_species(shipped(SpeciesDesc::eel()));
+    let (min, size) = (world.tank().min, world.tank().max - world.tank().min);
+    for i in 0..10 {
+        let f = 0.2 + 0.06 * i as f32;
+        world
+            .spawn(SpawnParams {
+                species: eel,
+                pos: min + size * glam::Vec3::new(f, 0.3 + 0.03 * i as f32, 1.0 - f),
+                heading: i as f32,
+                pitch: 0.0,
+                speed: 40.0,
+                behavior: None,
+                seed: 100 + i,
+            })
+            .unwrap();
+    }
+    let mut scene = WorldScene::new(RustSim::new(world, WanderDriver::default()));
+    scene.step(2.0);
+    scene
+}
+
+/// Skinned positions and normals, as bits, of `mesh`'s vertices with `joints` into `palette`.
+fn skin_bits(mesh: &shoal::skin::SkinnedMesh, joints: &[[u16; 4]], palette: &[Mat4]) -> Vec<u32> {
+    use shoal::skin::LinearBlendSkinningJob;
+    let n = mesh.num_vertices();
+    let (mut positions, mut normals) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    LinearBlendSkinningJob {
+        palette,
+        positions_in: &mesh.positions,
+        normals_in: &mesh.normals,
+        joints,
+        weights: &mesh.weights,
+        positions_out: &mut positions,
+        normals_out: &mut normals,
+    }
+    .run()
+    .unwrap();
+    positions
+        .iter()
+        .chain(&normals)
+        .flat_map(|v| v.to_array().map(f32::to_bits))
+        .collect()
+}
+
+/// Every fish skinned on the CPU two ways — the uploaded mesh (joint indices remapped to slots)
+/// with the frame's palette from the fish's offset, and the species' own mesh with the
+/// per-joint palette expanded from the world — gives the same positions and normals, bit for
+/// bit. Returns how many fish were checked.
+fn assert_uploads_skin_as_the_per_joint_palettes(scene: &WorldScene<RustSim>) -> usize {
+    let w = scene.world();
+    let meshes = scene.meshes();
+    let input = scene.frame_input();
+    let mut full = Vec::new();
+    for (inst, &id) in input.instances.iter().zip(w.fish_id_slice()) {
+        let species = w.species_of(id).unwrap();
+        let mesh = &w.species(species).model.mesh;
+        let upload = &meshes[inst.mesh.0 as usize];
+        assert_eq!(upload.positions.len(), mesh.num_vertices());
+        let slots = w.num_palette_slots(species);
+        let start = inst.palette_offset as usize;
+        let compact = &input.palettes[start..start + slots];
+        assert!(w.joint_palette(id, &mut full));
+        assert_eq!(
+            skin_bits(mesh, upload.joints, compact),
+            skin_bits(mesh, &mesh.joints, &full),
+            "fish {id:?}"
+        );
+    }
+    input.instances.len()
+}
+
+/// Issue 18: the renderer draws each fish from its distinct palette entries only, with the
+/// species' mesh joints remapped to slots at upload; a vertex remapped wrongly would be skinned
+/// by another matrix. The check has teeth: a bent fish's slots are all different matrices, and
+/// a remap off by one slot changes the skinned mesh.
+#[test]
+fn remapped_meshes_skin_exactly_as_the_per_joint_palettes() {
+    let scene = porgy_and_eel_scene();
+    let w = scene.world();
+    assert_eq!(assert_uploads_skin_as_the_per_joint_palettes(&scene), 20);
+    for species in [SpeciesId(0), SpeciesId(1)] {
+        // Fewer palette entries than joints, and a mesh that names only slots.
+        let slots = w.num_palette_slots(species);
+        let joints = w.species(species).model.skeleton.num_joints();
+        assert!(slots < joints, "{slots} slots for {joints} joints");
+        let upload = scene.meshes()[usize::from(species.0)];
+        assert!(
+            upload
+                .joints
+                .iter()
+                .flatten()
+                .all(|&s| usize::from(s) < slots)
+        );
+    }
+    let input = scene.frame_input();
+    for (inst, &id) in input.instances.iter().zip(w.fish_id_slice()) {
+        let species = w.species_of(id).unwrap();
+        let slots = w.num_palette_slots(species);
+        let start = inst.palette_offset as usize;
+        let compact = &input.palettes[start..start + slots];
+        for a in 0..slots {
+            for b in a + 1..slots {
+                assert_ne!(compact[a], compact[b], "fish {id:?}: slots {a} and {b}");
+            }
+        }
+        let mesh = &w.species(species).model.mesh;
+        let upload = scene.meshes()[usize::from(species.0)];
+        let wrong: Vec<[u16; 4]> = upload
+            .joints
+            .iter()
+            .map(|v| v.map(|s| (s + 1) % slots as u16))
+            .collect();
+        assert_ne!(
+            skin_bits(mesh, &wrong, compact),
+            skin_bits(mesh, upload.joints, compact)
+        );
+    }
+}
+
+/// The GPU skins the remapped meshes from the compact palette as the CPU skins the species'
+/// meshes from the per-joint palette (f32 agreement: the GPU rounds its own way).
+#[test]
+fn the_gpu_skins_remapped_meshes_as_the_per_joint_palettes() {
+    let scene = porgy_and_eel_scene();
+    let w = scene.world();
+    let gpu = Gpu::headless().expect("a GPU adapter (lavapipe: apt install mesa-vulkan-drivers)");
+    let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    for m in scene.meshes() {
+        renderer.upload_mesh(&gpu, &m).unwrap();
+    }
+    let input = scene.frame_input();
+    let mut full = Vec::new();
+    let mut checked = [0; 2];
+    for (inst, &id) in input.instances.iter().zip(w.fish_id_slice()).step_by(3) {
+        let species = w.species_of(id).unwrap();
+        let mesh = &w.species(species).model.mesh;
+        let l = w.species(species).body_length();
+        let skinned = renderer
+            .skin_positions(&gpu, inst.mesh, input.palettes, inst.palette_offset)
+            .unwrap();
+        assert!(w.joint_palette(id, &mut full));
+        let want: Vec<u32> = skin_bits(mesh, &mesh.joints, &full);
+        let n = mesh.num_vertices();
+        for (i, got) in skinned.iter().enumerate().take(n) {
+            let want = Vec3::from_array([0, 1, 2].map(|k| f32::from_bits(want[3 * i + k])));
+            assert!(
+                got.distance(want) < 1e-4 * l,
+                "fish {id:?} vertex {i}: GPU {got} vs CPU {want}"
+            );
+        }
+        checked[usize::from(species.0)] += 1;
+    }
+    assert!(checked.iter().all(|&c| c > 0), "{checked:?}");
+}
+
+/// A species reloaded with other driven joints lays its palette out otherwise: the scene says
+/// its meshes must be uploaded again (once), and the new ones skin as the per-joint palettes.
+#[test]
+fn a_species_reloaded_with_other_driven_joints_asks_for_its_meshes_again() {
+    let mut scene = porgy_and_eel_scene();
+    assert!(!scene.take_meshes_changed());
+    let before = scene
+        .palette_layout()
+        .iter()
+        .map(|l| l.to_vec())
+        .collect::<Vec<_>>();
+    let mut desc = SpeciesDesc::black_porgy();
+    desc.vertebral_joints.pop();
+    let world = scene.sim_mut().world_mut();
+    let slots = world.num_palette_slots(SpeciesId(0));
+    world.replace_species(SpeciesId(0), shipped(desc)).unwrap();
+    assert_ne!(world.num_palette_slots(SpeciesId(0)), slots);
+    scene.step(0.5);
+    assert!(scene.take_meshes_changed());
+    assert!(!scene.take_meshes_changed(), "said once");
+    assert_ne!(scene.palette_layout()[0], before[0].as_slice());
+    assert_eq!(scene.palette_layout()[1], before[1].as_slice());
+    assert_eq!(assert_uploads_skin_as_the_per_joint_palettes(&scene), 20);
 }

@@ -4,7 +4,11 @@
 //!
 //! The renderer reads the world's flat palette buffer as is: one instance per fish with
 //! `palette_offset = world.palette_offsets()[i]` and `mesh = MeshId(species index)`; the rock and
-//! food pellet props come after the species' meshes.
+//! food pellet props come after the species' meshes. The world's palettes hold each fish's
+//! distinct entries only (its species' slots), so each species' mesh is uploaded with its joint
+//! indices remapped to slots ([`crate::world::pose::remap_joints`]); when a species' layout
+//! changes (a hot-reloaded species file with other vertebral joints), the scene says its meshes
+//! must be uploaded again ([`WorldScene::take_meshes_changed`]).
 
 use std::f32::consts::TAU;
 use std::sync::Arc;
@@ -19,6 +23,7 @@ use crate::render::props::PropMesh;
 use crate::render::{
     Camera, FishInstance, FrameInput, Look, MeshId, MeshUpload, OverlayLine, Prop, TankBounds,
 };
+use crate::world::pose::remap_joints;
 use crate::world::{FishId, FishModel, Species, SpeciesId, TICK_HZ, World};
 
 /// Where a fish is, for picking and the follow camera.
@@ -58,12 +63,16 @@ impl OverlayToggles {
     }
 }
 
-/// Per species: what the overlays need from its model.
+/// Per species: what the overlays and the mesh upload need from its model and palette layout.
 #[derive(Debug, Clone)]
 struct SpeciesDraw {
     model: Arc<FishModel>,
     /// Each joint's bind-pose position in model space (inverse of its inverse bind matrix).
     bind_joint_pos: Vec<Vec3>,
+    /// The world's joint → slot map of the species when these draws were made.
+    slot_of_joint: Vec<u16>,
+    /// The mesh's per-vertex joint indices remapped to slots through `slot_of_joint`.
+    slot_joints: Vec<[u16; 4]>,
 }
 
 /// A [`SimView`] as the renderer and the panel see it: fixed 60 Hz ticks, real meshes, real
@@ -76,6 +85,11 @@ pub struct WorldScene<S: SimView> {
     pellet: PropMesh,
     props: Vec<Prop>,
     selected: Option<FishId>,
+    /// Mesh id of species 0 in the renderer (see [`WorldScene::set_mesh_base`]).
+    mesh_base: u32,
+    /// A species' palette layout changed since the meshes were made (see
+    /// [`WorldScene::take_meshes_changed`]).
+    meshes_changed: bool,
     accumulator_s: f64,
     step_ms: f32,
     hot_reload: bool,
@@ -110,6 +124,8 @@ impl<S: SimView> WorldScene<S> {
             pellet: PropMesh::pellet(),
             props: Vec::new(),
             selected: None,
+            mesh_base: 0,
+            meshes_changed: false,
             accumulator_s: 0.0,
             step_ms: 0.0,
             hot_reload: false,
@@ -123,18 +139,60 @@ impl<S: SimView> WorldScene<S> {
     fn species_draws(w: &World) -> Vec<SpeciesDraw> {
         (0..w.num_species())
             .map(|i| {
-                let model = w.species(SpeciesId(i as u16)).model.clone();
+                let id = SpeciesId(i as u16);
+                let model = w.species(id).model.clone();
                 let bind_joint_pos = model
                     .inverse_bind_poses
                     .iter()
                     .map(|ibm| ibm.inverse().w_axis.truncate())
                     .collect();
+                let slot_of_joint = w.slot_of_joint(id).to_vec();
+                let slot_joints =
+                    remap_joints(&model.mesh.joints, &slot_of_joint, w.num_palette_slots(id));
                 SpeciesDraw {
                     model,
                     bind_joint_pos,
+                    slot_of_joint,
+                    slot_joints,
                 }
             })
             .collect()
+    }
+
+    /// Whether the world's palette layout of some species is no longer the one the draws (and
+    /// so the uploaded meshes) were made with.
+    fn layout_changed(&self) -> bool {
+        let w = self.sim.world();
+        w.num_species() != self.species.len()
+            || self
+                .species
+                .iter()
+                .enumerate()
+                .any(|(i, d)| w.slot_of_joint(SpeciesId(i as u16)) != d.slot_of_joint.as_slice())
+    }
+
+    /// Each species' joint → slot map, as its meshes ([`WorldScene::meshes`]) are remapped: two
+    /// scenes whose layouts are equal can be drawn with the same meshes.
+    pub fn palette_layout(&self) -> Vec<&[u16]> {
+        self.species
+            .iter()
+            .map(|d| d.slot_of_joint.as_slice())
+            .collect()
+    }
+
+    /// True (once) when a species' palette layout changed (a species reloaded with other
+    /// vertebral joints, say): [`WorldScene::meshes`] then differ and must be uploaded again,
+    /// in place of the old ones.
+    pub fn take_meshes_changed(&mut self) -> bool {
+        std::mem::take(&mut self.meshes_changed)
+    }
+
+    /// Where this scene's meshes start among the renderer's: [`WorldScene::meshes`]' first one
+    /// is `MeshId(base)` (0 unless another scene's meshes come first, as the split tank's B
+    /// when its palette layout differs from A's).
+    pub fn set_mesh_base(&mut self, base: u32) {
+        self.mesh_base = base;
+        self.rebuild_instances();
     }
 
     /// The simulation.
@@ -153,11 +211,16 @@ impl<S: SimView> WorldScene<S> {
     }
 
     fn rebuild_instances(&mut self) {
+        if self.layout_changed() {
+            self.species = Self::species_draws(self.sim.world());
+            self.meshes_changed = true;
+        }
         let w = self.sim.world();
         // Props: rocks for the sphere obstacles, pellets for uneaten food (mesh ids after the
         // species' meshes, see `meshes`).
-        let rock = MeshId(self.species.len() as u32);
-        let pellet = MeshId(self.species.len() as u32 + 1);
+        let base = self.mesh_base;
+        let rock = MeshId(base + self.species.len() as u32);
+        let pellet = MeshId(base + self.species.len() as u32 + 1);
         self.props.clear();
         for o in w.obstacles() {
             self.props.push(Prop {
@@ -187,7 +250,7 @@ impl<S: SimView> WorldScene<S> {
         let fish = w.palette_offsets().iter().zip(w.fish_species());
         for ((offset, species), id) in fish.zip(w.fish_id_slice()) {
             self.instances.push(FishInstance {
-                mesh: MeshId(u32::from(species.0)),
+                mesh: MeshId(base + u32::from(species.0)),
                 palette_offset: *offset,
                 tint: [1.0; 3],
                 selected: self.selected == Some(*id),
@@ -196,15 +259,17 @@ impl<S: SimView> WorldScene<S> {
     }
 
     /// Every mesh to upload once at start: each species' in species order (`MeshId(i)` for
-    /// species i), then the rock and the food pellet.
+    /// species i, after the base of [`WorldScene::set_mesh_base`]), its joint indices remapped
+    /// to the world's palette slots, then the rock and the food pellet.
     pub fn meshes(&self) -> Vec<MeshUpload<'_>> {
         let w = self.sim.world();
         let mut meshes: Vec<MeshUpload<'_>> = self
             .species
             .iter()
             .enumerate()
-            .map(|(i, s)| {
-                MeshUpload::from_skinned_mesh(
+            .map(|(i, s)| MeshUpload {
+                joints: &s.slot_joints,
+                ..MeshUpload::from_skinned_mesh(
                     &w.species(SpeciesId(i as u16)).desc.name,
                     &s.model.mesh,
                 )
@@ -529,12 +594,14 @@ struct FishOverlay<'a> {
 }
 
 impl FishOverlay<'_> {
-    /// Bones and joint crosses, from the fish's palette.
+    /// Bones and joint crosses, from the fish's palette (joint j's entry is its slot's).
     fn skeleton(&self, out: &mut Vec<OverlayLine>) {
         let palettes = self.world.palettes();
         let joint = |j: usize| {
-            palettes
-                .get(self.palette_base + j)
+            self.draw
+                .slot_of_joint
+                .get(j)
+                .and_then(|&s| palettes.get(self.palette_base + usize::from(s)))
                 .map_or(Vec3::ZERO, |m: &Mat4| {
                     m.transform_point3(self.draw.bind_joint_pos[j])
                 })

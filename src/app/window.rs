@@ -191,9 +191,7 @@ impl App {
                 Renderer::new(&gpu, format)?
             }
         };
-        for mesh in self.aq.scene.meshes() {
-            renderer.upload_mesh(&gpu, &mesh)?;
-        }
+        upload_meshes(&mut renderer, &gpu, &mut self.aq)?;
         if let Err(e) = self.aq.scene.enable_hot_reload() {
             self.aq.ui.log(format!("script hot reload is off: {e}"));
         }
@@ -301,6 +299,14 @@ impl App {
         };
         if std::mem::take(&mut self.aq.ui.restart_requested) {
             restart_scene(ws, &mut self.aq);
+        }
+        // A reloaded species may lay its palette out otherwise: its meshes follow.
+        let a_changed = self.aq.scene.take_meshes_changed();
+        let b_changed = (self.aq.ui.split.as_mut()).is_some_and(|s| s.scene.take_meshes_changed());
+        if (a_changed || b_changed)
+            && let Err(e) = upload_meshes(&mut ws.renderer, &ws.gpu, &mut self.aq)
+        {
+            self.aq.ui.log(format!("species reload: {e}"));
         }
         reload_shaders(ws, &mut self.aq);
         refresh_views(&mut self.aq.scene, &mut self.aq.ui);
@@ -483,19 +489,35 @@ fn encode_split(
     Ok(timings.unwrap_or_default())
 }
 
+/// Uploads, in place of any before, the meshes of the views: A's, then, for the split tank, B's
+/// own when B's palette layout differs from A's (its instances then name them, see
+/// [`super::scene::WorldScene::set_mesh_base`]); otherwise B draws with A's.
+fn upload_meshes(renderer: &mut Renderer, gpu: &Gpu, aq: &mut Aquarium) -> Result<(), RenderError> {
+    renderer.clear_meshes();
+    let mut count = 0;
+    for mesh in aq.scene.meshes() {
+        renderer.upload_mesh(gpu, &mesh)?;
+        count += 1;
+    }
+    if let Some(split) = &mut aq.ui.split {
+        let base = if split.scene.palette_layout() == aq.scene.palette_layout() {
+            0
+        } else {
+            for mesh in split.scene.meshes() {
+                renderer.upload_mesh(gpu, &mesh)?;
+            }
+            count
+        };
+        split.scene.set_mesh_base(base);
+    }
+    Ok(())
+}
+
 /// The scene file was edited and the designer asked for a restart: reload it and upload its
 /// meshes again.
 fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
     match aq.scene.restart_scene() {
         Ok(meshes_changed) => {
-            if meshes_changed {
-                ws.renderer.clear_meshes();
-                for mesh in aq.scene.meshes() {
-                    if let Err(e) = ws.renderer.upload_mesh(&ws.gpu, &mesh) {
-                        aq.ui.log(format!("scene restart: {e}"));
-                    }
-                }
-            }
             aq.ui.select(&mut aq.scene, None);
             aq.ui.timeline.clear();
             if let Some(line) = aq.ui.timeline.record(aq.scene.sim()) {
@@ -509,6 +531,9 @@ fn restart_scene(ws: &mut WindowState, aq: &mut Aquarium) {
                 if let Some(line) = line {
                     aq.ui.log(line);
                 }
+            }
+            if meshes_changed && let Err(e) = upload_meshes(&mut ws.renderer, &ws.gpu, aq) {
+                aq.ui.log(format!("scene restart: {e}"));
             }
             let fish = aq.scene.num_fish();
             aq.ui.log(format!("scene restarted: {fish} fish"));

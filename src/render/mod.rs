@@ -145,7 +145,8 @@ pub struct MeshId(pub u32);
 pub struct FishInstance {
     /// Its species' mesh.
     pub mesh: MeshId,
-    /// Index into [`FrameInput::palettes`] of this fish's joint 0.
+    /// Index into [`FrameInput::palettes`] of this fish's palette entry 0 (what its mesh's joint
+    /// index 0 names; culling carries the mesh's bounds by it).
     pub palette_offset: u32,
     /// Linear RGB multiplier on the material colour (`[1, 1, 1]` leaves it unchanged).
     pub tint: [f32; 3],
@@ -269,7 +270,8 @@ impl Default for Look {
 /// Everything one frame needs. Borrowed: nothing is copied until the upload.
 #[derive(Debug, Clone, Copy)]
 pub struct FrameInput<'a> {
-    /// Every fish's joint palette (world × model × inverse bind), each fish's joints contiguous.
+    /// Every fish's joint palette (world × model × inverse bind), each fish's entries contiguous
+    /// (a world's fish has its distinct entries only, which its mesh's joint indices name).
     pub palettes: &'a [Mat4],
     /// The fish to draw.
     pub instances: &'a [FishInstance],

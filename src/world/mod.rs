@@ -147,7 +147,8 @@ pub struct World {
     /// ones are searched linearly. Eating a pellet empties the grid until the next rebuild.
     food_in_grid: usize,
 
-    /// `palette_offsets[i]..palette_offsets[i + 1]` is dense fish i's palette range.
+    /// `palette_offsets[i]..palette_offsets[i + 1]` is dense fish i's palette range (its
+    /// species' slots, see `pose.rs`).
     palette_offsets: Vec<u32>,
     palettes: Vec<Mat4>,
     counters: StageCounters,

@@ -54,7 +54,7 @@ impl World {
         if p.speed > 0.0 {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }
-        let joints = species.model.skeleton.num_joints() as u32;
+        let slots = self.pose_plans[usize::from(p.species.0)].num_slots() as u32;
         let predator = species.desc.predator;
         let id = self.state.fish.insert(NewFish {
             root: RootState {
@@ -69,7 +69,7 @@ impl World {
             seed: p.seed,
         });
         let last = *self.palette_offsets.last().unwrap_or(&0);
-        self.palette_offsets.push(last + joints);
+        self.palette_offsets.push(last + slots);
         if predator {
             self.predators.push(id);
         }
@@ -97,7 +97,7 @@ impl World {
         self.palette_offsets.push(0);
         let mut total = 0u32;
         for &s in &self.state.fish.species {
-            total += self.species[usize::from(s.0)].model.skeleton.num_joints() as u32;
+            total += self.pose_plans[usize::from(s.0)].num_slots() as u32;
             self.palette_offsets.push(total);
         }
     }

@@ -2,6 +2,12 @@
 //! skinning palette (paper sections 3.2–3.3), written into one flat palette array, fish after
 //! fish (issue 4 uploads it as one storage buffer).
 //!
+//! The array holds each fish's *distinct* palette entries only (issue 18): many joints' entries
+//! are exact copies of another's (see [`PosePlan`]), so a species maps each joint to a *slot*
+//! ([`PosePlan::slot_of_joint`]) and a fish's palette is its slots. Expanding the slots through
+//! the map gives the per-joint palette bit for bit ([`expand_palette`]); the renderer instead
+//! remaps the mesh's joint indices to slots once, at upload ([`remap_joints`]).
+//!
 //! Work splits by halving the fish range with `rayon::join` down to leaves of [`LEAF_FISH`]
 //! fish; each leaf writes only its own sub-slice of the palette, so results do not depend on the
 //! number of threads. Scratch (model matrices) is per thread and grows only on warm-up. The
@@ -230,10 +236,13 @@ fn same_matrix(a: &Mat4, b: &Mat4) -> bool {
 /// - when every matrix it multiplies is exactly affine, it multiplies [`Affine3A`]s (the same
 ///   products as [`Mat4`]s, fewer operations).
 ///
-/// Per fish it then walks only what works: a schedule lists the model matrices to make and,
-/// joint by joint, whether each palette entry is a product or a copy (and of what), so joints
-/// without a model matrix cost nothing there; a driven joint's local transform comes from its
-/// `Bend` (Rodrigues' formula, one `sin_cos`).
+/// Per fish it then walks only what works: a schedule lists the model matrices to make and the
+/// palette's distinct entries, its *slots*: one per joint whose entry is a product, plus one for
+/// the placement if a joint copies it, numbered in the order their first joint comes (so joint
+/// 0's entry is slot 0, which culling reads). A copy is not written at all: the joint maps to
+/// the slot it copies ([`PosePlan::slot_of_joint`]), bit-identical to the per-joint palette's
+/// copy. Joints without a model matrix cost nothing there; a driven joint's local transform
+/// comes from its `Bend` (Rodrigues' formula, one `sin_cos`).
 #[derive(Debug, Clone, Default)]
 pub struct PosePlan {
     parents: Vec<u16>,
@@ -256,9 +265,10 @@ const NOT_DRIVEN: u8 = u8::MAX;
 struct Schedule {
     /// The joints whose model matrix is made (parents before children).
     models: Vec<ModelStep>,
-    /// Every palette entry, in joint order (so the palette is written front to back, which
-    /// measured faster than writing the products first and the copies after).
+    /// Every slot of the palette, in slot order (so the palette is written front to back).
     palette: Vec<PaletteStep>,
+    /// Each joint's slot: its own for a product, else the slot of the entry it copies.
+    slot_of_joint: Vec<u16>,
 }
 
 /// One model matrix: `model[joint] = model[parent] · local` ([`NO_PARENT`]: the placement).
@@ -270,9 +280,9 @@ struct ModelStep {
     yaw_slot: u8,
 }
 
-/// The palette entry of `joint`, made from `left` (a joint, or [`NO_PARENT`] for the
-/// placement): the product `model[left] · palette_rhs[joint]` or, if not `product`, a copy of
-/// `left`'s palette entry (which is not itself a copy) or of the placement.
+/// One slot of the palette: if `product`, `joint`'s entry `model[left] · palette_rhs[joint]`
+/// (`left` a joint, or [`NO_PARENT`] for the placement); otherwise the placement itself (the
+/// entry of the joints that copy it).
 #[derive(Debug, Clone, Copy)]
 struct PaletteStep {
     joint: u16,
@@ -292,23 +302,38 @@ impl Schedule {
                 });
             }
         }
-        // Where each joint's palette entry comes from, copies resolved to what they copy.
-        let mut source = vec![NO_PARENT; parents.len()];
+        // Each joint's slot: a product gets the next one; a copy takes the slot of what it
+        // copies (its parent's, whose own slot is known as parents come first, or the
+        // placement's, made when the first joint copies it).
+        let mut placement_slot = None;
         for (j, op) in ops.iter().enumerate() {
             let joint = j as u16;
-            let (left, product) = match op {
-                PaletteOp::OwnModel => (joint, true),
-                PaletteOp::ParentModel => (parents[j], true),
-                // Parents come first, so the parent's source is known.
-                PaletteOp::CopyParent => (source[usize::from(parents[j])], false),
-                PaletteOp::CopyRoot => (NO_PARENT, false),
+            let next = schedule.palette.len() as u16;
+            let slot = match op {
+                PaletteOp::OwnModel | PaletteOp::ParentModel => {
+                    let left = if *op == PaletteOp::OwnModel {
+                        joint
+                    } else {
+                        parents[j]
+                    };
+                    schedule.palette.push(PaletteStep {
+                        joint,
+                        left,
+                        product: true,
+                    });
+                    next
+                }
+                PaletteOp::CopyParent => schedule.slot_of_joint[usize::from(parents[j])],
+                PaletteOp::CopyRoot => *placement_slot.get_or_insert_with(|| {
+                    schedule.palette.push(PaletteStep {
+                        joint,
+                        left: NO_PARENT,
+                        product: false,
+                    });
+                    next
+                }),
             };
-            source[j] = if product { joint } else { left };
-            schedule.palette.push(PaletteStep {
-                joint,
-                left,
-                product,
-            });
+            schedule.slot_of_joint.push(slot);
         }
         schedule
     }
@@ -413,9 +438,21 @@ impl PosePlan {
         }
     }
 
-    /// Number of joints (palette entries per fish).
+    /// Number of joints.
     pub fn num_joints(&self) -> usize {
         self.parents.len()
+    }
+
+    /// Number of slots (palette entries per fish): the distinct entries of the per-joint
+    /// palette.
+    pub fn num_slots(&self) -> usize {
+        self.schedule.palette.len()
+    }
+
+    /// Each joint's slot: joint j's palette entry is slot `slot_of_joint()[j]` of the fish's
+    /// palette. Joint 0's is slot 0.
+    pub fn slot_of_joint(&self) -> &[u16] {
+        &self.schedule.slot_of_joint
     }
 
     /// Whether the plan multiplies [`Affine3A`]s (every matrix it multiplies is exactly affine).
@@ -462,8 +499,8 @@ impl PosePlan {
         }
     }
 
-    /// The skinning palette from [`PosePlan::models`]' output: every entry of `out` that has a
-    /// joint (entries past `out`'s end are not made).
+    /// The palette's slots from [`PosePlan::models`]' output: every slot of `out` that the plan
+    /// has (slots past `out`'s end are not made).
     fn palette<T: Transform>(
         &self,
         schedule: &Schedule,
@@ -472,25 +509,20 @@ impl PosePlan {
         models: &[T],
         out: &mut [Mat4],
     ) {
-        let n = out.len();
         let placement = root.to_mat4();
-        for step in &schedule.palette {
+        for (slot, step) in out.iter_mut().zip(&schedule.palette) {
             let j = usize::from(step.joint);
-            if j >= n {
-                continue;
-            }
-            out[j] = match (step.product, step.left) {
+            *slot = match (step.product, step.left) {
                 (true, NO_PARENT) => (root * m.palette_rhs[j]).to_mat4(),
                 (true, p) => (models[usize::from(p)] * m.palette_rhs[j]).to_mat4(),
-                (false, NO_PARENT) => placement,
-                (false, p) => out[usize::from(p)],
+                (false, _) => placement,
             };
         }
     }
 
     /// The skinning palette of one fish at `root` with its driven joints' `yaw`, into `out`
-    /// (one entry per joint), as [`reference_palette`] computes it. Allocates scratch; the
-    /// pose stage uses per-thread scratch instead.
+    /// (one entry per joint: the slots expanded), as [`reference_palette`] computes it.
+    /// Allocates scratch; the pose stage uses per-thread scratch and writes slots only.
     pub fn palette_of(&self, root: &RootState, yaw: &[f32], out: &mut [Mat4]) {
         fn run<T: Transform>(
             plan: &PosePlan,
@@ -509,7 +541,11 @@ impl PosePlan {
             let mut models = vec![T::IDENTITY; plan.num_joints()];
             let root = T::placement(root, m.model_to_body);
             plan.models(&schedule, m, root, yaw, &mut models);
-            plan.palette(&schedule, m, root, &models, out);
+            let mut slots = vec![Mat4::IDENTITY; schedule.palette.len()];
+            plan.palette(&schedule, m, root, &models, &mut slots);
+            for (entry, &slot) in out.iter_mut().zip(&schedule.slot_of_joint) {
+                *entry = slots[usize::from(slot)];
+            }
         }
         match &self.matrices {
             PlanMatrices::Affine(m) => run(self, m, root, yaw, out),
@@ -542,13 +578,42 @@ pub fn reference_palette(
     crate::skin::palette(&models, &species.model.inverse_bind_poses, out).map_err(|e| e.to_string())
 }
 
+/// A fish's per-joint palette from its slots: `out[j] = slots[slot_of_joint[j]]` for every
+/// joint (`out` is cleared first; a slot missing from `slots` leaves the joints from there on
+/// out). The same matrices, bit for bit, as the per-joint palette the slots stand for.
+pub fn expand_palette(slots: &[Mat4], slot_of_joint: &[u16], out: &mut Vec<Mat4>) {
+    out.clear();
+    out.extend(
+        slot_of_joint
+            .iter()
+            .map_while(|&s| slots.get(usize::from(s)).copied()),
+    );
+}
+
+/// A skinned mesh's per-vertex joint indices rewritten as slot indices (`slot_of_joint` of the
+/// species whose palette it is drawn with): an exact rewrite, a joint's slot holding the very
+/// matrix its per-joint entry would. An index outside the skeleton stays outside the palette
+/// (`num_slots` + how far it was past the last joint), so a renderer still refuses it.
+pub fn remap_joints(joints: &[[u16; 4]], slot_of_joint: &[u16], num_slots: usize) -> Vec<[u16; 4]> {
+    let n = slot_of_joint.len();
+    joints
+        .iter()
+        .map(|v| {
+            v.map(|j| match slot_of_joint.get(usize::from(j)) {
+                Some(&s) => s,
+                None => u16::try_from(num_slots + (usize::from(j) - n)).unwrap_or(u16::MAX),
+            })
+        })
+        .collect()
+}
+
 /// Inputs of the pose job, all indexed by dense fish position.
 pub(crate) struct PoseInputs<'a> {
     pub plans: &'a [PosePlan],
     pub fish_species: &'a [SpeciesId],
     pub roots: &'a [RootState],
     pub yaw: &'a [[f32; MAX_DRIVEN_JOINTS]],
-    /// `offsets[i]..offsets[i + 1]` is fish i's range in the palette; length = fish + 1.
+    /// `offsets[i]..offsets[i + 1]` is fish i's slots in the palette; length = fish + 1.
     pub offsets: &'a [u32],
 }
 
@@ -619,40 +684,48 @@ fn leaf(
 ) {
     SCRATCH.with_borrow_mut(|scratch| {
         let base = inputs.offsets[first] as usize;
-        let total = inputs.offsets[first + count] as usize - base;
-        let range =
+        let slots =
             |i: usize| inputs.offsets[i] as usize - base..inputs.offsets[i + 1] as usize - base;
+        let plan = |i: usize| &inputs.plans[usize::from(inputs.fish_species[i].0)];
+        // Model matrices: each fish's joints, one fish after the other.
+        let joints: usize = (first..first + count).map(|i| plan(i).num_joints()).sum();
         let start = Instant::now();
+        let mut at = 0;
         for (k, i) in (first..first + count).enumerate() {
-            let plan = &inputs.plans[usize::from(inputs.fish_species[i].0)];
+            let plan = plan(i);
+            let models = at..at + plan.num_joints();
+            at = models.end;
             let (root, yaw) = (&inputs.roots[i], &inputs.yaw[i]);
             match &plan.matrices {
                 PlanMatrices::Affine(m) => {
                     let s = &mut scratch.affine;
-                    s.prepare(total, count);
+                    s.prepare(joints, count);
                     s.roots[k] = Affine3A::placement(root, m.model_to_body);
-                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[range(i)]);
+                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[models]);
                 }
                 PlanMatrices::General(m) => {
                     let s = &mut scratch.general;
-                    s.prepare(total, count);
+                    s.prepare(joints, count);
                     s.roots[k] = Mat4::placement(root, m.model_to_body);
-                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[range(i)]);
+                    plan.models(&plan.schedule, m, s.roots[k], yaw, &mut s.models[models]);
                 }
             }
         }
         let mid = Instant::now();
+        let mut at = 0;
         for (k, i) in (first..first + count).enumerate() {
-            let plan = &inputs.plans[usize::from(inputs.fish_species[i].0)];
-            let out = &mut out[range(i)];
+            let plan = plan(i);
+            let models = at..at + plan.num_joints();
+            at = models.end;
+            let out = &mut out[slots(i)];
             match &plan.matrices {
                 PlanMatrices::Affine(m) => {
                     let s = &scratch.affine;
-                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[range(i)], out);
+                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[models], out);
                 }
                 PlanMatrices::General(m) => {
                     let s = &scratch.general;
-                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[range(i)], out);
+                    plan.palette(&plan.schedule, m, s.roots[k], &s.models[models], out);
                 }
             }
         }
@@ -753,6 +826,69 @@ mod tests {
         worst
     }
 
+    /// The per-joint palette as the pose stage wrote it before slots (issue 18), straight from
+    /// the plan's ops: each product made, each copy copied from its parent's entry or the
+    /// placement.
+    fn per_joint_palette(plan: &PosePlan, root: &RootState, yaw: &[f32]) -> Vec<Mat4> {
+        fn run<T: Transform>(
+            plan: &PosePlan,
+            m: &Matrices<T>,
+            root: &RootState,
+            yaw: &[f32],
+        ) -> Vec<Mat4> {
+            let mut models = vec![T::IDENTITY; plan.num_joints()];
+            let root = T::placement(root, m.model_to_body);
+            plan.models(&plan.schedule, m, root, yaw, &mut models);
+            let mut out: Vec<Mat4> = Vec::with_capacity(plan.num_joints());
+            for (j, op) in plan.palette_op.iter().enumerate() {
+                let parent = plan.parents[j];
+                let left = |p: u16| {
+                    if p == NO_PARENT {
+                        root
+                    } else {
+                        models[usize::from(p)]
+                    }
+                };
+                let entry = match op {
+                    PaletteOp::OwnModel => (models[j] * m.palette_rhs[j]).to_mat4(),
+                    PaletteOp::ParentModel => (left(parent) * m.palette_rhs[j]).to_mat4(),
+                    PaletteOp::CopyParent => out[usize::from(parent)],
+                    PaletteOp::CopyRoot => root.to_mat4(),
+                };
+                out.push(entry);
+            }
+            out
+        }
+        match &plan.matrices {
+            PlanMatrices::Affine(m) => run(plan, m, root, yaw),
+            PlanMatrices::General(m) => run(plan, m, root, yaw),
+        }
+    }
+
+    /// The slots, expanded through the plan's joint → slot map, are that per-joint palette bit
+    /// for bit, over many poses; and fewer slots than joints only if some entry is a copy.
+    fn assert_slots_expand_to_the_per_joint_palette(plan: &PosePlan) {
+        let n = plan.num_joints();
+        let copies = plan
+            .palette_op
+            .iter()
+            .filter(|op| matches!(op, PaletteOp::CopyParent | PaletteOp::CopyRoot))
+            .count();
+        let places = usize::from(plan.palette_op.contains(&PaletteOp::CopyRoot));
+        assert_eq!(plan.num_slots(), n - copies + places);
+        let bits = |v: &[Mat4]| -> Vec<u32> {
+            v.iter()
+                .flat_map(|m| m.to_cols_array().map(f32::to_bits))
+                .collect()
+        };
+        let mut got = vec![Mat4::IDENTITY; n];
+        for (root, yaw) in poses(5, 100) {
+            let want = per_joint_palette(plan, &root, &yaw);
+            plan.palette_of(&root, &yaw, &mut got);
+            assert_eq!(bits(&got), bits(&want));
+        }
+    }
+
     #[test]
     fn the_shipped_fish_multiply_only_root_and_spine_and_match_the_reference() {
         for desc in [SpeciesDesc::black_porgy(), SpeciesDesc::eel()] {
@@ -761,6 +897,10 @@ mod tests {
             assert!(plan.is_affine());
             // Models: root + 6 spine joints; palette products: the 6 spine joints.
             assert_eq!(plan.products_per_fish(), 13, "{}", species.desc.name);
+            // Slots: the placement (the root's entry, slot 0) and the 6 products.
+            assert_eq!(plan.num_slots(), 7, "{}", species.desc.name);
+            assert_eq!(plan.slot_of_joint()[0], 0);
+            assert_slots_expand_to_the_per_joint_palette(&plan);
             let worst = check_against_reference(&species, &plan);
             // Measured: 1.8e-7 (the copies' and the products' rounding).
             assert!(
@@ -785,6 +925,8 @@ mod tests {
         let plan = PosePlan::new(&species.rig, &species.model);
         assert!(plan.is_affine());
         assert!(plan.products_per_fish() > 13);
+        assert!(plan.num_slots() > 7);
+        assert_slots_expand_to_the_per_joint_palette(&plan);
         let worst = check_against_reference(&species, &plan);
         assert!(worst <= 1e-5, "relative error {worst}");
         // A bind matrix whose bottom row is not 0 0 0 1: Mat4 products throughout.
@@ -793,6 +935,7 @@ mod tests {
         species.model = Arc::new(model);
         let plan = PosePlan::new(&species.rig, &species.model);
         assert!(!plan.is_affine());
+        assert_slots_expand_to_the_per_joint_palette(&plan);
         let worst = check_against_reference(&species, &plan);
         assert!(worst <= 1e-5, "relative error {worst}");
     }

@@ -134,7 +134,11 @@ impl World {
         let joints_changed = slot.rig.body.power.len() != s.rig.body.power.len()
             || slot.model.skeleton.num_joints() != s.model.skeleton.num_joints();
         let predator_changed = slot.desc.predator != s.desc.predator;
-        self.pose_plans[usize::from(id.0)] = pose::PosePlan::new(&s.rig, &s.model);
+        let plan = pose::PosePlan::new(&s.rig, &s.model);
+        // Other driven joints, rest poses or bind poses can change which palette entries are
+        // copies, and so the fish's number of slots (the palette ranges then move).
+        let slots_changed = plan.num_slots() != self.pose_plans[usize::from(id.0)].num_slots();
+        self.pose_plans[usize::from(id.0)] = plan;
         self.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
         *slot = s;
         if predator_changed {
@@ -147,9 +151,25 @@ impl World {
                     self.state.fish.lateral[i] = [0.0; MAX_DRIVEN_JOINTS + 1];
                 }
             }
+        }
+        if slots_changed {
             self.relayout_palettes();
         }
         Ok(())
+    }
+
+    /// The species' palette layout: joint j's palette entry is slot `slot_of_joint(s)[j]` of a
+    /// fish's range in [`World::palettes`] (see [`pose::PosePlan::slot_of_joint`]; joint 0's is
+    /// slot 0). A mesh drawn with the world's palettes has its joint indices remapped through
+    /// it ([`pose::remap_joints`]). Panics on an id this world did not issue.
+    pub fn slot_of_joint(&self, id: SpeciesId) -> &[u16] {
+        self.pose_plans[usize::from(id.0)].slot_of_joint()
+    }
+
+    /// Palette entries (slots) per fish of the species: its distinct per-joint entries. Panics
+    /// on an id this world did not issue.
+    pub fn num_palette_slots(&self, id: SpeciesId) -> usize {
+        self.pose_plans[usize::from(id.0)].num_slots()
     }
 
     /// A species. Panics on an id this world did not issue (a programming error).

@@ -106,7 +106,7 @@ impl World {
 
     /// Poses every fish: species rig → local transforms → forward kinematics from the fish's
     /// placement (head at its root position, facing its heading and pitch) → skinning palette
-    /// (model × inverse bind pose), into [`World::palettes`]. Runs over both cores with rayon;
+    /// (model × inverse bind pose), its distinct entries only, into [`World::palettes`]. Runs over both cores with rayon;
     /// the result does not depend on the thread count. Timed into `skeleton_ns` and `palette_ns`
     /// (the stage's wall time split in proportion to the threads' time in each half).
     pub fn update_pose(&mut self) {
@@ -213,20 +213,34 @@ impl World {
         self.counters.grid_ns = start.elapsed().as_nanos() as u64;
     }
 
-    /// World-space skinning palettes of every fish, fish after fish (dense order), joint after
-    /// joint; valid after [`World::update_pose`].
+    /// World-space skinning palettes of every fish, fish after fish (dense order), each fish's
+    /// distinct entries only: its species' slots in slot order (joint j's entry is slot
+    /// [`World::slot_of_joint`]`(species)[j]`; [`World::joint_palette`] expands them). Valid
+    /// after [`World::update_pose`].
     pub fn palettes(&self) -> &[Mat4] {
         &self.palettes
     }
 
-    /// The fish's range in [`World::palettes`].
+    /// The fish's slots in [`World::palettes`].
     pub fn palette_range(&self, id: FishId) -> Option<Range<usize>> {
         let d = self.state.fish.dense(id)?;
         let range = self.palette_offsets[d] as usize..self.palette_offsets[d + 1] as usize;
         (range.end <= self.palettes.len()).then_some(range)
     }
 
-    /// Palette start of each fish (dense order) plus the total at the end.
+    /// The fish's per-joint palette (one entry per skeleton joint, as `skin::palette` makes
+    /// it), expanded from its slots into `out` — the same matrices bit for bit. False (and
+    /// `out` empty) for a fish that is gone or not yet posed.
+    pub fn joint_palette(&self, id: FishId, out: &mut Vec<Mat4>) -> bool {
+        out.clear();
+        let (Some(range), Some(species)) = (self.palette_range(id), self.species_of(id)) else {
+            return false;
+        };
+        pose::expand_palette(&self.palettes[range], self.slot_of_joint(species), out);
+        true
+    }
+
+    /// Palette start (first slot) of each fish (dense order) plus the total at the end.
     pub fn palette_offsets(&self) -> &[u32] {
         &self.palette_offsets
     }
