@@ -198,3 +198,95 @@ fn a_peer_that_reports_something_else_is_an_error_naming_the_file() {
         "file:line of the peer's error: {err}"
     );
 }
+
+#[test]
+fn repeated_rounds_print_each_round_and_the_medians_of_their_ratios() {
+    let dir = tempfile::tempdir().unwrap();
+    let peer = write_peer(dir.path(), "peer.lua", STAND_IN);
+    let out = shoal(&[
+        "--engines",
+        "mlua",
+        "--peer",
+        peer.to_str().unwrap(),
+        "--repeat",
+        "3",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let shoal_rows = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("100  shoal ("))
+        .count();
+    assert_eq!(shoal_rows, 3, "one shoal row per round:\n{text}");
+    assert!(text.contains("3 rounds per fish count"), "{text}");
+    let (_, after) = text
+        .split_once("medians over 3 rounds")
+        .unwrap_or_else(|| panic!("no summary in:\n{text}"));
+    let row = after
+        .lines()
+        .find(|l| l.trim_start().starts_with("100  mlua"))
+        .unwrap_or_else(|| panic!("no summary row in:\n{after}"));
+    // The peer's median is its fixed 0.5 ms; three ratios with their ranges.
+    assert!(row.contains("0.500"), "{row}");
+    assert_eq!(row.matches('×').count(), 3, "{row}");
+}
+
+#[test]
+fn json_summary_is_the_median_and_range_of_the_rounds_ratios() {
+    let dir = tempfile::tempdir().unwrap();
+    let peer = write_peer(dir.path(), "peer.lua", STAND_IN);
+    let out = shoal(&[
+        "--engines",
+        "mlua",
+        "--peer",
+        peer.to_str().unwrap(),
+        "--repeat",
+        "3",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let results = v["results"].as_array().unwrap();
+    assert_eq!(results.len(), 3);
+    let rounds: Vec<u64> = results
+        .iter()
+        .map(|r| r["round"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rounds, [1, 2, 3]);
+    let mut ticks: Vec<f64> = results
+        .iter()
+        .map(|r| r["peers"][0]["tick_ratio"].as_f64().unwrap())
+        .collect();
+    ticks.sort_by(f64::total_cmp);
+    let summary = &v["summary"][0];
+    assert_eq!(summary["fish"].as_u64(), Some(100));
+    assert_eq!(summary["engine"], "mlua");
+    assert_eq!(summary["rounds"].as_u64(), Some(3));
+    assert_eq!(summary["tick_ratio"]["median"].as_f64(), Some(ticks[1]));
+    assert_eq!(summary["tick_ratio"]["min"].as_f64(), Some(ticks[0]));
+    assert_eq!(summary["tick_ratio"]["max"].as_f64(), Some(ticks[2]));
+    assert_eq!(summary["peer_median_ms"].as_f64(), Some(0.5));
+    // The stages ratio: shoal's grid + motion + skeleton + palette (wall × threads) per
+    // fish-tick over the stand-in's 0.2 µs of grid + motion.
+    for r in results {
+        let s = &r["shoal"];
+        let st = &s["stages_ms"];
+        let ms: f64 = ["grid", "motion", "skeleton", "palette"]
+            .iter()
+            .map(|k| st[*k].as_f64().unwrap())
+            .sum();
+        let want = ms * 1000.0 * s["threads"].as_f64().unwrap() / 100.0 / 0.2;
+        let got = r["peers"][0]["stages_ratio"].as_f64().unwrap();
+        assert!(
+            (got - want).abs() <= 1e-9 * want.max(1.0),
+            "{got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn zero_rounds_is_refused() {
+    let out = shoal(&["--engines", "mlua", "--repeat", "0"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--repeat 0"), "{}", stderr(&out));
+}

@@ -65,6 +65,11 @@ pub struct PeerArgs {
     /// Script lanes of shoal's side. Default: one per thread.
     #[arg(long)]
     pub lanes: Option<usize>,
+    /// Rounds per fish count: shoal, then every engine, this many times over. Each round's
+    /// ratios are taken within its own minute; with more than one round their medians (and
+    /// range) are printed too, which holds still on a shared machine where one round may not.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
 }
 
 /// An interpreter the peer runs under.
@@ -334,6 +339,9 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     if args.engines.is_empty() {
         anyhow::bail!("--engines needs at least one of luajit, luajit-tuned, lua5.4, mlua");
     }
+    if args.repeat == 0 {
+        anyhow::bail!("--repeat 0: give at least one round, e.g. --repeat 5");
+    }
     let peer = resolve_peer(&args)?;
     let text = std::fs::read_to_string(&peer)
         .with_context(|| format!("reading the peer script {}", peer.display()))?;
@@ -379,74 +387,100 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     };
     let ticks = (args.seconds * TICK_HZ).round().max(1.0) as usize;
 
-    let mut rows: Vec<(SimBenchResult, usize, Vec<PeerResult>)> = Vec::new();
+    let mut rows: Vec<Round> = Vec::new();
     if !args.json {
         println!(
             "peer: {} (mode shoal, food {}); {} s measured after 1 s of warm-up per run; \
-             shoal {} build",
+             shoal {} build{}",
             peer.display(),
             args.food,
             args.seconds,
-            profile
+            profile,
+            if args.repeat > 1 {
+                format!("; {} rounds per fish count", args.repeat)
+            } else {
+                String::new()
+            }
         );
     }
     for &fish in &args.fish {
-        let mut sim = super::bench::lua_sim(&args.root, fish, args.seed, args.lanes)?;
-        let lanes = sim.num_lanes();
-        let shoal = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
-        if let Some(e) = sim.error_messages().first() {
-            eprintln!("script error during the bench: {e}");
-        }
-        drop(sim);
-        let mut peers = Vec::new();
-        for &engine in &engines {
-            let origin = format!("{} under {}", peer.display(), engine.name());
-            let out = match engine.program() {
-                Some(p) => run_subprocess(p, engine, &source, &peer, fish, args.food)?,
-                None => run_in_process(&source, &peer, fish, args.food)?,
-            };
-            let mut r = parse_peer_output(&out, &origin)?;
-            r.engine = engine;
-            if r.fish != fish {
-                anyhow::bail!(
-                    "{origin}: asked for {fish} fish, the peer reported fish={} (does it read \
-                     its fish count from arg[1]?)",
-                    r.fish
-                );
+        for round in 1..=args.repeat {
+            let mut sim = super::bench::lua_sim(&args.root, fish, args.seed, args.lanes)?;
+            let lanes = sim.num_lanes();
+            let shoal = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+            if let Some(e) = sim.error_messages().first() {
+                eprintln!("script error during the bench: {e}");
             }
-            peers.push(r);
+            drop(sim);
+            let mut peers = Vec::new();
+            for &engine in &engines {
+                let origin = format!("{} under {}", peer.display(), engine.name());
+                let out = match engine.program() {
+                    Some(p) => run_subprocess(p, engine, &source, &peer, fish, args.food)?,
+                    None => run_in_process(&source, &peer, fish, args.food)?,
+                };
+                let mut r = parse_peer_output(&out, &origin)?;
+                r.engine = engine;
+                if r.fish != fish {
+                    anyhow::bail!(
+                        "{origin}: asked for {fish} fish, the peer reported fish={} (does it \
+                         read its fish count from arg[1]?)",
+                        r.fish
+                    );
+                }
+                peers.push(r);
+            }
+            if !args.json {
+                print_rows(&shoal, lanes, &peers, rows.is_empty());
+            }
+            rows.push(Round {
+                round,
+                shoal,
+                lanes,
+                peers,
+            });
         }
-        if !args.json {
-            print_rows(&shoal, lanes, &peers, rows.is_empty());
-        }
-        rows.push((shoal, lanes, peers));
+    }
+    let summary = summarize(&rows);
+    if !args.json && args.repeat > 1 {
+        print_summary(&summary, args.repeat);
     }
     if args.json {
         let results: Vec<serde_json::Value> = rows
             .iter()
-            .map(|(s, lanes, peers)| {
-                let decision = shoal_us_per_decision(s);
-                serde_json::json!({
-                    "fish": s.fish,
-                    "shoal": {
-                        "median_ms": s.median_ms,
-                        "p99_ms": s.p99_ms,
-                        "us_per_decision": decision,
-                        "decide_us_per_decision": s.decide_us_per_decision,
-                        "sense_us_per_decision": s.sense_us_per_decision,
-                        "threads": s.threads,
-                        "lanes": lanes,
-                        "ticks": s.ticks,
-                    },
-                    "peers": peers.iter().map(|p| {
-                        let mut v = serde_json::to_value(p).unwrap_or_default();
-                        v["tick_ratio"] = serde_json::json!(s.median_ms / p.median_ms);
-                        v["decision_ratio"] =
-                            serde_json::json!(decision.map(|d| d / p.us_per_decision));
-                        v
-                    }).collect::<Vec<_>>(),
-                })
-            })
+            .map(
+                |Round {
+                     round,
+                     shoal: s,
+                     lanes,
+                     peers,
+                 }| {
+                    let decision = shoal_us_per_decision(s);
+                    serde_json::json!({
+                        "fish": s.fish,
+                        "round": round,
+                        "shoal": {
+                            "median_ms": s.median_ms,
+                            "p99_ms": s.p99_ms,
+                            "us_per_decision": decision,
+                            "decide_us_per_decision": s.decide_us_per_decision,
+                            "sense_us_per_decision": s.sense_us_per_decision,
+                            "threads": s.threads,
+                            "stages_ms": s.stages,
+                            "lanes": lanes,
+                            "ticks": s.ticks,
+                        },
+                        "peers": peers.iter().map(|p| {
+                            let mut v = serde_json::to_value(p).unwrap_or_default();
+                            v["tick_ratio"] = serde_json::json!(s.median_ms / p.median_ms);
+                            v["decision_ratio"] =
+                                serde_json::json!(decision.map(|d| d / p.us_per_decision));
+                            v["stages_ratio"] = serde_json::json!(stages_ratio(s, p));
+                            v
+                        }).collect::<Vec<_>>(),
+                    })
+                },
+            )
             .collect();
         println!(
             "{}",
@@ -458,6 +492,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
                 "missing": missing.iter().map(|(e, why)| serde_json::json!({
                     "engine": e, "why": why })).collect::<Vec<_>>(),
                 "results": results,
+                "summary": summary,
             }))?
         );
     } else {
@@ -465,10 +500,162 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
             "ratios are shoal ÷ peer: above 1 shoal is slower. shoal's tick is wall time on {} \
              threads; the peer runs on one. µs/decision is CPU: shoal's behaviour + sensing, the \
              peer's whole decision.",
-            rows.first().map_or(0, |r| r.0.threads)
+            rows.first().map_or(0, |r| r.shoal.threads)
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One round at one fish count: shoal's run and each engine's, in that order.
+struct Round {
+    round: usize,
+    shoal: SimBenchResult,
+    lanes: usize,
+    peers: Vec<PeerResult>,
+}
+
+/// One engine at one fish count over every round: the medians of the per-round figures and
+/// ratios (each ratio taken within its round), with the ratios' smallest and largest.
+#[derive(Debug, Clone, serde::Serialize)]
+struct Summary {
+    fish: usize,
+    engine: Engine,
+    rounds: usize,
+    shoal_median_ms: f64,
+    peer_median_ms: f64,
+    tick_ratio: Spread,
+    decision_ratio: Option<Spread>,
+    stages_ratio: Option<Spread>,
+}
+
+/// Median, smallest and largest of a set of ratios.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+struct Spread {
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Spread {
+    /// `None` for no values (or any that is not finite).
+    fn of(values: &[f64]) -> Option<Self> {
+        if values.is_empty() || values.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Some(Self {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        })
+    }
+}
+
+/// Issue 18's second figure: shoal's grid + motion + pose (skeleton and palette) per fish-tick
+/// against the peer's grid + motion. shoal's stages run on every thread, so their wall time
+/// times the thread count stands in for their CPU time (an upper bound).
+fn stages_ratio(s: &SimBenchResult, p: &PeerResult) -> Option<f64> {
+    if s.fish == 0 || p.us_per_fish_tick_grid_motion <= 0.0 {
+        return None;
+    }
+    let st = &s.stages;
+    let ms = st.grid + st.motion + st.skeleton + st.palette;
+    let us_per_fish_tick = ms * 1000.0 * s.threads.max(1) as f64 / s.fish as f64;
+    Some(us_per_fish_tick / p.us_per_fish_tick_grid_motion)
+}
+
+/// Per fish count and engine, over the rounds (in the order they first appear).
+fn summarize(rows: &[Round]) -> Vec<Summary> {
+    let mut keys: Vec<(usize, Engine)> = Vec::new();
+    for r in rows {
+        for p in &r.peers {
+            if !keys.contains(&(r.shoal.fish, p.engine)) {
+                keys.push((r.shoal.fish, p.engine));
+            }
+        }
+    }
+    keys.into_iter()
+        .filter_map(|(fish, engine)| {
+            let pairs: Vec<(&SimBenchResult, &PeerResult)> = rows
+                .iter()
+                .filter(|r| r.shoal.fish == fish)
+                .filter_map(|r| {
+                    r.peers
+                        .iter()
+                        .find(|p| p.engine == engine)
+                        .map(|p| (&r.shoal, p))
+                })
+                .collect();
+            let collect = |f: &dyn Fn(&SimBenchResult, &PeerResult) -> Option<f64>| {
+                pairs
+                    .iter()
+                    .map(|(s, p)| f(s, p))
+                    .collect::<Option<Vec<f64>>>()
+                    .and_then(|v| Spread::of(&v))
+            };
+            Some(Summary {
+                fish,
+                engine,
+                rounds: pairs.len(),
+                shoal_median_ms: Spread::of(
+                    &pairs.iter().map(|(s, _)| s.median_ms).collect::<Vec<_>>(),
+                )?
+                .median,
+                peer_median_ms: Spread::of(
+                    &pairs.iter().map(|(_, p)| p.median_ms).collect::<Vec<_>>(),
+                )?
+                .median,
+                tick_ratio: collect(&|s, p| Some(s.median_ms / p.median_ms))?,
+                decision_ratio: collect(&|s, p| {
+                    shoal_us_per_decision(s).map(|d| d / p.us_per_decision)
+                }),
+                stages_ratio: collect(&stages_ratio),
+            })
+        })
+        .collect()
+}
+
+fn print_summary(summary: &[Summary], rounds: usize) {
+    println!("medians over {rounds} rounds (each ratio taken within its round; smallest–largest):");
+    println!(
+        "{:>7}  {:<14} {:>11} {:>11}  {:>20} {:>20} {:>24}",
+        "fish",
+        "engine",
+        "shoal ms",
+        "peer ms",
+        "tick ratio",
+        "decision ratio",
+        "grid+motion+pose ratio"
+    );
+    let show = |s: Option<Spread>| {
+        s.map_or_else(
+            || "-".to_owned(),
+            |s| format!("{:.2}× ({:.2}–{:.2})", s.median, s.min, s.max),
+        )
+    };
+    for s in summary {
+        println!(
+            "{:>7}  {:<14} {:>11.3} {:>11.3}  {:>20} {:>20} {:>24}",
+            s.fish,
+            s.engine.name(),
+            s.shoal_median_ms,
+            s.peer_median_ms,
+            show(Some(s.tick_ratio)),
+            show(s.decision_ratio),
+            show(s.stages_ratio)
+        );
+    }
+    println!(
+        "grid+motion+pose ratio: shoal's grid, motion, skeleton and palette stages (wall × \
+         threads) per fish-tick against the peer's grid + motion per fish-tick."
+    );
 }
 
 /// shoal's CPU µs per decision: behaviour plus sensing.
