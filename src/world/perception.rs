@@ -365,13 +365,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn grid_cells_are_half_the_longest_view_range() {
+    fn grid_cells_are_a_share_of_the_longest_view_range() {
         let scene = super::super::test_world::random_scene(1, 50);
         let longest = (0..scene.world.num_species())
             .map(|s| scene.world.species(SpeciesId(s as u16)).desc.view_range)
             .fold(0.0f32, f32::max);
-        assert_eq!(scene.world.grid.cell_size(), 0.5 * longest);
-        assert_eq!(scene.world.food_grid.cell_size(), 0.5 * longest);
+        let cell = super::super::stages::GRID_CELL_OF_VIEW * longest;
+        assert!(longest > 0.0 && cell < 0.5 * longest);
+        assert_eq!(scene.world.grid.cell_size(), cell);
+        assert_eq!(scene.world.food_grid.cell_size(), cell);
     }
 
     #[test]

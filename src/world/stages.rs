@@ -11,6 +11,9 @@ use super::sense::wrap_angle;
 use super::{FishId, MAX_DRIVEN_JOINTS, StageCounters, World, crowd, pose};
 use crate::motion::RootState;
 
+/// The grid's cell size as a share of the longest view range (see [`World::rebuild_grid`]).
+pub(super) const GRID_CELL_OF_VIEW: f32 = 0.3;
+
 impl World {
     // ---- the Rust stages of a tick ----------------------------------------------------------
 
@@ -143,7 +146,7 @@ impl World {
     }
 
     /// Rebuilds the spatial grid from the fish's current positions (and the food grid), with
-    /// cells of half the longest view range. Timed into `grid_ns`.
+    /// cells of 0.3 of the longest view range. Timed into `grid_ns`.
     pub fn rebuild_grid(&mut self) {
         let start = Instant::now();
         let extent = self.state.tank.extent().max_element();
@@ -153,11 +156,14 @@ impl World {
             .map(|s| s.desc.view_range)
             .filter(|r| r.is_finite() && *r > 0.0)
             .fold(0.0f32, f32::max);
-        // Half-range cells: a query visits ~2.5x its sphere's volume (full-range cells visit
-        // ~5x, and ~10x for the 300-unit crowd queries when a predator's 500-unit view sets the
-        // size). No smaller than 1/64 of the tank, so a tiny view range cannot explode the count.
+        // Cells of 0.3 of the longest view: queries cull the cells they visit row by row to
+        // their sphere, and smaller cells fit it closer. The shipped crowd query (300 units,
+        // under a predator's 500-unit view) scanned 23 % fewer instructions with 150-unit cells
+        // than with 250 (half-range) ones, the whole bench 2.7 % fewer (callgrind, 2,000 fish);
+        // full-range cells visit ~5x the sphere's volume. No smaller than 1/64 of the tank, so a
+        // tiny view range cannot explode the count.
         let cell = if view > 0.0 {
-            (0.5 * view).max(extent / 64.0)
+            (GRID_CELL_OF_VIEW * view).max(extent / 64.0)
         } else {
             extent / 16.0
         };
