@@ -134,3 +134,58 @@ fn a_scene_bench_reports_modules_with_their_top_functions_and_memory() {
         );
     }
 }
+
+#[test]
+fn a_scene_bench_takes_a_scene_by_name_and_names_the_scenes_there_are() {
+    let (_dir, root) = common::scratch_repo();
+    let root = root.as_path();
+    std::fs::write(
+        root.join("scripts/scenes/few.lua"),
+        "return {\n  tank = { min = { -500, 0, -300 }, max = { 500, 400, 300 } },\n  fish = { { species = \"black_porgy\", count = 3, behavior = \"wander\",\n             region = { min = { -200, 150, -120 }, max = { 200, 260, 120 } } } },\n}\n",
+    )
+    .unwrap();
+    let bench = |scene: &str| {
+        Command::new(env!("CARGO_BIN_EXE_shoal"))
+            .current_dir(root)
+            .args([
+                "bench",
+                "sim",
+                "--seconds",
+                "0.5",
+                "--json",
+                "--scene",
+                scene,
+            ])
+            .args(["--root"])
+            .arg(root)
+            .output()
+            .expect("run shoal")
+    };
+    let out = bench("few");
+    assert!(
+        out.status.success(),
+        "shoal bench sim --scene few failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert!(
+        report["scene"]
+            .as_str()
+            .unwrap()
+            .ends_with("scenes/few.lua"),
+        "{report}"
+    );
+    assert_eq!(
+        report["modules"]["wander"]["calls"].as_u64(),
+        Some(15),
+        "3 fish at 10 Hz for 0.5 s"
+    );
+
+    let out = bench("nosuch");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no scene `nosuch`") && err.contains("few"),
+        "{err}"
+    );
+}

@@ -91,7 +91,8 @@ pub struct SimArgs {
     /// Script lanes (Lua states deciding in parallel; Lua driver). Default: one per thread.
     #[arg(long)]
     pub lanes: Option<usize>,
-    /// Benchmark this Lua scene (its fish and scripts) instead of the constant-density layout;
+    /// Benchmark this Lua scene (a `.lua` file, or the name of one in `scripts/scenes/`: its fish
+    /// and scripts) instead of the constant-density layout;
     /// `--fish` and `--driver` do not apply.
     #[arg(long)]
     pub scene: Option<PathBuf>,
@@ -263,6 +264,20 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
     if !args.json {
         println!("{source}");
     }
+    // A bare name is a scene in `scripts/scenes/`, as for `shoal run` and `shoal render`.
+    let named = source
+        .scripts
+        .join("scenes")
+        .join(scene)
+        .with_extension("lua");
+    let scene = if scene.extension().is_none() && !scene.exists() {
+        if !named.is_file() {
+            return Err(super::render::unknown_scene(scene, &source.scripts));
+        }
+        named.as_path()
+    } else {
+        scene
+    };
     let mut sim =
         Simulation::from_scene_with_scripts(&source.root, &source.scripts, scene, args.seed)
             .with_context(|| format!("loading scene `{}`", scene.display()))?;

@@ -236,7 +236,7 @@ pub fn load_scene(
 
 /// The error for a `--scene` that is neither a Lua file nor a known name: it lists the scenes
 /// there are.
-fn unknown_scene(scene: &Path, scripts: &Path) -> anyhow::Error {
+pub(super) fn unknown_scene(scene: &Path, scripts: &Path) -> anyhow::Error {
     let dir = scripts.join("scenes");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .into_iter()
