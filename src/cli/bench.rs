@@ -272,7 +272,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         .with_extension("lua");
     let scene = if scene.extension().is_none() && !scene.exists() {
         if !named.is_file() {
-            return Err(super::render::unknown_scene(scene, &source.scripts));
+            return Err(super::render::unknown_scene(scene, &source.scripts, false));
         }
         named.as_path()
     } else {

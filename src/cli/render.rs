@@ -220,7 +220,7 @@ pub fn load_scene(
         Some(p) if p.extension().is_none() && named(&p.to_string_lossy()).is_file() => {
             lua(&named(&p.to_string_lossy()))
         }
-        Some(p) => Err(unknown_scene(p, &source.scripts)),
+        Some(p) => Err(unknown_scene(p, &source.scripts, true)),
         None => {
             let default_lua = named("default");
             if fish.is_none() && default_lua.is_file() {
@@ -236,7 +236,7 @@ pub fn load_scene(
 
 /// The error for a `--scene` that is neither a Lua file nor a known name: it lists the scenes
 /// there are.
-pub(super) fn unknown_scene(scene: &Path, scripts: &Path) -> anyhow::Error {
+pub(super) fn unknown_scene(scene: &Path, scripts: &Path, porgies: bool) -> anyhow::Error {
     let dir = scripts.join("scenes");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .into_iter()
@@ -248,7 +248,9 @@ pub(super) fn unknown_scene(scene: &Path, scripts: &Path) -> anyhow::Error {
         })
         .collect();
     names.sort();
-    names.push("porgies".into());
+    if porgies {
+        names.push("porgies".into());
+    }
     let why = if scene.as_os_str() == "demo" {
         " (the procedural `demo` scene was retired: every scene now runs the real simulation)"
     } else {
