@@ -199,18 +199,25 @@ fn a_peer_that_reports_something_else_is_an_error_naming_the_file() {
     );
 }
 
-#[test]
-fn repeated_rounds_print_each_round_and_the_medians_of_their_ratios() {
+/// `--repeat 3` against the stand-in under `mlua`, with `extra` arguments.
+fn three_rounds(extra: &[&str]) -> Output {
     let dir = tempfile::tempdir().unwrap();
     let peer = write_peer(dir.path(), "peer.lua", STAND_IN);
-    let out = shoal(&[
+    let mut args = vec![
         "--engines",
         "mlua",
         "--peer",
         peer.to_str().unwrap(),
         "--repeat",
         "3",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    shoal(&args)
+}
+
+#[test]
+fn repeated_rounds_print_each_round_and_the_medians_of_their_ratios() {
+    let out = three_rounds(&[]);
     assert!(out.status.success(), "{}", stderr(&out));
     let text = String::from_utf8_lossy(&out.stdout);
     let shoal_rows = text
@@ -233,17 +240,7 @@ fn repeated_rounds_print_each_round_and_the_medians_of_their_ratios() {
 
 #[test]
 fn json_summary_is_the_median_and_range_of_the_rounds_ratios() {
-    let dir = tempfile::tempdir().unwrap();
-    let peer = write_peer(dir.path(), "peer.lua", STAND_IN);
-    let out = shoal(&[
-        "--engines",
-        "mlua",
-        "--peer",
-        peer.to_str().unwrap(),
-        "--repeat",
-        "3",
-        "--json",
-    ]);
+    let out = three_rounds(&["--json"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let results = v["results"].as_array().unwrap();

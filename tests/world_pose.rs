@@ -240,9 +240,8 @@ fn the_shipped_porgy_at_rest_skins_to_its_bind_shape_head_at_the_root() {
     );
 }
 
-#[test]
-fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
-    use shoal::world::pose::reference_palette;
+/// An empty 1000 × 500 × 800 tank with the shipped porgy and eel (from `assets/`) as species.
+fn shipped_species_world(seed: u64) -> (World, shoal::world::SpeciesId, shoal::world::SpeciesId) {
     use shoal::world::{Species, SpeciesDesc, Tank};
 
     let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
@@ -251,10 +250,18 @@ fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
             min: Vec3::ZERO,
             max: Vec3::new(1000.0, 500.0, 800.0),
         },
-        2,
+        seed,
     );
     let porgy = w.add_species(Species::load(SpeciesDesc::black_porgy(), &assets).unwrap());
     let eel = w.add_species(Species::load(SpeciesDesc::eel(), &assets).unwrap());
+    (w, porgy, eel)
+}
+
+#[test]
+fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
+    use shoal::world::pose::reference_palette;
+
+    let (mut w, porgy, eel) = shipped_species_world(2);
     for i in 0..40 {
         w.spawn(SpawnParams {
             speed: 40.0,
@@ -301,18 +308,7 @@ fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
 /// and every fish's range is its species' slots.
 #[test]
 fn the_shipped_fish_palettes_hold_fewer_slots_than_joints() {
-    use shoal::world::{Species, SpeciesDesc, Tank};
-
-    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
-    let mut w = World::new(
-        Tank {
-            min: Vec3::ZERO,
-            max: Vec3::new(1000.0, 500.0, 800.0),
-        },
-        3,
-    );
-    let porgy = w.add_species(Species::load(SpeciesDesc::black_porgy(), &assets).unwrap());
-    let eel = w.add_species(Species::load(SpeciesDesc::eel(), &assets).unwrap());
+    let (mut w, porgy, eel) = shipped_species_world(3);
     for s in [porgy, eel] {
         let joints = w.species(s).model.skeleton.num_joints();
         let slots = w.num_palette_slots(s);
