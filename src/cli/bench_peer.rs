@@ -543,17 +543,12 @@ impl Spread {
             return None;
         }
         let mut v = values.to_vec();
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let median = if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            0.5 * (v[n / 2 - 1] + v[n / 2])
-        };
+        // Sorts `v` too.
+        let (median, _) = super::bench::median_p99(&mut v);
         Some(Self {
             median,
             min: v[0],
-            max: v[n - 1],
+            max: v[v.len() - 1],
         })
     }
 }

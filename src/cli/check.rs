@@ -440,28 +440,24 @@ mod tests {
     fn missing_paths_and_non_lua_files_are_errors_naming_them() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("notes.txt"), "").unwrap();
+        let error_of = |path: &PathBuf| {
+            plan(
+                std::slice::from_ref(path),
+                dir.path(),
+                "c".into(),
+                "k".into(),
+            )
+            .unwrap_err()
+            .to_string()
+        };
         let missing = dir.path().join("nope");
-        let err = plan(
-            std::slice::from_ref(&missing),
-            dir.path(),
-            "c".into(),
-            "k".into(),
-        )
-        .unwrap_err();
         assert_eq!(
-            err.to_string(),
+            error_of(&missing),
             format!("{}: no such file or directory", missing.display())
         );
         let txt = dir.path().join("notes.txt");
-        let err = plan(
-            std::slice::from_ref(&txt),
-            dir.path(),
-            "c".into(),
-            "k".into(),
-        )
-        .unwrap_err();
         assert_eq!(
-            err.to_string(),
+            error_of(&txt),
             format!("{}: not a .lua file", txt.display())
         );
     }
