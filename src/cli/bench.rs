@@ -265,18 +265,13 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         println!("{source}");
     }
     // A bare name is a scene in `scripts/scenes/`, as for `shoal run` and `shoal render`.
-    let named = source
-        .scripts
-        .join("scenes")
-        .join(scene)
-        .with_extension("lua");
-    let scene = if scene.extension().is_none() && !scene.exists() {
-        if !named.is_file() {
+    let named = super::render::named_scene(&source.scripts, scene);
+    let scene = match &named {
+        Some(path) if !scene.exists() => path.as_path(),
+        None if scene.extension().is_none() && !scene.exists() => {
             return Err(super::render::unknown_scene(scene, &source.scripts, false));
         }
-        named.as_path()
-    } else {
-        scene
+        _ => scene,
     };
     let mut sim =
         Simulation::from_scene_with_scripts(&source.root, &source.scripts, scene, args.seed)

@@ -213,16 +213,15 @@ pub fn load_scene(
             seed_or_1,
         )?))
     };
-    let named = |name: &str| source.scripts.join("scenes").join(format!("{name}.lua"));
     match scene {
         Some(p) if p.extension().is_some_and(|e| e == "lua") => lua(p),
         Some(p) if p.as_os_str() == "porgies" => porgies(),
-        Some(p) if p.extension().is_none() && named(&p.to_string_lossy()).is_file() => {
-            lua(&named(&p.to_string_lossy()))
-        }
-        Some(p) => Err(unknown_scene(p, &source.scripts, true)),
+        Some(p) => match named_scene(&source.scripts, p) {
+            Some(named) => lua(&named),
+            None => Err(unknown_scene(p, &source.scripts, true)),
+        },
         None => {
-            let default_lua = named("default");
+            let default_lua = source.scripts.join("scenes").join("default.lua");
             if fish.is_none() && default_lua.is_file() {
                 match lua(&default_lua) {
                     Ok(s) => return Ok(s),
@@ -232,6 +231,13 @@ pub fn load_scene(
             porgies()
         }
     }
+}
+
+/// The Lua file of scene `name` in `scripts/scenes/` (`name` without an extension), if there
+/// is one.
+pub(super) fn named_scene(scripts: &Path, name: &Path) -> Option<PathBuf> {
+    let path = scripts.join("scenes").join(name).with_extension("lua");
+    (name.extension().is_none() && path.is_file()).then_some(path)
 }
 
 /// The error for a `--scene` that is neither a Lua file nor a known name: it lists the scenes

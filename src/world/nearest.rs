@@ -67,7 +67,7 @@ impl World {
         };
         match kind {
             PerceptKind::Fish | PerceptKind::Predator => {
-                let of_species = |o: usize| species.is_none_or(|s| self.state.fish.species[o] == s);
+                let of_species = |s: SpeciesId| species.is_none_or(|want| s == want);
                 let use_list = match route {
                     Route::Auto => {
                         kind == PerceptKind::Predator && self.predator_list_pays(view.range)
@@ -86,7 +86,7 @@ impl World {
                             continue;
                         }
                         if self.fish_kind(view.species, spot.species) != kind
-                            || species.is_some_and(|s| spot.species != s)
+                            || !of_species(spot.species)
                         {
                             continue;
                         }
@@ -95,7 +95,12 @@ impl World {
                         }
                     }
                 } else {
-                    self.fish_seen(d, &view, |o, k| k == kind && of_species(o), &mut keep);
+                    self.fish_seen(
+                        d,
+                        &view,
+                        |o, k| k == kind && of_species(self.state.fish.species[o]),
+                        &mut keep,
+                    );
                 }
             }
             PerceptKind::Food if species.is_none() => self.food_seen(&view, &mut keep),
