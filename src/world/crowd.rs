@@ -22,6 +22,11 @@ use glam::{Vec2, Vec3};
 use super::steer::{self, Agent, Steer};
 use super::{FishId, World};
 
+mod lanes;
+
+pub(super) use lanes::CrowdColumns;
+use lanes::{LaneQuery, LaneSums};
+
 /// What the three crowding rules ask of a fish (see [`World::steer_crowd`]); each is `None` when
 /// its rule has nothing to say (no neighbour in its radius, or their pulls cancel out).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -182,48 +187,21 @@ impl World {
             // Headings are copied only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and
             // reads the roots meanwhile (the same values).
-            if self.grid_heading.len() == keys.len() {
+            if self.crowd_columns.len() == keys.len() {
                 // Ask the next rebuild for them again (a plain load first: a store per query
                 // would bounce the flag's cache line between the lanes). Without this, every
                 // other tick's queries took the fallback below.
                 if !self.crowd_wanted.load(Ordering::Relaxed) {
                     self.crowd_wanted.store(true, Ordering::Relaxed);
                 }
-                let headings = &self.grid_heading;
-                let mut all_sums = sums;
+                let query = LaneQuery::new(centre, me, species, r2);
+                let mut lanes = LaneSums::default();
+                let columns = &self.crowd_columns;
                 self.grid.for_each_run_within(centre, reach, |run| {
-                    // The run adds into a local copy (the same additions in the same order), which
-                    // the compiler keeps in registers; adding into the captured sums stored every
-                    // sum to memory for every candidate.
-                    let mut run_sums = all_sums;
-                    let sums = &mut run_sums;
-                    let candidates = positions[run.clone()]
-                        .iter()
-                        .zip(&keys[run.clone()])
-                        .zip(&species_of[run.clone()])
-                        .zip(&headings[run]);
-                    for (((&pos, &key), &of), &heading) in candidates {
-                        let d2 = pos.distance_squared(centre);
-                        let other = key as usize != me;
-                        // Few fish are this close: a branch the CPU predicts.
-                        if other && d2 <= r2[0] && d2 > 0.0 {
-                            sums.push += (centre - pos) / d2;
-                        }
-                        // Many candidates are in range and many not, unpredictably: add every
-                        // candidate times 1 or 0. Neither sum is ever −0, so adding ±0 leaves it
-                        // bitwise unchanged, and x·1 = x: the same sums as adding only those
-                        // in range.
-                        let same = other & (of == species);
-                        let aligned = same & (d2 <= r2[1]);
-                        let cohesive = same & (d2 <= r2[2]);
-                        sums.heading += heading * f32::from(u8::from(aligned));
-                        sums.centre += pos * f32::from(u8::from(cohesive));
-                        sums.count += u32::from(cohesive);
-                    }
-                    all_sums = run_sums;
+                    columns.add_run(run, &query, &mut lanes);
                     true
                 });
-                return Some(all_sums);
+                return Some(lanes.total());
             }
             // Headings are copied only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and
@@ -337,8 +315,36 @@ mod tests {
         [c.separation, c.alignment, c.cohesion].map(|s| s.map(|s| bits(&s)))
     }
 
-    /// Checks every fish of `w` with each radius triple: one pass = three calls = the old code.
-    fn check(w: &World, what: &str, radii: &[[f32; 3]]) -> [usize; 3] {
+    /// Whether two answers of a rule agree to rounding: both or neither, headings within
+    /// 1e-4 rad, depths within 1e-3 world units (a fish is 50 long here: a depth is a point a
+    /// few lengths away, built from sums whose terms partly cancel), speeds within 1e-5
+    /// relative.
+    fn agree(a: Option<Steer>, b: Option<Steer>) -> bool {
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                let turn = (a.heading - b.heading).rem_euclid(std::f32::consts::TAU);
+                turn.min(std::f32::consts::TAU - turn) <= 1e-4
+                    && (a.depth - b.depth).abs() <= 1e-3
+                    && (a.speed - b.speed).abs() <= 1e-5 * a.speed.abs().max(1.0)
+            }
+            _ => false,
+        }
+    }
+
+    /// How the one-pass answers must compare with the three-scan code's.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Against {
+        /// Bitwise: the one-by-one scans (the grid's positions, or the fish's own).
+        Bitwise,
+        /// To rounding: the four-lane scan of the grid's columns sums the same terms in
+        /// another order.
+        Rounding,
+    }
+
+    /// Checks every fish of `w` with each radius triple: one pass = three calls (bitwise) = the
+    /// old code (as `against` says).
+    fn check(w: &World, what: &str, radii: &[[f32; 3]], against: Against) -> [usize; 3] {
         let mut found = [0; 3];
         for id in w.fish_ids() {
             for &r in radii {
@@ -355,11 +361,30 @@ mod tests {
                     "{what}: fish {id:?}, radii {r:?}"
                 );
                 if r.iter().all(|r| *r >= 0.0) {
-                    assert_eq!(
-                        crowd_bits(&crowd),
-                        crowd_bits(&reference(w, id, r, speed)),
-                        "{what}: fish {id:?}, radii {r:?} against the three-scan code"
-                    );
+                    let old = reference(w, id, r, speed);
+                    match against {
+                        Against::Bitwise => assert_eq!(
+                            crowd_bits(&crowd),
+                            crowd_bits(&old),
+                            "{what}: fish {id:?}, radii {r:?} against the three-scan code"
+                        ),
+                        Against::Rounding => {
+                            for (rule, (new, old)) in [
+                                (crowd.separation, old.separation),
+                                (crowd.alignment, old.alignment),
+                                (crowd.cohesion, old.cohesion),
+                            ]
+                            .into_iter()
+                            .enumerate()
+                            {
+                                assert!(
+                                    agree(new, old),
+                                    "{what}: fish {id:?}, radii {r:?}, rule {rule}: {new:?} \
+                                     against the three-scan code's {old:?}"
+                                );
+                            }
+                        }
+                    }
                 }
                 for (k, s) in [crowd.separation, crowd.alignment, crowd.cohesion]
                     .iter()
@@ -373,7 +398,7 @@ mod tests {
     }
 
     #[test]
-    fn one_pass_equals_the_three_rules_bitwise_in_every_grid_state() {
+    fn one_pass_equals_the_three_rules_in_every_grid_state() {
         let Scene { mut world, l, .. } = random_scene(11, 400);
         let radii = [
             [1.0 * l, 4.0 * l, 6.0 * l],
@@ -384,7 +409,7 @@ mod tests {
             [-1.0, f32::INFINITY, 0.5 * l],
         ];
         // Grid current (the behaviour stage).
-        let found = check(&world, "fresh grid", &radii);
+        let found = check(&world, "fresh grid", &radii, Against::Bitwise);
         // Every rule found neighbours for most fish: the comparison is not vacuous.
         assert!(
             found.iter().all(|&n| n > 400),
@@ -394,7 +419,7 @@ mod tests {
         for _ in 0..20 {
             world.step_motion(1.0 / 60.0);
         }
-        check(&world, "moved", &radii);
+        check(&world, "moved", &radii, Against::Bitwise);
         // Fish spawned and despawned since the rebuild.
         let ids: Vec<_> = world.fish_ids().collect();
         for id in ids.iter().step_by(7) {
@@ -416,12 +441,16 @@ mod tests {
                 })
                 .unwrap();
         }
-        check(&world, "spawned and despawned", &radii);
-        // The queries asked for the headings in cell order; the rebuild copies them.
-        assert!(world.grid_heading.is_empty());
+        check(&world, "spawned and despawned", &radii, Against::Bitwise);
+        // The queries asked for the columns; the rebuild fills them.
+        assert_eq!(world.crowd_columns.len(), 0);
         world.rebuild_grid();
-        assert_eq!(world.grid_heading.len(), world.num_fish());
-        check(&world, "rebuilt, headings copied", &radii);
+        assert_eq!(world.crowd_columns.len(), world.num_fish());
+        let found = check(&world, "rebuilt, columns filled", &radii, Against::Rounding);
+        assert!(
+            found.iter().all(|&n| n > 400),
+            "rules with an answer on the columns: {found:?}"
+        );
     }
 
     #[test]

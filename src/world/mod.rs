@@ -136,10 +136,11 @@ pub struct World {
     spawned_since_grid: Vec<FishId>,
     /// Per grid slot (the grid's cell order): the fish's species at the rebuild.
     grid_species: Vec<SpeciesId>,
-    /// Per grid slot: (cos, sin) of the fish's heading at the rebuild (what alignment sums);
-    /// filled only while crowd queries are being made (`crowd_wanted`), else empty.
-    grid_heading: Vec<glam::Vec2>,
-    /// A crowd query ran since the last rebuild: the next rebuild fills `grid_heading`. Worlds
+    /// Per grid slot: what the crowding rules read of each candidate (position, heading cosine
+    /// and sine, species, dense index), one column per field; filled only while crowd queries
+    /// are being made (`crowd_wanted`), else empty.
+    crowd_columns: crowd::CrowdColumns,
+    /// A crowd query ran since the last rebuild: the next rebuild fills `crowd_columns`. Worlds
     /// whose behaviours never ask do not pay for the cosines.
     crowd_wanted: AtomicBool,
     food_grid: Grid,
@@ -180,7 +181,7 @@ impl World {
             grid_positions_current: true,
             spawned_since_grid: Vec::new(),
             grid_species: Vec::new(),
-            grid_heading: Vec::new(),
+            crowd_columns: crowd::CrowdColumns::default(),
             crowd_wanted: AtomicBool::new(false),
             food_grid,
             food_in_grid: 0,

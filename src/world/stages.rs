@@ -8,7 +8,7 @@ use glam::Mat4;
 
 use super::contact::{drift, resolve_contact};
 use super::sense::wrap_angle;
-use super::{FishId, MAX_DRIVEN_JOINTS, StageCounters, World, crowd, pose};
+use super::{FishId, MAX_DRIVEN_JOINTS, StageCounters, World, pose};
 use crate::motion::RootState;
 
 /// The grid's cell size as a share of the longest view range (see [`World::rebuild_grid`]).
@@ -192,15 +192,13 @@ impl World {
         self.grid_species
             .extend(keys.iter().map(|&k| species[k as usize]));
         let wanted = self.crowd_wanted.swap(false, Ordering::Relaxed);
-        self.grid_heading.clear();
         if wanted {
-            use rayon::prelude::*;
-            self.grid_heading.resize(keys.len(), glam::Vec2::ZERO);
-            self.grid_heading
-                .par_iter_mut()
-                .zip(keys.par_iter())
-                .with_min_len(1024)
-                .for_each(|(out, &k)| *out = crowd::heading_vector(roots[k as usize].heading));
+            self.crowd_columns
+                .fill(keys, self.grid.positions(), &self.grid_species, |k| {
+                    roots[k as usize].heading
+                });
+        } else {
+            self.crowd_columns.clear();
         }
         self.refresh_predator_spots();
         self.grid_exact = true;
