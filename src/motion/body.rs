@@ -221,6 +221,30 @@ pub fn mass_shares(joints_x: &[f32], sections: &[(f32, f32)]) -> Vec<f32> {
     shares
 }
 
+/// Most midline segments (head segment included) the four-lane path of [`curve_to_yaw`] takes;
+/// longer bodies take the one-by-one path. A multiple of four, above the world's 16 driven
+/// joints + 1.
+const LANE_SEGMENTS: usize = 20;
+
+/// `f` of each of the first `n` entries of `x` (n ≤ [`LANE_SEGMENTS`]), four at a time.
+#[inline]
+fn four_at_a_time(
+    x: &[f32; LANE_SEGMENTS],
+    n: usize,
+    f: impl Fn(wide::f32x4) -> wide::f32x4,
+) -> [f32; LANE_SEGMENTS] {
+    let mut out = [0.0; LANE_SEGMENTS];
+    for (i, o) in x
+        .chunks_exact(4)
+        .zip(out.chunks_exact_mut(4))
+        .take(n.div_ceil(4))
+    {
+        let v = f(wide::f32x4::new([i[0], i[1], i[2], i[3]]));
+        o.copy_from_slice(&v.to_array());
+    }
+    out
+}
+
 /// Turns midline samples into joint yaws. Returns the head segment's yaw relative to the heading
 /// (radians, counter-clockwise seen from above).
 ///
@@ -228,6 +252,11 @@ pub fn mass_shares(joints_x: &[f32], sections: &[(f32, f32)]) -> Vec<f32> {
 /// (length units, positive to the fish's left). Segment k runs from joint k to the next sample;
 /// its angle θ_k = atan2(Δlateral, Δx·l) leans towards the left as it goes tail-wards. Joint k's
 /// yaw is power[k]·(θ_k − θ_{k−1}), with θ_{−1} the head segment's angle. Lengths are asserted.
+///
+/// A valid body's segments all run tail-wards (Δx > 0), where atan2(rise, run) is atan(rise/run):
+/// those angles are taken four at a time (`wide`'s vector arctangent, within about an ulp of
+/// the scalar one); any other body, or one with more than [`LANE_SEGMENTS`] segments, takes
+/// [`segment_angle`] one by one.
 pub(crate) fn curve_to_yaw(
     l: f32,
     joints_x: &[f32],
@@ -247,17 +276,42 @@ pub(crate) fn curve_to_yaw(
         "yaw: one entry per driven joint"
     );
     assert_eq!(power.len(), yaw.len(), "power: one entry per driven joint");
-    let theta_head = segment_angle(lateral[0] - lateral_head, joints_x[0] * l);
-    let mut theta_prev = theta_head;
-    for k in 0..yaw.len() {
-        let theta = segment_angle(
-            lateral[k + 1] - lateral[k],
-            (joints_x[k + 1] - joints_x[k]) * l,
-        );
-        yaw[k] = power[k] * (theta - theta_prev);
-        theta_prev = theta;
+    // Segment k's rise and run: k = 0 is the head segment, k > 0 the one behind joint k − 1.
+    let segment = |k: usize| {
+        if k == 0 {
+            (lateral[0] - lateral_head, joints_x[0] * l)
+        } else {
+            (
+                lateral[k] - lateral[k - 1],
+                (joints_x[k] - joints_x[k - 1]) * l,
+            )
+        }
+    };
+    let n = joints_x.len();
+    let mut slope = [0.0; LANE_SEGMENTS];
+    let lanes = n <= LANE_SEGMENTS
+        && (0..n).all(|k| {
+            let (rise, run) = segment(k);
+            slope[k] = rise / run;
+            run > 0.0
+        });
+    if !lanes {
+        let (rise, run) = segment(0);
+        let theta_head = segment_angle(rise, run);
+        let mut theta_prev = theta_head;
+        for k in 0..yaw.len() {
+            let (rise, run) = segment(k + 1);
+            let theta = segment_angle(rise, run);
+            yaw[k] = power[k] * (theta - theta_prev);
+            theta_prev = theta;
+        }
+        return -theta_head;
     }
-    -theta_head
+    let theta = four_at_a_time(&slope, n, wide::f32x4::atan);
+    for k in 0..yaw.len() {
+        yaw[k] = power[k] * (theta[k + 1] - theta[k]);
+    }
+    -theta[0]
 }
 
 /// A segment's angle to the body axis, radians: atan2(`rise`, `run`), with `rise` its sideways
@@ -364,6 +418,63 @@ impl MidlinePoseJob<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// curve_to_yaw as atan2 of each segment, one by one (the definition).
+    fn yaw_by_definition(
+        l: f32,
+        joints_x: &[f32],
+        power: &[f32],
+        head: f32,
+        lateral: &[f32],
+    ) -> (f32, Vec<f32>) {
+        let angle = |k: usize| {
+            let (rise, run) = if k == 0 {
+                (lateral[0] - head, joints_x[0] * l)
+            } else {
+                (
+                    lateral[k] - lateral[k - 1],
+                    (joints_x[k] - joints_x[k - 1]) * l,
+                )
+            };
+            rise.atan2(run)
+        };
+        let yaw = (0..power.len())
+            .map(|k| power[k] * (angle(k + 1) - angle(k)))
+            .collect();
+        (-angle(0), yaw)
+    }
+
+    #[test]
+    fn test_curve_to_yaw_four_at_a_time_is_the_definition_to_rounding() {
+        // Bodies of 3 to 24 segments (the four-lane path up to 20, one by one beyond), bent
+        // gently and sharply (slopes up to ±3, past the arctangent's polynomial ranges).
+        for n in 3..=24usize {
+            let joints_x: Vec<f32> = (1..=n).map(|k| k as f32 / n as f32).collect();
+            let power: Vec<f32> = (0..n - 1).map(|k| 0.5 + 0.1 * k as f32).collect();
+            for amp in [0.01f32, 0.3, 3.0] {
+                let lateral: Vec<f32> = (0..n)
+                    .map(|k| amp * (k as f32 * 1.7).sin() * (1.0 + k as f32))
+                    .collect();
+                let head = -0.4 * amp;
+                let mut yaw = vec![0.0; n - 1];
+                let head_yaw = curve_to_yaw(2.0, &joints_x, &power, head, &lateral, &mut yaw);
+                let (want_head, want) = yaw_by_definition(2.0, &joints_x, &power, head, &lateral);
+                assert!((head_yaw - want_head).abs() < 1e-6, "n {n}, amp {amp}");
+                for (k, (got, want)) in yaw.iter().zip(&want).enumerate() {
+                    assert!(
+                        (got - want).abs() < 2e-6,
+                        "n {n}, amp {amp}, joint {k}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+        // A segment that does not run tail-wards takes atan2 (the scalar path): a joint at the
+        // head, so the head segment has no length.
+        let mut yaw = [0.0];
+        let head_yaw = curve_to_yaw(1.0, &[0.0, 1.0], &[1.0], 0.0, &[0.5, 0.5], &mut yaw);
+        assert_eq!(head_yaw, -std::f32::consts::FRAC_PI_2);
+        assert_eq!(yaw[0], -std::f32::consts::FRAC_PI_2);
+    }
 
     #[test]
     fn test_power_profile_values() {
