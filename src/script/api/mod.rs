@@ -29,9 +29,10 @@ mod steering;
 use perception::register_perception;
 use steering::{cruise_and_length, register_crowding, register_steering};
 
-/// A script lane times the sensor queries of one decision in this many, counting each timed
-/// one this many times (see [`Ctx::sense_weight`]): an unbiased estimate of the sensing time
-/// that reads the clock a quarter as often.
+/// A script lane with many decisions due on a tick (64 or more) times the sensor queries of
+/// one decision in this many, counting each timed one this many times (see
+/// [`Ctx::sense_weight`]): an unbiased estimate of the sensing time that reads the clock a
+/// quarter as often. Smaller lanes time every query.
 pub const SENSE_SAMPLE: u32 = 4;
 
 /// Default number of percepts `shoal.see` returns.

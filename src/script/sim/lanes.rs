@@ -141,6 +141,11 @@ impl Lane {
         let mut stopped = 0u64;
         let stopped_ns = &mut stopped;
         let sampled = &mut self.sense_sampled;
+        // A lane with few decisions this tick times every sensor query: one sampled decision
+        // counted four times could claim more time than the whole stage took (a lane of three
+        // decisions whose one timed decision was its slowest), and the clock reads cost
+        // nothing that matters at this size.
+        let time_every = due.len() < TIME_EVERY_BELOW;
         let result = (|| {
             host.set_stage(Some((time_s, world)))?;
             if let Some(mut c) = lua.app_data_mut::<Ctx>() {
@@ -164,7 +169,9 @@ impl Lane {
                     Some(mut c) => {
                         c.fish = Some(d.id);
                         c.percepts_of = None;
-                        c.sense_weight = if (*sampled).is_multiple_of(api::SENSE_SAMPLE) {
+                        c.sense_weight = if time_every {
+                            1
+                        } else if (*sampled).is_multiple_of(api::SENSE_SAMPLE) {
                             api::SENSE_SAMPLE
                         } else {
                             0
@@ -245,6 +252,10 @@ impl Lane {
         self.total_ns = (start.elapsed().as_nanos() as u64).saturating_sub(stopped);
     }
 }
+
+/// Below this many decisions due in a lane on a tick, every sensor query is timed (see
+/// [`api::SENSE_SAMPLE`] for the sampling above it).
+const TIME_EVERY_BELOW: usize = 64;
 
 /// The lane fish `id` decides in, of `lanes`: a hash of its slot index, not the index itself —
 /// the fish due on one tick share their index modulo the decision period (fish `i` decides when
