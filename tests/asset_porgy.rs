@@ -8,7 +8,7 @@ use glam::Vec3;
 use shoal::asset::{DRIVEN_JOINTS, JOINT_NAMES};
 use shoal::skeleton::JointTransform;
 use shoal::skin::FishModel;
-use shoal::species::{SpeciesDesc, SpeciesError, SpeciesRig};
+use shoal::species::{SpeciesDesc, SpeciesError, SpeciesRig, generated_joint_names};
 
 mod common;
 
@@ -246,6 +246,19 @@ fn binding_names_missing_joints_and_bad_order() {
         })
     ));
     assert_eq!(DRIVEN_JOINTS.len(), 6);
+    // Six driven joints name the porgy's joints exactly.
+    assert!(
+        generated_joint_names(6).eq(JOINT_NAMES.iter().map(|&n| std::borrow::Cow::Borrowed(n)))
+    );
+    // More follow spine_6; fewer drop the missing spine_k.
+    let names = |n| generated_joint_names(n).collect::<Vec<_>>();
+    let eight = names(8);
+    let at = eight.iter().position(|n| n == "spine_6").unwrap();
+    assert_eq!(eight.len(), 32);
+    assert_eq!(eight[at + 1..at + 3], ["spine_7", "spine_8"]);
+    let four = names(4);
+    assert_eq!(four.len(), 28);
+    assert!(!four.iter().any(|n| n == "spine_5" || n == "spine_6"));
 }
 
 #[test]
