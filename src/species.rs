@@ -25,7 +25,8 @@ use crate::skin::FishModel;
 /// vertebral chain `root`, `spine_1` … `spine_6`, `tail_end` with the head, eye, gill and fin
 /// joints between. The generator (`asset::FishPlan`) writes them; species such as
 /// [`SpeciesDesc::black_porgy`] drive them. A generated fish with another number of driven
-/// joints has the same names with its own chain: [`generated_joint_names`].
+/// joints (the eel has [`EEL_DRIVEN_JOINTS`]) has the same names with its own chain:
+/// [`generated_joint_names`].
 pub const JOINT_NAMES: [&str; 30] = [
     "root",
     "head",
@@ -64,6 +65,12 @@ pub const JOINT_NAMES: [&str; 30] = [
 pub const DRIVEN_JOINTS: [&str; 6] = [
     "spine_1", "spine_2", "spine_3", "spine_4", "spine_5", "spine_6",
 ];
+
+/// The driven vertebral joints of the generated eel (`shoal asset eel`): `spine_1` …
+/// `spine_12`. Eels have about a hundred vertebrae; six rigid segments 0.13 L long showed as dips
+/// of up to a quarter of the amplitude between joints, since a straight segment between two
+/// joints that swing out of phase moves less in its middle than at its ends (docs/motion.md).
+pub const EEL_DRIVEN_JOINTS: usize = 12;
 
 /// The driven joints `spine_1` … `spine_n`, head to tail.
 pub fn spine_names(n: usize) -> Vec<String> {
@@ -251,8 +258,9 @@ impl SpeciesDesc {
     }
 
     /// An eel-like fish on `assets/eel.glb`, swimming like an anguilliform fish (docs/motion.md):
-    /// long, slender, its motion centre towards the front (pivot p = 0.2, Table 1 Ex3's pivot,
-    /// just behind the first driven joint of `eel.glb`, which is also where it turns about), the
+    /// long, slender, driven at its [`EEL_DRIVEN_JOINTS`] joints `spine_1` … `spine_12`, its
+    /// motion centre towards the front (pivot p = 0.2, Table 1 Ex3's pivot, just behind the
+    /// first driven joint of `eel.glb`, which is also where it turns about), the
     /// front wave travelling from the snout at 0.035 L in step with the body wave behind the pivot
     /// (the whole body undulates, no still point), a body wave shorter than the body (λ = 0.7·l,
     /// more than one wave on the body), every joint bending with the same weight, ω = 6 so the
@@ -262,7 +270,7 @@ impl SpeciesDesc {
         Self {
             name: "eel".into(),
             asset: "eel.glb".into(),
-            vertebral_joints: DRIVEN_JOINTS.iter().map(|s| s.to_string()).collect(),
+            vertebral_joints: spine_names(EEL_DRIVEN_JOINTS),
             motion: MotionParams {
                 p: 0.2,
                 s: 30.0,

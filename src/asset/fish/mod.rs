@@ -6,9 +6,9 @@
 //!
 //! Every fish has the joints named in [`JOINT_NAMES`] (which `species.rs` owns), with its own
 //! number of driven joints: the vertebral chain `root`, `spine_1` … `spine_n`, `tail_end` — n + 1
-//! segments bent at the n driven joints (six on both shipped fish, the paper's seven segments)
-//! — plus `head`, `snout`, `jaw`, eyes, gill covers and fin joints. Joints are unrotated at
-//! rest.
+//! segments bent at the n driven joints (the porgy's 6, the paper's seven segments; the eel's
+//! [`crate::species::EEL_DRIVEN_JOINTS`]) — plus `head`, `snout`, `jaw`, eyes, gill covers and
+//! fin joints. Joints are unrotated at rest.
 //!
 //! Everything is plain f32 arithmetic in a fixed order, so the output is byte-identical run to
 //! run on the same platform.
@@ -231,7 +231,12 @@ impl FishPlan {
 
     /// An eel-like fish: long slender round body, dorsal and anal fins running most of its
     /// length into a small rounded tail, small pectorals, no pelvic fins. Its driven joints
-    /// start near the front (the paper: the eel's motion centre is towards the front).
+    /// start near the front (the paper: the eel's motion centre is towards the front): twelve
+    /// ([`crate::species::EEL_DRIVEN_JOINTS`]), so that its envelope is smooth
+    /// (docs/motion.md). The first two stay where the six-joint eel had them, on either side of
+    /// its pivot (0.2 L): a joint just behind the pivot would sample equation (4)'s near-zero
+    /// amplitude there and show a still point. The other ten follow every 1/16 of the length
+    /// from 6/16 to 15/16.
     pub fn eel() -> Self {
         Self {
             name: "eel",
@@ -268,7 +273,9 @@ impl FishPlan {
             segments: 24,
             root_f: 0.07,
             head_f: 0.025,
-            spine_f: &[0.18, 0.31, 0.44, 0.57, 0.70, 0.83],
+            spine_f: &[
+                0.18, 0.31, 0.375, 0.4375, 0.5, 0.5625, 0.625, 0.6875, 0.75, 0.8125, 0.875, 0.9375,
+            ],
             dorsal: MedianFin {
                 start: 0.35,
                 end: 0.97,
