@@ -8,7 +8,9 @@ use glam::Vec3;
 use shoal::asset::{DRIVEN_JOINTS, JOINT_NAMES};
 use shoal::skeleton::JointTransform;
 use shoal::skin::FishModel;
-use shoal::species::{SpeciesDesc, SpeciesError, SpeciesRig};
+use shoal::species::{
+    EEL_DRIVEN_JOINTS, SpeciesDesc, SpeciesError, SpeciesRig, generated_joint_names,
+};
 
 mod common;
 
@@ -117,9 +119,27 @@ fn porgy_has_the_papers_skeleton_and_polygon_budget() {
 }
 
 #[test]
-fn eel_is_long_and_slender_with_the_same_joint_layout() {
+fn eel_is_long_and_slender_with_a_finer_chain() {
     let model = FishModel::load(&repo("assets/eel.glb")).unwrap();
-    assert_eq!(model.skeleton.num_joints(), 30);
+    assert!(model.warnings.is_empty(), "{:?}", model.warnings);
+    // The porgy's joints with a chain of EEL_DRIVEN_JOINTS (12) driven joints instead of 6:
+    // root → spine_1 → … → spine_12 → tail_end, the caudal joints on the last one.
+    let n = EEL_DRIVEN_JOINTS;
+    assert_eq!(model.skeleton.num_joints(), 30 + n - 6);
+    let mut names: Vec<&str> = model.skeleton.names().iter().map(String::as_str).collect();
+    names.sort();
+    let mut expected: Vec<String> = generated_joint_names(n).map(|s| s.into_owned()).collect();
+    expected.sort();
+    assert_eq!(names, expected);
+    let sk = &model.skeleton;
+    let parent = |n: &str| sk.names()[usize::from(sk.parents()[sk.find(n).unwrap()])].clone();
+    assert_eq!(parent("spine_1"), "root");
+    for k in 2..=n {
+        assert_eq!(parent(&format!("spine_{k}")), format!("spine_{}", k - 1));
+    }
+    for leaf in ["tail_end", "caudal_upper_1", "caudal_lower_1"] {
+        assert_eq!(parent(leaf), format!("spine_{n}"));
+    }
     check_weights(&model);
     let max = model
         .mesh
@@ -138,8 +158,17 @@ fn eel_is_long_and_slender_with_the_same_joint_layout() {
         &FishModel::load(&repo("assets/black_porgy.glb")).unwrap(),
     )
     .unwrap();
-    // The eel's driven joints start further forward than the porgy's.
+    // The eel's driven joints start further forward than the porgy's, and lie closer together
+    // behind its second joint (no segment longer than 0.07 L from there to the tail tip).
     assert!(rig.body.joints_x[0] < porgy.body.joints_x[0] - 0.08);
+    assert_eq!(rig.num_driven(), n);
+    assert!(
+        rig.body.joints_x[1..]
+            .windows(2)
+            .all(|w| w[1] - w[0] < 0.07),
+        "{:?}",
+        rig.body.joints_x
+    );
 }
 
 #[test]
@@ -246,6 +275,19 @@ fn binding_names_missing_joints_and_bad_order() {
         })
     ));
     assert_eq!(DRIVEN_JOINTS.len(), 6);
+    // Six driven joints name the porgy's joints exactly.
+    assert!(
+        generated_joint_names(6).eq(JOINT_NAMES.iter().map(|&n| std::borrow::Cow::Borrowed(n)))
+    );
+    // More follow spine_6; fewer drop the missing spine_k.
+    let names = |n| generated_joint_names(n).collect::<Vec<_>>();
+    let eight = names(8);
+    let at = eight.iter().position(|n| n == "spine_6").unwrap();
+    assert_eq!(eight.len(), 32);
+    assert_eq!(eight[at + 1..at + 3], ["spine_7", "spine_8"]);
+    let four = names(4);
+    assert_eq!(four.len(), 28);
+    assert!(!four.iter().any(|n| n == "spine_5" || n == "spine_6"));
 }
 
 #[test]

@@ -22,7 +22,7 @@ pub enum What {
         #[arg(long, default_value = "assets/black_porgy.glb")]
         out: PathBuf,
     },
-    /// Generate the eel (same 30-joint layout, long slender body) as a GLB.
+    /// Generate the eel (the porgy's joints with 12 driven ones, long slender body) as a GLB.
     Eel {
         /// Output file.
         #[arg(long, default_value = "assets/eel.glb")]

@@ -457,14 +457,14 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
                     what: "snout amplitude a(0) (L)",
                     lo: 0.025,
                     hi: 0.1,
-                    source: "Tytell & Lauder 2004; Tytell 2004 (eel head yaw)",
+                    source: "Tytell & Lauder 2004 (eel head, from memory, unverified)",
                     measured: snout,
                 },
                 Range {
                     what: "smallest amplitude at x (L)",
-                    lo: 0.1,
+                    lo: 0.0,
                     hi: 0.5,
-                    source: "Tytell 2004; D'Août & Aerts 1999 (eels)",
+                    source: "D'Août & Aerts 1999 (eels: head yaw minimal, rising to the tail)",
                     measured: |k| k.min_amplitude_x,
                 },
                 Range {
@@ -478,7 +478,7 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
                     what: "tail amplitude a(1) (L)",
                     lo: 0.05,
                     hi: 0.11,
-                    source: "Gillis 1998 (eel, ≈ 0.08 L)",
+                    source: "Gillis 1998 (≈ 0.08 L); D'Août & Aerts 1999 (≈ 0.075 L)",
                     measured: tail,
                 },
                 Range {
@@ -499,7 +499,7 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
                     what: "Strouhal number",
                     lo: 0.2,
                     hi: 0.45,
-                    source: "Taylor et al. 2003; Tytell & Lauder 2004",
+                    source: "Tytell, Proc. R. Soc. B (eels ≈ 0.32); Borazjani & Sotiropoulos 2009",
                     measured: |k| k.strouhal,
                 },
                 Range {
@@ -535,7 +535,8 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
         })
         .collect();
     // Anguilliform envelope a(x) = 0.1·e^(x − 1) L: the form CFD studies of eel swimming
-    // (Borazjani & Sotiropoulos 2009) fit to Tytell & Lauder's (2004) eels (from memory).
+    // (Borazjani & Sotiropoulos 2009) are remembered to fit to Tytell & Lauder's (2004) eels.
+    // Not verified: only the papers' abstracts could be checked, and they do not give it.
     let eel: Vec<(f32, f32)> = (0..=50)
         .map(|i| {
             let x = i as f32 / 50.0;
@@ -568,7 +569,8 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
         Mode::Anguilliform => (
             vec![
                 (
-                    "eel, 0.1·exp(x − 1) after Tytell & Lauder 2004 (fit, from memory)".to_owned(),
+                    "eel, 0.1·exp(x − 1) after Tytell & Lauder 2004 (fit from memory, unverified)"
+                        .to_owned(),
                     eel,
                     BLACK,
                 ),
@@ -580,13 +582,14 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
             ],
             vec![
                 (
-                    "eel head, 0.025 – 0.1 L (Tytell & Lauder 2004, from memory)".to_owned(),
+                    "eel head, 0.025 – 0.1 L (Tytell & Lauder 2004, from memory, unverified)"
+                        .to_owned(),
                     0.0,
                     0.025,
                     0.1,
                 ),
                 (
-                    "eel tail tip ≈ 0.08 L, Gillis 1998".to_owned(),
+                    "eel tail tip: ≈ 0.08 L Gillis 1998, ≈ 0.075 L D'Août & Aerts 1999".to_owned(),
                     1.0,
                     0.075,
                     0.085,

@@ -5,7 +5,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::Vec3;
 
-use super::{FishPlan, MedianFin, WeightFn, bump, chain_blend, joint, joint_slot};
+use super::{FishPlan, MedianFin, ROOT, WeightFn, bump, chain_blend, joint_slot};
 use crate::asset::rigged::{Influences, RiggedMesh};
 use crate::math::smoothstep_between;
 
@@ -49,7 +49,7 @@ impl FishPlan {
         m.positions.push(pole);
         m.colors.push(self.body_color(0.0, 0.0));
         m.influences.push(Influences::from_pairs(
-            &[(joint("snout"), 0.3), (joint("head"), 0.7)],
+            &[(self.joint("snout"), 0.3), (self.joint("head"), 0.7)],
             0,
         ));
         for i in 0..self.rings {
@@ -76,10 +76,9 @@ impl FishPlan {
                 for p in &mut pairs {
                     p.1 *= keep;
                 }
-                pairs.push((joint("jaw"), jaw));
-                pairs.push((joint(if s > 0.0 { "gill_L" } else { "gill_R" }), gill));
-                m.influences
-                    .push(Influences::from_pairs(&pairs, joint("root")));
+                pairs.push((self.joint("jaw"), jaw));
+                pairs.push((self.joint(if s > 0.0 { "gill_L" } else { "gill_R" }), gill));
+                m.influences.push(Influences::from_pairs(&pairs, ROOT));
             }
         }
         // Tail cap centre.
@@ -87,7 +86,7 @@ impl FishPlan {
         m.positions.push(Vec3::new(0.0, self.mid(fe), Self::z(fe)));
         m.colors.push(self.body_color(fe, 0.0));
         m.influences
-            .push(Influences::from_pairs(&[(joint("spine_6"), 1.0)], 0));
+            .push(Influences::from_pairs(&[(self.last_spine(), 1.0)], 0));
         let ring = |i: usize, j: usize| base + 1 + (i * segs + j % segs) as u32;
         let cap = base + 1 + (self.rings * segs) as u32;
         // Faces wound counter-clockwise seen from outside.
@@ -140,8 +139,7 @@ impl FishPlan {
                     m.colors.push(color(a, b));
                     pairs.clear();
                     weights(a, b, &mut pairs);
-                    m.influences
-                        .push(Influences::from_pairs(&pairs, joint("root")));
+                    m.influences.push(Influences::from_pairs(&pairs, ROOT));
                 }
             }
             let v = |i: usize, j: usize| base + (i * (nb + 1) + j) as u32;
@@ -175,15 +173,21 @@ impl FishPlan {
                 .iter()
                 .map(|n| {
                     (
-                        joint(n),
+                        self.joint(n),
                         fin.start + [0.15, 0.5, 0.85][joint_slot(n)] * (fin.end - fin.start),
                     )
                 })
                 .collect()
         } else {
             vec![
-                (joint("anal_1"), fin.start + 0.2 * (fin.end - fin.start)),
-                (joint("anal_2"), fin.start + 0.75 * (fin.end - fin.start)),
+                (
+                    self.joint("anal_1"),
+                    fin.start + 0.2 * (fin.end - fin.start),
+                ),
+                (
+                    self.joint("anal_2"),
+                    fin.start + 0.75 * (fin.end - fin.start),
+                ),
             ]
         };
         let sign = if dorsal { 1.0 } else { -1.0 };
@@ -240,11 +244,14 @@ impl FishPlan {
             let outer = smoothstep_between(0.25, 0.8, b);
             let body = (1.0 - smoothstep_between(0.0, 0.5, b)).max(0.0);
             let fin = 1.0 - body;
-            out.push((joint("spine_6"), body));
-            out.push((joint("caudal_upper_1"), fin * upper * (1.0 - outer)));
-            out.push((joint("caudal_upper_2"), fin * upper * outer));
-            out.push((joint("caudal_lower_1"), fin * (1.0 - upper) * (1.0 - outer)));
-            out.push((joint("caudal_lower_2"), fin * (1.0 - upper) * outer));
+            out.push((self.last_spine(), body));
+            out.push((self.joint("caudal_upper_1"), fin * upper * (1.0 - outer)));
+            out.push((self.joint("caudal_upper_2"), fin * upper * outer));
+            out.push((
+                self.joint("caudal_lower_1"),
+                fin * (1.0 - upper) * (1.0 - outer),
+            ));
+            out.push((self.joint("caudal_lower_2"), fin * (1.0 - upper) * outer));
         };
         let color = |_a: f32, b: f32| self.fin_color(b);
         Self::sheet(
@@ -282,8 +289,8 @@ impl FishPlan {
                 let base = 1.0 - smoothstep_between(0.0, 0.3, b);
                 let outer = smoothstep_between(0.3, 0.9, b);
                 Self::chain_weights(&chain, pf, out, base);
-                out.push((joint(j1), (1.0 - base) * (1.0 - outer)));
-                out.push((joint(j2), (1.0 - base) * outer));
+                out.push((self.joint(j1), (1.0 - base) * (1.0 - outer)));
+                out.push((self.joint(j2), (1.0 - base) * outer));
             };
             let color = |_a: f32, b: f32| self.fin_color(b);
             Self::sheet(m, grid, normal, 0.0015, &point, &weights, &color);
@@ -308,7 +315,7 @@ impl FishPlan {
             let weights = |_a: f32, b: f32, out: &mut Vec<(u16, f32)>| {
                 let base = 1.0 - smoothstep_between(0.0, 0.4, b);
                 Self::chain_weights(&chain, vf, out, base);
-                out.push((joint(j), 1.0 - base));
+                out.push((self.joint(j), 1.0 - base));
             };
             let color = |_a: f32, b: f32| self.fin_color(b);
             Self::sheet(m, grid, normal, 0.0015, &point, &weights, &color);
@@ -344,7 +351,7 @@ impl FishPlan {
                     };
                     m.colors.push([rgb[0], rgb[1], rgb[2], 1.0]);
                     m.influences
-                        .push(Influences::from_pairs(&[(joint(name), 1.0)], 0));
+                        .push(Influences::from_pairs(&[(self.joint(name), 1.0)], 0));
                     if i == 0 || i == stacks {
                         break; // one vertex per pole
                     }

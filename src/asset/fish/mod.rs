@@ -4,29 +4,30 @@
 //! length (snout to caudal tips) is 1 unit: the snout at z = +0.5, the tail tips at z = −0.5.
 //! Positions along the body are fractions `f` of that length from the snout (0) to the tail (1).
 //!
-//! Every fish has the same 30 joints (names in [`JOINT_NAMES`], which `species.rs` owns): the
-//! vertebral chain `root`, `spine_1` … `spine_6`, `tail_end` — seven segments (root→spine_1, …,
-//! spine_6→tail_end) bent at the six driven joints `spine_1` … `spine_6` — plus `head`, `snout`,
-//! `jaw`, eyes, gill covers and fin joints. Joints are unrotated at rest.
+//! Every fish has the joints named in [`JOINT_NAMES`] (which `species.rs` owns), with its own
+//! number of driven joints: the vertebral chain `root`, `spine_1` … `spine_n`, `tail_end` — n + 1
+//! segments bent at the n driven joints (the porgy's 6, the paper's seven segments; the eel's
+//! [`crate::species::EEL_DRIVEN_JOINTS`]) — plus `head`, `snout`, `jaw`, eyes, gill covers and
+//! fin joints. Joints are unrotated at rest.
 //!
 //! Everything is plain f32 arithmetic in a fixed order, so the output is byte-identical run to
 //! run on the same platform.
 //!
 //! Files: this one holds the plan ([`FishPlan`], its two species and [`Profile`]s) and the
-//! weight helpers; `joints` places the 30 joints; `mesh` builds the body, fins and eyes.
+//! weight helpers; `joints` names and places the joints; `mesh` builds the body, fins and eyes.
 
 use std::f32::consts::PI;
 
 use super::rigged::{MaterialSet, RiggedMesh};
 use crate::math::smoothstep_between;
+#[cfg(doc)]
 use crate::species::JOINT_NAMES;
 
 mod joints;
 mod mesh;
 
-fn joint(name: &str) -> u16 {
-    JOINT_NAMES.iter().position(|n| *n == name).unwrap_or(0) as u16
-}
+/// The root joint's index: the first joint of every generated fish.
+const ROOT: u16 = 0;
 
 /// A profile: smooth interpolation through (f, value) control points, f increasing.
 #[derive(Debug, Clone, Copy)]
@@ -105,12 +106,12 @@ pub struct FishPlan {
     pub rings: usize,
     /// Segments around each ring.
     pub segments: usize,
-    /// Fractions of length of root, head, and spine_1 … spine_6.
+    /// Fractions of length of root, head, and spine_1 … spine_n.
     pub root_f: f32,
     /// Head joint position.
     pub head_f: f32,
-    /// Driven joints spine_1 … spine_6.
-    pub spine_f: [f32; 6],
+    /// Driven joints spine_1 … spine_n, head to tail (at least one).
+    pub spine_f: &'static [f32],
     /// Dorsal fin.
     pub dorsal: MedianFin,
     /// Anal fin.
@@ -187,7 +188,7 @@ impl FishPlan {
             segments: 36,
             root_f: 0.16,
             head_f: 0.06,
-            spine_f: [0.30, 0.41, 0.51, 0.60, 0.68, 0.76],
+            spine_f: &[0.30, 0.41, 0.51, 0.60, 0.68, 0.76],
             dorsal: MedianFin {
                 start: 0.28,
                 end: 0.70,
@@ -230,7 +231,12 @@ impl FishPlan {
 
     /// An eel-like fish: long slender round body, dorsal and anal fins running most of its
     /// length into a small rounded tail, small pectorals, no pelvic fins. Its driven joints
-    /// start near the front (the paper: the eel's motion centre is towards the front).
+    /// start near the front (the paper: the eel's motion centre is towards the front): twelve
+    /// ([`crate::species::EEL_DRIVEN_JOINTS`]), so that its envelope is smooth
+    /// (docs/motion.md). The first two stay where the six-joint eel had them, on either side of
+    /// its pivot (0.2 L): a joint just behind the pivot would sample equation (4)'s near-zero
+    /// amplitude there and show a still point. The other ten follow every 1/16 of the length
+    /// from 6/16 to 15/16.
     pub fn eel() -> Self {
         Self {
             name: "eel",
@@ -267,7 +273,9 @@ impl FishPlan {
             segments: 24,
             root_f: 0.07,
             head_f: 0.025,
-            spine_f: [0.18, 0.31, 0.44, 0.57, 0.70, 0.83],
+            spine_f: &[
+                0.18, 0.31, 0.375, 0.4375, 0.5, 0.5625, 0.625, 0.6875, 0.75, 0.8125, 0.875, 0.9375,
+            ],
             dorsal: MedianFin {
                 start: 0.35,
                 end: 0.97,
@@ -314,7 +322,7 @@ impl FishPlan {
         let (joint_positions, joint_parents) = self.joints();
         let mut m = RiggedMesh {
             name: self.name.to_string(),
-            joint_names: JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+            joint_names: self.joint_names(),
             joint_parents,
             joint_positions,
             ..RiggedMesh::default()
