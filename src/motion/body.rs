@@ -226,20 +226,17 @@ pub fn mass_shares(joints_x: &[f32], sections: &[(f32, f32)]) -> Vec<f32> {
 /// joints + 1.
 const LANE_SEGMENTS: usize = 20;
 
-/// `f` of each of the first `n` entries of `x` (n ≤ [`LANE_SEGMENTS`]), four at a time.
+/// The arctangent of each of the first `n` entries of `x` (n ≤ [`LANE_SEGMENTS`]), four at a
+/// time.
 #[inline]
-fn four_at_a_time(
-    x: &[f32; LANE_SEGMENTS],
-    n: usize,
-    f: impl Fn(wide::f32x4) -> wide::f32x4,
-) -> [f32; LANE_SEGMENTS] {
+fn atan_four_at_a_time(x: &[f32; LANE_SEGMENTS], n: usize) -> [f32; LANE_SEGMENTS] {
     let mut out = [0.0; LANE_SEGMENTS];
     for (i, o) in x
         .chunks_exact(4)
         .zip(out.chunks_exact_mut(4))
         .take(n.div_ceil(4))
     {
-        let v = f(wide::f32x4::new([i[0], i[1], i[2], i[3]]));
+        let v = wide::f32x4::new([i[0], i[1], i[2], i[3]]).atan();
         o.copy_from_slice(&v.to_array());
     }
     out
@@ -307,7 +304,7 @@ pub(crate) fn curve_to_yaw(
         }
         return -theta_head;
     }
-    let theta = four_at_a_time(&slope, n, wide::f32x4::atan);
+    let theta = atan_four_at_a_time(&slope, n);
     for k in 0..yaw.len() {
         yaw[k] = power[k] * (theta[k + 1] - theta[k]);
     }

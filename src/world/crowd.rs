@@ -10,8 +10,9 @@
 //! [`World::steer_cohesion`], which are this same scan with the other rules off.
 //!
 //! While nothing moved since the grid's rebuild (the behaviour stage of a tick) the scan reads
-//! only the grid's cell-ordered arrays: positions, species and heading cosine/sine, copied there
-//! by [`World::rebuild_grid`]. Otherwise it falls back to the fish arrays with the same rules as
+//! only the grid's cell-ordered columns — positions, species, heading cosine/sine and dense
+//! index, packed in groups of four by [`World::rebuild_grid`] — four candidates at a time
+//! (`crowd/lanes.rs`). Otherwise it falls back to the fish arrays with the same rules as
 //! the world's other neighbour queries (the grid as of its rebuild, current positions, plus the
 //! fish spawned since).
 
@@ -184,9 +185,9 @@ impl World {
             let keys = self.grid.keys();
             let positions = self.grid.positions();
             let species_of = &self.grid_species;
-            // Headings are copied only for worlds whose behaviours make crowd queries: the
+            // The columns are filled only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and
-            // reads the roots meanwhile (the same values).
+            // meanwhile scans the grid's positions and the roots' headings (the same values).
             if self.crowd_columns.len() == keys.len() {
                 // Ask the next rebuild for them again (a plain load first: a store per query
                 // would bounce the flag's cache line between the lanes). Without this, every
@@ -203,9 +204,7 @@ impl World {
                 });
                 return Some(lanes.total());
             }
-            // Headings are copied only for worlds whose behaviours make crowd queries: the
-            // first query after a rebuild without them asks the next rebuild for them and
-            // reads the roots meanwhile (the same values).
+            // No columns yet: ask the next rebuild for them (see above).
             self.crowd_wanted.store(true, Ordering::Relaxed);
             self.grid.for_each_run_within(centre, reach, |run| {
                 for slot in run {
