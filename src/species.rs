@@ -74,7 +74,12 @@ pub const EEL_DRIVEN_JOINTS: usize = 12;
 
 /// The driven joints `spine_1` … `spine_n`, head to tail.
 pub fn spine_names(n: usize) -> Vec<String> {
-    (1..=n).map(|k| format!("spine_{k}")).collect()
+    (1..=n).map(spine_name).collect()
+}
+
+/// The chain joint `spine_k`.
+pub fn spine_name(k: usize) -> String {
+    format!("spine_{k}")
 }
 
 /// `k` for the chain joint `spine_k`.
@@ -96,7 +101,7 @@ pub fn generated_joint_names(num_spines: usize) -> impl Iterator<Item = Cow<'sta
         };
         keep.then_some(Cow::Borrowed(name))
             .into_iter()
-            .chain((7..7 + more).map(|k| Cow::Owned(format!("spine_{k}"))))
+            .chain((7..7 + more).map(|k| Cow::Owned(spine_name(k))))
     })
 }
 

@@ -488,7 +488,7 @@ fn chain_joints(
         chain_f.push(0.30 + 0.55 * t);
     }
     let mut names = vec!["root".to_string()];
-    names.extend((1..=driven).map(|k| format!("spine_{k}")));
+    names.extend(crate::species::spine_names(driven));
     names.push("tail_end".into());
     let mut joint_positions = Vec::new();
     for &f in chain_f.iter().chain(std::iter::once(&1.0f32)) {

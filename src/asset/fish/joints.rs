@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use super::FishPlan;
-use crate::species::{generated_joint_names, spine_number};
+use crate::species::{generated_joint_names, spine_name, spine_number};
 
 impl FishPlan {
     /// The joint names in file order: [`crate::species::JOINT_NAMES`] with this plan's chain
@@ -21,9 +21,14 @@ impl FishPlan {
             .unwrap_or(0) as u16
     }
 
+    /// Index of the chain joint `spine_k`.
+    fn spine(&self, k: usize) -> u16 {
+        self.joint(&spine_name(k))
+    }
+
     /// The last driven joint, `spine_n`: the caudal fin and the tail tip hang from it.
     pub(super) fn last_spine(&self) -> u16 {
-        self.joint(&format!("spine_{}", self.spine_f.len()))
+        self.spine(self.spine_f.len())
     }
 
     /// Joint positions in asset space, in [`FishPlan::joint_names`] order, and their parents.
@@ -122,7 +127,7 @@ impl FishPlan {
             return if k == 1 {
                 at("root")
             } else {
-                at(&format!("spine_{}", k - 1))
+                Some(usize::from(self.spine(k - 1)))
             };
         }
         match name {
@@ -142,7 +147,7 @@ impl FishPlan {
                 let mut p = self.joint("root");
                 for (k, &sf) in self.spine_f.iter().enumerate() {
                     if f >= sf {
-                        p = self.joint(&format!("spine_{}", k + 1));
+                        p = self.spine(k + 1);
                     }
                 }
                 Some(usize::from(p))
@@ -157,7 +162,7 @@ impl FishPlan {
             (self.joint("root"), self.root_f),
         ];
         for (k, &f) in self.spine_f.iter().enumerate() {
-            chain.push((self.joint(&format!("spine_{}", k + 1)), f));
+            chain.push((self.spine(k + 1), f));
         }
         chain
     }
