@@ -41,6 +41,7 @@ fn frame<'a>(
     look: Look,
 ) -> FrameInput<'a> {
     FrameInput {
+        gpu_pose: None,
         palettes,
         instances,
         camera,

@@ -130,6 +130,7 @@ fn render(
         palettes.extend(std::iter::repeat_n(root, joints));
     }
     let input = FrameInput {
+        gpu_pose: None,
         palettes: &palettes,
         instances: &instances,
         camera,

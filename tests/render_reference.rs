@@ -204,6 +204,7 @@ fn aquarium_with_fish_rocks_and_food() {
         fov_y_rad: 50f32.to_radians(),
     };
     let input = FrameInput {
+        gpu_pose: None,
         palettes: &palette,
         instances: &instances,
         camera,
@@ -267,6 +268,7 @@ fn black_porgy_asset_posed_by_the_species_rig() {
         });
     }
     let input = FrameInput {
+        gpu_pose: None,
         palettes: &palette,
         instances: &instances,
         camera: Camera {
@@ -330,6 +332,7 @@ fn skinned_fish_closeup_with_skeleton_overlay() {
         selected: false,
     }];
     let input = FrameInput {
+        gpu_pose: None,
         palettes: &palette,
         instances: &instances,
         camera: Camera {
@@ -377,6 +380,7 @@ fn instanced_school_is_one_draw_call() {
         });
     }
     let input = FrameInput {
+        gpu_pose: None,
         palettes: &palette,
         instances: &instances,
         camera: Camera::default(),
@@ -390,6 +394,7 @@ fn instanced_school_is_one_draw_call() {
     // Background + floor + one shadow draw + one fish draw + tank edges, however many fish.
     assert_eq!(renderer.timings().num_draw_calls, 5);
     let one = FrameInput {
+        gpu_pose: None,
         instances: &instances[..1],
         ..input
     };
@@ -405,6 +410,7 @@ fn caustics_animate_with_time() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
     let frame = |time_s: f32, caustic_strength: f32| FrameInput {
+        gpu_pose: None,
         palettes: &[],
         instances: &[],
         camera: Camera::default(),

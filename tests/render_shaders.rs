@@ -18,6 +18,7 @@ fn render_fish(gpu: &Gpu, renderer: &mut Renderer, palette: &[Mat4]) -> image::R
         selected: false,
     }];
     let input = FrameInput {
+        gpu_pose: None,
         palettes: palette,
         instances: &instances,
         camera: Camera {

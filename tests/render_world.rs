@@ -1,5 +1,6 @@
 //! The world seam: `app::WorldScene` over the real world (black porgies from the generated asset,
-//! built-in Rust driver) feeds the renderer the world's own palettes, one instance per fish.
+//! built-in Rust driver) feeds the renderer one instance per fish, posed by the GPU pose pass
+//! (the default) or by the world's own CPU palettes. `render_pose.rs` checks the two agree.
 
 mod common;
 
@@ -9,7 +10,7 @@ use shoal::motion::MotionRequest;
 use shoal::render::{Gpu, OffscreenTarget, Renderer};
 use shoal::world::bench::{RustSim, bench_world};
 use shoal::world::driver::WanderDriver;
-use shoal::world::{SpawnParams, Species, SpeciesDesc, SpeciesId};
+use shoal::world::{Species, SpeciesDesc, SpeciesId};
 
 fn porgy_scene(fish: usize) -> WorldScene<RustSim> {
     let assets = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets");
@@ -25,14 +26,35 @@ fn instances_point_at_the_worlds_palettes_and_ticks_follow_time() {
         let input = scene.frame_input();
         let w = scene.sim().world();
         assert_eq!(input.instances.len(), 12);
-        assert_eq!(input.palettes.len(), w.palettes().len());
-        for (inst, off) in input.instances.iter().zip(w.palette_offsets()) {
+        // The scene poses on the GPU: no CPU palettes, one pass record per fish.
+        let pose = input.gpu_pose.expect("the scene poses the fish on the GPU");
+        assert!(input.palettes.is_empty() && w.palettes().is_empty());
+        assert_eq!(pose.fish.len(), 12);
+        assert_eq!(pose.anchors.len(), 12);
+        assert_eq!(Some(&pose.palette_len), w.palette_offsets().last());
+        assert!(pose.palette_len >= 12);
+        let records = pose.fish.iter();
+        for ((inst, off), record) in input.instances.iter().zip(w.palette_offsets()).zip(records) {
             assert_eq!(inst.palette_offset, *off);
+            assert_eq!(record.palette_offset, *off);
             assert_eq!(inst.mesh.0, 0);
         }
         // Meshes: the porgy, then the rock and pellet props.
         assert_eq!(scene.meshes().len(), 3);
     }
+    // Posed on the CPU instead: the world's palettes, every fish's slots.
+    assert!(!scene.set_gpu_pose(false));
+    {
+        let input = scene.frame_input();
+        let w = scene.sim().world();
+        assert!(input.gpu_pose.is_none());
+        assert_eq!(input.palettes.len(), w.palettes().len());
+        assert_eq!(
+            Some(&(w.palettes().len() as u32)),
+            w.palette_offsets().last()
+        );
+    }
+    assert!(scene.set_gpu_pose(true));
     let before = scene.sim().world().tick_count();
     scene.step(0.1); // 6 ticks at 60 Hz
     assert_eq!(scene.sim().world().tick_count() - before, 6);
@@ -156,34 +178,16 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
     assert!(!scene.scene_changed());
     let input = scene.frame_input();
     assert_eq!(input.instances.len(), 7);
-    assert_eq!(input.palettes.len(), scene.sim().world().palettes().len());
+    // The restarted world is posed on the GPU too.
+    assert_eq!(input.gpu_pose.map(|p| p.fish.len()), Some(7));
 }
 
-fn shipped(desc: SpeciesDesc) -> Species {
-    let assets = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets");
-    Species::load(desc, &assets).expect("shipped species load")
-}
-
-/// Ten porgies and ten eels two seconds into swimming, in a scene.
+/// Ten porgies and ten eels two seconds into swimming, in a scene posed on the CPU.
 fn porgy_and_eel_scene() -> WorldScene<RustSim> {
-    let mut world = bench_world(shipped(SpeciesDesc::black_porgy()), 10, 5).unwrap();
-    let eel = world.add_species(shipped(SpeciesDesc::eel()));
-    let (min, size) = (world.tank().min, world.tank().max - world.tank().min);
-    for i in 0..10 {
-        let f = 0.2 + 0.06 * i as f32;
-        world
-            .spawn(SpawnParams {
-                species: eel,
-                pos: min + size * glam::Vec3::new(f, 0.3 + 0.03 * i as f32, 1.0 - f),
-                heading: i as f32,
-                pitch: 0.0,
-                speed: 40.0,
-                behavior: None,
-                seed: 100 + i,
-            })
-            .unwrap();
-    }
+    let world = common::porgy_and_eel_world();
     let mut scene = WorldScene::new(RustSim::new(world, WanderDriver::default()));
+    // These tests check the CPU palettes' layout.
+    scene.set_gpu_pose(false);
     scene.step(2.0);
     scene
 }
@@ -337,7 +341,9 @@ fn a_species_reloaded_with_other_driven_joints_asks_for_its_meshes_again() {
     desc.vertebral_joints.pop();
     let world = scene.sim_mut().world_mut();
     let slots = world.num_palette_slots(SpeciesId(0));
-    world.replace_species(SpeciesId(0), shipped(desc)).unwrap();
+    let assets = common::repo().join("assets");
+    let porgy = Species::load(desc, &assets).unwrap();
+    world.replace_species(SpeciesId(0), porgy).unwrap();
     assert_ne!(world.num_palette_slots(SpeciesId(0)), slots);
     scene.step(0.5);
     assert!(scene.take_meshes_changed());

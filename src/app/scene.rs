@@ -21,10 +21,11 @@ use crate::motion::RootState;
 use crate::motion::{MotionParams, MotionRequest};
 use crate::render::props::PropMesh;
 use crate::render::{
-    Camera, FishInstance, FrameInput, Look, MeshId, MeshUpload, OverlayLine, Prop, TankBounds,
+    Camera, FishInstance, FrameInput, GpuPoseFrame, Look, MeshId, MeshUpload, OverlayLine, Prop,
+    TankBounds,
 };
 use crate::world::pose::remap_joints;
-use crate::world::{FishId, FishModel, Species, SpeciesId, TICK_HZ, World};
+use crate::world::{FishId, FishModel, PoseMode, Species, SpeciesId, TICK_HZ, World};
 
 /// Where a fish is, for picking and the follow camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,8 +76,9 @@ struct SpeciesDraw {
     slot_joints: Vec<[u16; 4]>,
 }
 
-/// A [`SimView`] as the renderer and the panel see it: fixed 60 Hz ticks, real meshes, real
-/// palettes, and the selected fish highlighted.
+/// A [`SimView`] as the renderer and the panel see it: fixed 60 Hz ticks, real meshes, fish
+/// posed by the renderer's GPU pose pass (or, [`WorldScene::set_gpu_pose`] off, real palettes
+/// from the CPU), and the selected fish highlighted.
 pub struct WorldScene<S: SimView> {
     sim: S,
     species: Vec<SpeciesDraw>,
@@ -96,6 +98,8 @@ pub struct WorldScene<S: SimView> {
     /// Hot reload applied edits since [`WorldScene::take_reloaded`].
     reloaded: bool,
     reload_log: Vec<LogLine>,
+    /// The world's pose mode, kept across scene restarts.
+    pose_mode: PoseMode,
 }
 
 impl<S: SimView> std::fmt::Debug for WorldScene<S> {
@@ -113,7 +117,9 @@ pub const FOOD_PELLET_RADIUS: f32 = 2.5;
 impl<S: SimView> WorldScene<S> {
     /// Wraps a simulation whose species are all loaded (meshes are uploaded once at start).
     pub fn new(mut sim: S) -> Self {
-        // Palettes exist only after a pose pass; a fresh world has not run one.
+        // The renderer poses the fish: the world's pose stage only writes the pass's records.
+        sim.world_mut().set_pose_mode(PoseMode::Gpu);
+        // Those exist only after a pose stage; a fresh world has not run one.
         sim.world_mut().update_pose();
         let species = Self::species_draws(sim.world());
         let mut scene = Self {
@@ -131,6 +137,7 @@ impl<S: SimView> WorldScene<S> {
             hot_reload: false,
             reloaded: false,
             reload_log: Vec::new(),
+            pose_mode: PoseMode::Gpu,
         };
         scene.rebuild_instances();
         scene
@@ -195,6 +202,20 @@ impl<S: SimView> WorldScene<S> {
         self.rebuild_instances();
     }
 
+    /// Poses the fish on the GPU (`on`: the renderer's pose pass writes their palettes from
+    /// [`FrameInput::gpu_pose`]) or on the CPU (the world's palettes); the world's pose stage
+    /// follows from the next tick, and is run once now. Returns whether the GPU poses them: not
+    /// while a species is too big for the pass ([`World::gpu_pose_programs`] says why).
+    pub fn set_gpu_pose(&mut self, on: bool) -> bool {
+        let mode = if on { PoseMode::Gpu } else { PoseMode::Cpu };
+        self.pose_mode = mode;
+        let world = self.sim.world_mut();
+        world.set_pose_mode(mode);
+        world.update_pose();
+        self.rebuild_instances();
+        self.sim.world().poses_on_gpu()
+    }
+
     /// The simulation.
     pub fn sim(&self) -> &S {
         &self.sim
@@ -214,6 +235,11 @@ impl<S: SimView> WorldScene<S> {
         if self.layout_changed() {
             self.species = Self::species_draws(self.sim.world());
             self.meshes_changed = true;
+        }
+        let w = self.sim.world();
+        if w.poses_on_gpu() && w.gpu_pose_records().len() != w.num_fish() {
+            // Fish spawned or gone since the last pose stage: the pass needs one record each.
+            self.sim.world_mut().update_pose();
         }
         let w = self.sim.world();
         // Props: rocks for the sphere obstacles, pellets for uneaten food (mesh ids after the
@@ -349,12 +375,23 @@ impl<S: SimView> WorldScene<S> {
         std::mem::take(&mut self.reloaded)
     }
 
-    /// This frame's palettes, instances, props, tank and time, seen from
-    /// [`WorldScene::default_camera`] with no overlay (the caller sets `camera` and `overlay`).
+    /// This frame's palettes (or, when the GPU poses the fish, what its pose pass needs),
+    /// instances, props, tank and time, seen from [`WorldScene::default_camera`] with no
+    /// overlay (the caller sets `camera` and `overlay`).
     pub fn frame_input(&self) -> FrameInput<'_> {
         let w = self.sim.world();
         let t = w.tank();
+        let gpu_pose = match w.gpu_pose_programs() {
+            Ok(programs) if w.poses_on_gpu() => Some(GpuPoseFrame {
+                programs,
+                fish: w.gpu_pose_records(),
+                anchors: w.pose_anchors(),
+                palette_len: w.palette_offsets().last().copied().unwrap_or(0),
+            }),
+            _ => None,
+        };
         FrameInput {
+            gpu_pose,
             palettes: w.palettes(),
             instances: &self.instances,
             camera: self.default_camera(),
@@ -494,7 +531,7 @@ impl<S: SimView> WorldScene<S> {
     /// Appends the overlay segments asked for, for every fish.
     pub fn overlay_lines(&self, toggles: OverlayToggles, out: &mut Vec<OverlayLine>) {
         let w = self.sim.world();
-        for (i, &id) in w.fish_id_slice().iter().enumerate() {
+        for &id in w.fish_id_slice() {
             let (Some(root), Some(sid)) = (w.root(id), w.species_of(id)) else {
                 continue;
             };
@@ -504,7 +541,6 @@ impl<S: SimView> WorldScene<S> {
                 root,
                 species: w.species(sid),
                 draw: &self.species[usize::from(sid.0)],
-                palette_base: w.palette_offsets()[i] as usize,
             };
             if toggles.skeleton {
                 fish.skeleton(out);
@@ -559,6 +595,7 @@ impl<S: SimView> WorldScene<S> {
     /// uploaded again.
     pub fn restart_scene(&mut self) -> Result<bool, SimError> {
         self.sim.restart_scene()?;
+        self.sim.world_mut().set_pose_mode(self.pose_mode);
         self.sim.world_mut().update_pose();
         self.species = Self::species_draws(self.sim.world());
         self.selected = None;
@@ -577,7 +614,14 @@ impl<S: SimView> WorldScene<S> {
             ("behaviour / Lua", ms(c.lua_ns)),
             ("motion", ms(c.motion_ns)),
             ("skeleton", ms(c.skeleton_ns)),
-            ("palettes", ms(c.palette_ns)),
+            (
+                if self.sim.world().poses_on_gpu() {
+                    "pose records (the GPU poses)"
+                } else {
+                    "palettes"
+                },
+                ms(c.palette_ns),
+            ),
             ("grid", ms(c.grid_ns)),
         ]
     }
@@ -590,21 +634,20 @@ struct FishOverlay<'a> {
     root: &'a RootState,
     species: &'a Species,
     draw: &'a SpeciesDraw,
-    palette_base: usize,
 }
 
 impl FishOverlay<'_> {
-    /// Bones and joint crosses, from the fish's palette (joint j's entry is its slot's).
+    /// Bones and joint crosses, from the fish's per-joint palette (made here when the GPU
+    /// poses the fish).
     fn skeleton(&self, out: &mut Vec<OverlayLine>) {
-        let palettes = self.world.palettes();
+        let mut palette = Vec::new();
+        if !self.world.joint_palette(self.id, &mut palette) {
+            return;
+        }
         let joint = |j: usize| {
-            self.draw
-                .slot_of_joint
-                .get(j)
-                .and_then(|&s| palettes.get(self.palette_base + usize::from(s)))
-                .map_or(Vec3::ZERO, |m: &Mat4| {
-                    m.transform_point3(self.draw.bind_joint_pos[j])
-                })
+            palette.get(j).map_or(Vec3::ZERO, |m: &Mat4| {
+                m.transform_point3(self.draw.bind_joint_pos[j])
+            })
         };
         OverlayLine::push_skeleton(out, self.draw.model.skeleton.parents(), joint, 0.6);
     }

@@ -211,8 +211,12 @@ impl App {
         );
         let egui_renderer =
             egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
+        let pose = match self.aq.scene.world().gpu_pose_programs() {
+            Ok(_) => "posed on the GPU".to_owned(),
+            Err(why) => format!("posed on the CPU ({why})"),
+        };
         self.aq.ui.log(format!(
-            "{} fish, MSAA {}×, surface {format:?}",
+            "{} fish, {pose}, MSAA {}×, surface {format:?}",
             self.aq.scene.num_fish(),
             renderer.sample_count()
         ));

@@ -8,7 +8,8 @@
 //!   its palette starts, the [`Camera`], the [`TankBounds`], the scene time and optional overlay
 //!   line segments.
 //!
-//! On the GPU every palette of the frame lives in one storage buffer uploaded once; the vertex
+//! On the GPU every palette of the frame lives in one storage buffer, uploaded once, or written
+//! by the GPU pose pass from a few numbers per fish ([`GpuPoseFrame`]); the vertex
 //! shader skins each vertex with `Σ w_n · M_n` (eq. 1, `shaders/skinning.wgsl`), and each species
 //! is one instanced draw per material and level of detail in use, so draw calls do not grow with
 //! the number of fish. Each frame, fish whose bounding sphere is outside the view are left out (their shadows
@@ -36,6 +37,7 @@ pub mod shaders;
 mod target;
 pub mod testmesh;
 
+use crate::skin::pose_program::{GpuFishPose, GpuPosePrograms};
 pub use camera::{Camera, Ray};
 pub use gpu::{Gpu, GpuError};
 pub use lod::{LodLevel, MAX_LODS, MeshBounds, MeshLods};
@@ -287,4 +289,23 @@ pub struct FrameInput<'a> {
     pub overlay: &'a [OverlayLine],
     /// Water and light settings.
     pub look: Look,
+    /// Fish posed by the renderer's GPU pose pass instead of by the CPU: with it, `palettes`
+    /// holds no fish entries (it should be empty) and the pass writes them.
+    pub gpu_pose: Option<GpuPoseFrame<'a>>,
+}
+
+/// Fish for the GPU pose pass (`shaders/pose.wgsl`, [`crate::skin::pose_program`]): each
+/// record runs its species' program into the palette buffer from its palette offset, the same
+/// layout a CPU-posed palette has.
+#[derive(Debug, Clone, Copy)]
+pub struct GpuPoseFrame<'a> {
+    /// Every species' program.
+    pub programs: &'a GpuPosePrograms,
+    /// One record per fish.
+    pub fish: &'a [GpuFishPose],
+    /// Per instance of [`FrameInput::instances`] (same order): its palette's slot 0 (joint
+    /// 0's entry), computed on the CPU, which culling and the choice of detail read.
+    pub anchors: &'a [Mat4],
+    /// Palette entries the fish take: the props' entries come after.
+    pub palette_len: u32,
 }

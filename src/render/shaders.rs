@@ -9,7 +9,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 /// The shader files, by name, with the text compiled into the binary.
-pub const EMBEDDED: [(&str, &str); 6] = [
+pub const EMBEDDED: [(&str, &str); 7] = [
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
     ("skinning.wgsl", include_str!("../../shaders/skinning.wgsl")),
     ("fish.wgsl", include_str!("../../shaders/fish.wgsl")),
@@ -22,6 +22,7 @@ pub const EMBEDDED: [(&str, &str); 6] = [
         "skin_readback.wgsl",
         include_str!("../../shaders/skin_readback.wgsl"),
     ),
+    ("pose.wgsl", include_str!("../../shaders/pose.wgsl")),
 ];
 
 /// The text of every shader file.

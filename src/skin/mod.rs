@@ -14,6 +14,7 @@ mod gltf_scene;
 mod lbs;
 pub mod material;
 mod model;
+pub mod pose_program;
 mod validate;
 
 pub use gltf_scene::{

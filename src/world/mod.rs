@@ -100,6 +100,21 @@ pub struct FoodId(pub u32);
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ObstacleId(pub u32);
 
+/// Where a world's pose stage (stage 4 of [`tick::step`]) poses its fish.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PoseMode {
+    /// Every fish's skinning palette on the CPU, into [`World::palettes`] (tests, CPU skinning,
+    /// headless tools; the default).
+    #[default]
+    Cpu,
+    /// Only what the renderer's GPU pose pass needs: one small record per fish
+    /// ([`World::gpu_pose_records`]) and the palette entry it culls with
+    /// ([`World::pose_anchors`]); the GPU writes the palettes (see [`pose::gpu`]). Falls back
+    /// to [`PoseMode::Cpu`] while a species is too big for the pass
+    /// ([`World::gpu_pose_programs`] says why).
+    Gpu,
+}
+
 /// Index of a species in the world.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SpeciesId(pub u16);
@@ -152,6 +167,15 @@ pub struct World {
     /// species' slots, see `pose.rs`).
     palette_offsets: Vec<u32>,
     palettes: Vec<Mat4>,
+    /// Where the pose stage poses (see [`PoseMode`]).
+    pose_mode: PoseMode,
+    /// The species' pose programs for the GPU pass, rebuilt with `pose_plans`; an error names
+    /// a species whose skeleton is too big for it (the stage then poses on the CPU).
+    gpu_programs: Result<crate::skin::pose_program::GpuPosePrograms, String>,
+    /// After a GPU-mode pose stage, per dense fish: its record for the pose pass.
+    gpu_fish: Vec<crate::skin::pose_program::GpuFishPose>,
+    /// After a GPU-mode pose stage, per dense fish: its palette's slot 0 (culling).
+    pose_anchors: Vec<Mat4>,
     counters: StageCounters,
     rejected_motion_steps: u64,
 }
@@ -187,6 +211,10 @@ impl World {
             food_in_grid: 0,
             palette_offsets: vec![0],
             palettes: Vec::new(),
+            pose_mode: PoseMode::Cpu,
+            gpu_programs: Ok(crate::skin::pose_program::GpuPosePrograms::default()),
+            gpu_fish: Vec::new(),
+            pose_anchors: Vec::new(),
             counters: StageCounters::default(),
             rejected_motion_steps: 0,
         }

@@ -14,6 +14,8 @@
 //! per-fish work is [`PosePlan`] (which multiplies only what differs between joints), checked
 //! against the layers' own jobs ([`reference_palette`]).
 
+pub mod gpu;
+
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;

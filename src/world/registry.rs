@@ -117,6 +117,7 @@ impl World {
             log::error!("species {:?}: {e}", s.desc.name);
         }
         self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
+        self.gpu_programs = pose::gpu::programs(&self.pose_plans);
         self.wave_tables
             .push(WaveTable::new(&s.desc.motion, &s.rig.body));
         self.species.push(s);
@@ -139,6 +140,7 @@ impl World {
         // copies, and so the fish's number of slots (the palette ranges then move).
         let slots_changed = plan.num_slots() != self.pose_plans[usize::from(id.0)].num_slots();
         self.pose_plans[usize::from(id.0)] = plan;
+        self.gpu_programs = pose::gpu::programs(&self.pose_plans);
         self.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
         *slot = s;
         if predator_changed {

@@ -8,7 +8,7 @@ use glam::Mat4;
 
 use super::contact::{drift, resolve_contact};
 use super::sense::wrap_angle;
-use super::{FishId, MAX_DRIVEN_JOINTS, StageCounters, World, pose};
+use super::{FishId, MAX_DRIVEN_JOINTS, PoseMode, StageCounters, World, pose};
 use crate::motion::RootState;
 
 /// The grid's cell size as a share of the longest view range (see [`World::rebuild_grid`]).
@@ -112,7 +112,17 @@ impl World {
     /// (model × inverse bind pose), its distinct entries only, into [`World::palettes`]. Runs over both cores with rayon;
     /// the result does not depend on the thread count. Timed into `skeleton_ns` and `palette_ns`
     /// (the stage's wall time split in proportion to the threads' time in each half).
+    ///
+    /// In [`PoseMode::Gpu`] it writes instead what the renderer's pose pass needs
+    /// ([`World::gpu_pose_records`], [`World::pose_anchors`]), timed into `palette_ns`
+    /// (`skeleton_ns` 0), and [`World::palettes`] is left empty.
     pub fn update_pose(&mut self) {
+        if self.poses_on_gpu() {
+            self.write_gpu_pose_records();
+            return;
+        }
+        self.gpu_fish.clear();
+        self.pose_anchors.clear();
         let start = Instant::now();
         let total = *self.palette_offsets.last().unwrap_or(&0) as usize;
         if self.palettes.len() != total {
@@ -217,10 +227,74 @@ impl World {
         self.counters.grid_ns = start.elapsed().as_nanos() as u64;
     }
 
+    /// The GPU pose stage: each fish's pass record and slot-0 entry, over both cores in
+    /// chunks of [`pose::LEAF_FISH`] fish.
+    fn write_gpu_pose_records(&mut self) {
+        use rayon::prelude::*;
+        let start = Instant::now();
+        self.palettes.clear();
+        let n = self.state.fish.len();
+        self.gpu_fish.resize(n, bytemuck::Zeroable::zeroed());
+        self.pose_anchors.resize(n, Mat4::IDENTITY);
+        let fish = &self.state.fish;
+        let (plans, offsets) = (&self.pose_plans, &self.palette_offsets);
+        self.gpu_fish
+            .par_chunks_mut(pose::LEAF_FISH)
+            .zip(self.pose_anchors.par_chunks_mut(pose::LEAF_FISH))
+            .enumerate()
+            .for_each(|(chunk, (records, anchors))| {
+                let first = chunk * pose::LEAF_FISH;
+                for (k, (record, anchor)) in records.iter_mut().zip(anchors).enumerate() {
+                    let i = first + k;
+                    let species = fish.species[i].0;
+                    let (root, yaw) = (&fish.roots[i], &fish.yaw[i]);
+                    *record = pose::gpu::fish_record(root, yaw, u32::from(species), offsets[i]);
+                    *anchor = plans[usize::from(species)].slot_zero(root, yaw);
+                }
+            });
+        self.counters.skeleton_ns = 0;
+        self.counters.palette_ns = start.elapsed().as_nanos() as u64;
+    }
+
+    /// Where the pose stage poses (set with [`World::set_pose_mode`]).
+    pub fn pose_mode(&self) -> PoseMode {
+        self.pose_mode
+    }
+
+    /// Chooses where the pose stage poses; takes effect at the next [`World::update_pose`].
+    pub fn set_pose_mode(&mut self, mode: PoseMode) {
+        self.pose_mode = mode;
+    }
+
+    /// Whether the pose stage writes GPU records: [`PoseMode::Gpu`] and every species fits the
+    /// pass.
+    pub fn poses_on_gpu(&self) -> bool {
+        self.pose_mode == PoseMode::Gpu && self.gpu_programs.is_ok()
+    }
+
+    /// The species' programs for the GPU pose pass (species order), or why a species cannot
+    /// be posed there.
+    pub fn gpu_pose_programs(&self) -> Result<&crate::skin::pose_program::GpuPosePrograms, &str> {
+        self.gpu_programs.as_ref().map_err(String::as_str)
+    }
+
+    /// Per fish (dense order), its record for the GPU pose pass, after a GPU-mode
+    /// [`World::update_pose`] (empty otherwise).
+    pub fn gpu_pose_records(&self) -> &[crate::skin::pose_program::GpuFishPose] {
+        &self.gpu_fish
+    }
+
+    /// Per fish (dense order), slot 0 of its palette (joint 0's entry, what the renderer culls
+    /// with), after a GPU-mode [`World::update_pose`] (empty otherwise): the same matrix the
+    /// CPU stage writes there.
+    pub fn pose_anchors(&self) -> &[Mat4] {
+        &self.pose_anchors
+    }
+
     /// World-space skinning palettes of every fish, fish after fish (dense order), each fish's
     /// distinct entries only: its species' slots in slot order (joint j's entry is slot
     /// [`World::slot_of_joint`]`(species)[j]`; [`World::joint_palette`] expands them). Valid
-    /// after [`World::update_pose`].
+    /// after [`World::update_pose`] in [`PoseMode::Cpu`]; empty in [`PoseMode::Gpu`].
     pub fn palettes(&self) -> &[Mat4] {
         &self.palettes
     }
@@ -234,9 +308,19 @@ impl World {
 
     /// The fish's per-joint palette (one entry per skeleton joint, as `skin::palette` makes
     /// it), expanded from its slots into `out` — the same matrices bit for bit. False (and
-    /// `out` empty) for a fish that is gone or not yet posed.
+    /// `out` empty) for a fish that is gone or not yet posed. When the pose stage runs on the
+    /// GPU it is computed here, from the fish's current root and yaws, as the CPU stage would.
     pub fn joint_palette(&self, id: FishId, out: &mut Vec<Mat4>) -> bool {
         out.clear();
+        if self.poses_on_gpu() {
+            let (Some(d), Some(species)) = (self.state.fish.dense(id), self.species_of(id)) else {
+                return false;
+            };
+            let plan = &self.pose_plans[usize::from(species.0)];
+            out.resize(plan.num_joints(), Mat4::IDENTITY);
+            plan.palette_of(&self.state.fish.roots[d], &self.state.fish.yaw[d], out);
+            return true;
+        }
         let (Some(range), Some(species)) = (self.palette_range(id), self.species_of(id)) else {
             return false;
         };

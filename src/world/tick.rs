@@ -7,7 +7,8 @@
 //!                                             perception_ns, lua_ns
 //!   3. motion         World::step_motion      motion players, currents, contact; motion_ns
 //!   4. pose           World::update_pose      skeletons and skinning palettes;
-//!                                             skeleton_ns, palette_ns
+//!                                             skeleton_ns, palette_ns (PoseMode::Gpu:
+//!                                             records for the renderer's pose pass)
 //!   5. grid           World::rebuild_grid     the spatial grids the next tick senses; grid_ns
 //! ```
 //!

@@ -204,3 +204,29 @@ end }}
 "
     )
 }
+
+/// Ten black porgies (a bench world, seed 5) and ten eels spawned across the tank, swimming.
+pub fn porgy_and_eel_world() -> shoal::world::World {
+    use shoal::world::SpawnParams;
+    use shoal::world::bench::bench_world;
+    let assets = repo().join("assets");
+    let shipped = |desc| Species::load(desc, &assets).expect("shipped species load");
+    let mut world = bench_world(shipped(SpeciesDesc::black_porgy()), 10, 5).unwrap();
+    let eel = world.add_species(shipped(SpeciesDesc::eel()));
+    let (min, size) = (world.tank().min, world.tank().max - world.tank().min);
+    for i in 0..10 {
+        let f = 0.2 + 0.06 * i as f32;
+        world
+            .spawn(SpawnParams {
+                species: eel,
+                pos: min + size * Vec3::new(f, 0.3 + 0.03 * i as f32, 1.0 - f),
+                heading: i as f32,
+                pitch: 0.0,
+                speed: 40.0,
+                behavior: None,
+                seed: 100 + i,
+            })
+            .unwrap();
+    }
+    world
+}

@@ -6,6 +6,7 @@ use std::time::Instant;
 use bytemuck::Zeroable;
 use glam::{Mat4, Vec3};
 
+use super::pose::fish_palette_len;
 use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
 use crate::render::lod::{Frustum, LodSelector, ShadowProjection};
 use crate::render::{FrameInput, Gpu, RenderError};
@@ -35,13 +36,16 @@ impl Renderer {
                 )));
             };
             let end = inst.palette_offset as usize + mesh.num_joints as usize;
-            if end > input.palettes.len() {
+            if end > fish_palette_len(input) {
                 return Err(RenderError::InvalidFrame(format!(
                     "fish {i} needs palette entries {}..{end} but the palette has {}",
                     inst.palette_offset,
-                    input.palettes.len()
+                    fish_palette_len(input)
                 )));
             }
+        }
+        if let Some(pose) = &input.gpu_pose {
+            super::pose::validate(pose, input.instances.len())?;
         }
         for (i, prop) in input.props.iter().enumerate() {
             match self.meshes.get(prop.mesh.0 as usize) {
@@ -79,6 +83,7 @@ impl Renderer {
         self.ensure_attachments(&gpu.device, size);
         let frame = self.write_globals(gpu, input, size);
         self.write_palettes(gpu, input);
+        self.record_frame_pose(gpu, encoder, input);
         let mut stats = self.assign_buckets(input, &frame, size.1);
         self.write_instances(gpu, input);
         let lines = self.write_lines(gpu, input);
@@ -121,15 +126,21 @@ impl Renderer {
         }
     }
 
-    /// Palettes: one upload for every fish, then one matrix per prop behind them.
+    /// Palettes: one upload for every fish (or room for the GPU pose pass to write them), then
+    /// one matrix per prop behind them.
     fn write_palettes(&mut self, gpu: &Gpu, input: &FrameInput<'_>) {
         let (device, queue) = (&gpu.device, &gpu.queue);
-        let palette_bytes: &[u8] = bytemuck::cast_slice(input.palettes);
+        let palette_bytes: &[u8] = if input.gpu_pose.is_some() {
+            &[]
+        } else {
+            bytemuck::cast_slice(input.palettes)
+        };
+        let fish_bytes = (fish_palette_len(input) * std::mem::size_of::<Mat4>()) as u64;
         self.scratch_props.clear();
         self.scratch_props
             .extend(input.props.iter().map(|p| p.transform));
         let prop_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_props);
-        let total = (palette_bytes.len() + prop_bytes.len()) as u64;
+        let total = fish_bytes + prop_bytes.len() as u64;
         if self.palettes.ensure(device, total) {
             self.bind_group = super::make_scene_bind_group(
                 device,
@@ -142,11 +153,7 @@ impl Renderer {
             queue.write_buffer(&self.palettes.buffer, 0, palette_bytes);
         }
         if !prop_bytes.is_empty() {
-            queue.write_buffer(
-                &self.palettes.buffer,
-                palette_bytes.len() as u64,
-                prop_bytes,
-            );
+            queue.write_buffer(&self.palettes.buffer, fish_bytes, prop_bytes);
         }
     }
 
@@ -175,12 +182,12 @@ impl Renderer {
         self.scratch_ranges.resize(num_buckets, (0, 0));
         self.scratch_buckets.clear();
         let mut stats = RenderTimings::default();
-        let fish = input.instances.iter().map(|inst| {
-            (
-                inst.mesh,
-                &input.palettes[inst.palette_offset as usize],
-                true,
-            )
+        let fish = input.instances.iter().enumerate().map(|(i, inst)| {
+            let joint0 = match &input.gpu_pose {
+                Some(pose) => &pose.anchors[i],
+                None => &input.palettes[inst.palette_offset as usize],
+            };
+            (inst.mesh, joint0, true)
         });
         let props = input.props.iter().map(|p| (p.mesh, &p.transform, false));
         for (mesh_id, joint0, is_fish) in fish.chain(props) {
@@ -236,7 +243,7 @@ impl Renderer {
             _pad: [0; 2],
             tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
         });
-        let first_prop = input.palettes.len() as u32;
+        let first_prop = fish_palette_len(input) as u32;
         let props = input.props.iter().enumerate().map(|(k, p)| InstanceRaw {
             palette_offset: first_prop + k as u32,
             flags: 0,

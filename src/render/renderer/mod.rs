@@ -10,6 +10,7 @@
 
 mod encode;
 mod pipelines;
+mod pose;
 mod readback;
 mod upload;
 
@@ -177,6 +178,36 @@ struct Pipelines {
     lines_fogged: wgpu::RenderPipeline,
     lines_overlay: wgpu::RenderPipeline,
     skin_readback: wgpu::ComputePipeline,
+    /// The GPU pose pass (`pose.wgsl`).
+    pose: wgpu::ComputePipeline,
+}
+
+/// The GPU pose pass's input buffers (grow-only) and its uniform.
+#[derive(Debug)]
+struct PoseBuffers {
+    fish: GrowBuffer,
+    programs: GrowBuffer,
+    models: GrowBuffer,
+    slots: GrowBuffer,
+    params: wgpu::Buffer,
+}
+
+impl PoseBuffers {
+    fn new(device: &wgpu::Device) -> Self {
+        let storage = |label| GrowBuffer::new(device, label, wgpu::BufferUsages::STORAGE, 4096);
+        Self {
+            fish: storage("pose pass: fish records"),
+            programs: storage("pose pass: species programs"),
+            models: storage("pose pass: model steps"),
+            slots: storage("pose pass: palette slots"),
+            params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pose pass: params"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
 }
 
 #[derive(Debug)]
@@ -195,8 +226,11 @@ pub struct Renderer {
     scene_layout: wgpu::BindGroupLayout,
     material_layout: wgpu::BindGroupLayout,
     readback_layout: wgpu::BindGroupLayout,
+    pose_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     palettes: GrowBuffer,
+    /// The GPU pose pass's inputs (see [`super::GpuPoseFrame`]), written each frame it runs.
+    pose: PoseBuffers,
     instances: GrowBuffer,
     lines: GrowBuffer,
     bind_group: wgpu::BindGroup,
@@ -295,6 +329,27 @@ impl Renderer {
                 storage_entry(3, false),
             ],
         });
+        let pose_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pose pass bind group layout"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage_entry(5, false),
+            ],
+        });
+        let pose = PoseBuffers::new(device);
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals uniform"),
             size: std::mem::size_of::<Globals>() as u64,
@@ -324,6 +379,7 @@ impl Renderer {
             scene: &scene_layout,
             material: &material_layout,
             readback: &readback_layout,
+            pose: &pose_layout,
         };
         let pipelines = build_pipelines(device, &sources, &layouts, color_format, sample_count)?;
         Ok(Self {
@@ -332,8 +388,10 @@ impl Renderer {
             scene_layout,
             material_layout,
             readback_layout,
+            pose_layout,
             globals,
             palettes,
+            pose,
             instances,
             lines,
             bind_group,
@@ -385,6 +443,7 @@ impl Renderer {
             scene: &self.scene_layout,
             material: &self.material_layout,
             readback: &self.readback_layout,
+            pose: &self.pose_layout,
         };
         let pipelines = build_pipelines(
             &gpu.device,

@@ -13,6 +13,8 @@ pub(super) struct Layouts<'a> {
     pub material: &'a wgpu::BindGroupLayout,
     /// The skin read-back compute pass's only group.
     pub readback: &'a wgpu::BindGroupLayout,
+    /// The GPU pose pass's only group.
+    pub pose: &'a wgpu::BindGroupLayout,
 }
 
 /// The compiled shader modules.
@@ -21,6 +23,7 @@ struct Modules {
     environment: wgpu::ShaderModule,
     lines: wgpu::ShaderModule,
     readback: wgpu::ShaderModule,
+    pose: wgpu::ShaderModule,
 }
 
 /// Compiles every pipeline inside a validation error scope so a bad shader returns an error.
@@ -38,6 +41,7 @@ pub(super) fn build_pipelines(
     let (fish, fish_blend, shadows) = f.fish(&modules.fish);
     let (lines_fogged, lines_overlay) = f.lines(&modules.lines);
     let skin_readback = f.skin_readback(&modules.readback);
+    let pose = f.compute(&modules.pose, layouts.pose, "pose", "cs_pose");
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(RenderError::Shader {
             file: "(pipeline)".into(),
@@ -53,10 +57,11 @@ pub(super) fn build_pipelines(
         lines_fogged,
         lines_overlay,
         skin_readback,
+        pose,
     })
 }
 
-/// Composes and compiles the four WGSL files; the first that fails is the error, with a map of
+/// Composes and compiles the five shader modules; the first that fails is the error, with a map of
 /// the files its compiled text joins.
 fn compile_modules(device: &wgpu::Device, sources: &ShaderSources) -> Result<Modules, RenderError> {
     let module =
@@ -83,6 +88,7 @@ fn compile_modules(device: &wgpu::Device, sources: &ShaderSources) -> Result<Mod
         environment: module("environment.wgsl", true, false)?,
         lines: module("lines.wgsl", true, false)?,
         readback: module("skin_readback.wgsl", false, true)?,
+        pose: module("pose.wgsl", false, false)?,
     })
 }
 
@@ -349,19 +355,30 @@ impl<'a> Factory<'a> {
 
     /// The compute pass [`super::Renderer::skin_positions`] runs.
     fn skin_readback(&self, module: &wgpu::ShaderModule) -> wgpu::ComputePipeline {
+        self.compute(module, self.readback_layout, "skin read-back", "cs_skin")
+    }
+
+    /// A compute pipeline with one bind group of `layout`.
+    fn compute(
+        &self,
+        module: &wgpu::ShaderModule,
+        layout: &wgpu::BindGroupLayout,
+        name: &str,
+        entry_point: &str,
+    ) -> wgpu::ComputePipeline {
         let layout = self
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("skin read-back pipeline layout"),
-                bind_group_layouts: &[Some(self.readback_layout)],
+                label: Some(&format!("{name} pipeline layout")),
+                bind_group_layouts: &[Some(layout)],
                 immediate_size: 0,
             });
         self.device
             .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("skin read-back pipeline"),
+                label: Some(&format!("{name} pipeline")),
                 layout: Some(&layout),
                 module,
-                entry_point: Some("cs_skin"),
+                entry_point: Some(entry_point),
                 compilation_options: Default::default(),
                 cache: None,
             })

@@ -1,0 +1,186 @@
+//! The GPU pose pass (issue 18): the renderer poses the fish from one record each
+//! (`shaders/pose.wgsl`), and what it writes is the CPU pose stage's palette to f32 rounding,
+//! whose frames look the same. Runs on lavapipe in CI.
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use shoal::app::WorldScene;
+use shoal::render::{Camera, Gpu, GpuPoseFrame, OffscreenTarget, RenderError, Renderer};
+use shoal::world::bench::RustSim;
+use shoal::world::driver::WanderDriver;
+
+/// Ten porgies and ten eels two seconds into swimming (bent bodies), posed on the GPU.
+fn scene() -> WorldScene<RustSim> {
+    let world = common::porgy_and_eel_world();
+    let mut scene = WorldScene::new(RustSim::new(world, WanderDriver::default()));
+    scene.step(2.0);
+    scene
+}
+
+fn renderer(gpu: &Gpu, scene: &WorldScene<RustSim>) -> Renderer {
+    let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT).unwrap();
+    for m in scene.meshes() {
+        renderer.upload_mesh(gpu, &m).unwrap();
+    }
+    renderer
+}
+
+fn gpu() -> Gpu {
+    Gpu::headless().expect("a GPU adapter (lavapipe: apt install mesa-vulkan-drivers)")
+}
+
+/// Largest difference between two matrices relative to the larger's largest element (or 1).
+fn relative_error(a: &Mat4, b: &Mat4) -> f32 {
+    let scale = b.abs().to_cols_array().into_iter().fold(1.0f32, f32::max);
+    (*a - *b)
+        .abs()
+        .to_cols_array()
+        .into_iter()
+        .fold(0.0, f32::max)
+        / scale
+}
+
+#[test]
+fn the_pose_pass_writes_the_cpu_stages_palettes() {
+    let gpu = gpu();
+    let mut scene = scene();
+    let mut renderer = renderer(&gpu, &scene);
+    let posed = {
+        let input = scene.frame_input();
+        let pose = input.gpu_pose.expect("the scene poses on the GPU");
+        (
+            renderer.pose_palettes(&gpu, &pose).unwrap(),
+            pose.anchors.to_vec(),
+        )
+    };
+    let (gpu_palette, anchors) = posed;
+    // The same tick posed on the CPU.
+    assert!(!scene.set_gpu_pose(false));
+    let w = scene.world();
+    assert_eq!(gpu_palette.len(), w.palettes().len());
+    let mut worst = 0.0f32;
+    for (i, &id) in w.fish_id_slice().iter().enumerate() {
+        let range = w.palette_range(id).unwrap();
+        for (k, (g, c)) in gpu_palette[range.clone()]
+            .iter()
+            .zip(&w.palettes()[range.clone()])
+            .enumerate()
+        {
+            let e = relative_error(g, c);
+            assert!(
+                e < 2e-4,
+                "fish {id:?} slot {k}: GPU {g:?} against CPU {c:?}"
+            );
+            worst = worst.max(e);
+        }
+        // Culling reads slot 0: the CPU's own, bit for bit.
+        assert_eq!(anchors[i], w.palettes()[range.start], "fish {id:?}");
+    }
+    eprintln!("largest relative difference, GPU against CPU: {worst:e}");
+    // Every fish is somewhere else: a pass that wrote one fish everywhere would fail.
+    let tails: Vec<Vec3> = w
+        .fish_id_slice()
+        .iter()
+        .map(|&id| {
+            let range = w.palette_range(id).unwrap();
+            gpu_palette[range.end - 1].w_axis.truncate()
+        })
+        .collect();
+    assert!(tails.windows(2).all(|t| t[0].distance(t[1]) > 1.0));
+}
+
+#[test]
+fn frames_posed_on_the_gpu_look_as_frames_posed_on_the_cpu() {
+    let gpu = gpu();
+    let mut scene = scene();
+    let mut renderer = renderer(&gpu, &scene);
+    // Close on an eel (fish 10) so the bodies fill the frame.
+    let id = scene.world().fish_id_slice()[10];
+    let root = *scene.world().root(id).unwrap();
+    let camera = Camera {
+        target: root.pos,
+        yaw_rad: 0.4,
+        pitch_rad: 0.9,
+        distance: 220.0,
+        fov_y_rad: 0.8,
+    };
+    let target = OffscreenTarget::new(&gpu, 200, 150);
+    let mut frame = |scene: &WorldScene<RustSim>| {
+        let mut input = scene.frame_input();
+        input.camera = camera;
+        renderer
+            .render(&gpu, target.view(), target.size(), &input)
+            .unwrap();
+        target.read_rgba8(&gpu).unwrap()
+    };
+    let on_gpu = frame(&scene);
+    assert!(!scene.set_gpu_pose(false));
+    let on_cpu = frame(&scene);
+    // Something is drawn where the fish is: the frame is not just water.
+    let water = frame(&{
+        let mut empty = WorldScene::new(RustSim::new(
+            shoal::world::World::new(*scene.world().tank(), 1),
+            WanderDriver::default(),
+        ));
+        empty.set_gpu_pose(true);
+        empty
+    });
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage, by: u8| {
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > by))
+            .count()
+    };
+    let fish_pixels = differing(&on_cpu, &water, 8);
+    assert!(fish_pixels > 500, "only {fish_pixels} pixels show fish");
+    let off = differing(&on_gpu, &on_cpu, 8);
+    assert!(
+        off * 200 < fish_pixels,
+        "{off} of the {fish_pixels} fish pixels differ between GPU and CPU posing"
+    );
+}
+
+#[test]
+fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
+    let gpu = gpu();
+    let scene = scene();
+    let mut renderer = renderer(&gpu, &scene);
+    let target = OffscreenTarget::new(&gpu, 64, 48);
+    let input = scene.frame_input();
+    let pose = input.gpu_pose.unwrap();
+    let mut fish = pose.fish.to_vec();
+    fish[3].program = 9;
+    let bad = shoal::render::FrameInput {
+        gpu_pose: Some(GpuPoseFrame {
+            fish: &fish,
+            ..pose
+        }),
+        ..input
+    };
+    let err = renderer
+        .render(&gpu, target.view(), target.size(), &bad)
+        .unwrap_err();
+    assert!(matches!(err, RenderError::InvalidFrame(_)));
+    assert!(err.to_string().contains("fish 3 uses program 9"), "{err}");
+    fish[3] = pose.fish[3];
+    fish[5].palette_offset = pose.palette_len;
+    let bad = shoal::render::FrameInput {
+        gpu_pose: Some(GpuPoseFrame {
+            fish: &fish,
+            ..pose
+        }),
+        ..input
+    };
+    let err = renderer
+        .render(&gpu, target.view(), target.size(), &bad)
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("fish 5 writes palette entries"),
+        "{err}"
+    );
+    // The good frame still draws.
+    renderer
+        .render(&gpu, target.view(), target.size(), &input)
+        .unwrap();
+}
