@@ -197,14 +197,16 @@ fn bench_render_reports_triangles_per_frame() {
         let rows: Vec<Vec<&str>> = stdout
             .lines()
             .map(|l| l.split_whitespace().collect::<Vec<_>>())
-            .filter(|c| c.len() == 9 && c[0].parse::<u64>().is_ok())
+            .filter(|c| c.len() == 10 && c[0].parse::<u64>().is_ok())
             .collect();
         assert_eq!(rows.len(), 2, "{stdout}");
         for (row, fish) in rows.iter().zip([1u64, 12]) {
             assert_eq!(row[0].parse::<u64>().unwrap(), fish);
-            let (drawn, culled): (u64, u64) = (row[5].parse().unwrap(), row[6].parse().unwrap());
+            // The tick's pose stage on the CPU: the GPU pass's records, by default.
+            assert!(row[3].parse::<f64>().unwrap() >= 0.0, "{stdout}");
+            let (drawn, culled): (u64, u64) = (row[6].parse().unwrap(), row[7].parse().unwrap());
             assert_eq!((drawn, culled), (fish, 0), "{stdout}");
-            let per_lod: Vec<u64> = row[7].split('/').map(|n| n.parse().unwrap()).collect();
+            let per_lod: Vec<u64> = row[8].split('/').map(|n| n.parse().unwrap()).collect();
             assert_eq!(per_lod.iter().sum::<u64>(), fish, "{stdout}");
             if full_detail {
                 assert_eq!(per_lod[0], fish, "{stdout}");
@@ -214,7 +216,7 @@ fn bench_render_reports_triangles_per_frame() {
             }
             let expected: u64 =
                 per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>() + fish * levels[2];
-            assert_eq!(row[8].parse::<u64>().unwrap(), expected, "{stdout}");
+            assert_eq!(row[9].parse::<u64>().unwrap(), expected, "{stdout}");
         }
     }
 }

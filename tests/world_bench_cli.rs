@@ -189,3 +189,31 @@ fn a_scene_bench_takes_a_scene_by_name_and_names_the_scenes_there_are() {
         "{err}"
     );
 }
+
+/// `--pose gpu` measures what the window's CPU does: no skeleton stage, and the palette column
+/// is the GPU pass's records; `--pose cpu` (the default) poses every palette.
+#[test]
+fn pose_on_the_gpu_leaves_the_skeleton_stage_to_the_pass() {
+    let stages = |pose: &str| {
+        let report = bench(&["--driver", "rust", "--fish", "400", "--pose", pose]);
+        check(&report, &[400]);
+        assert_eq!(report["pose"].as_str(), Some(pose));
+        let s = &report["results"][0]["stages"];
+        (
+            s["skeleton"].as_f64().unwrap(),
+            s["palette"].as_f64().unwrap(),
+        )
+    };
+    let (skeleton, palette) = stages("gpu");
+    assert_eq!(skeleton, 0.0);
+    assert!(palette > 0.0, "the records are timed");
+    let (skeleton, _) = stages("cpu");
+    assert!(skeleton > 0.0);
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["bench", "sim", "--pose", "vulkan"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--pose") && err.contains("gpu"), "{err}");
+}

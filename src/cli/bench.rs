@@ -103,6 +103,38 @@ pub struct SimArgs {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Where the fish are posed: `cpu` (every palette on the CPU, each tick) or `gpu` (what
+    /// the window does: the CPU writes each fish's record for the renderer's pose pass, shown
+    /// in the palette column, and the GPU poses; no GPU is used here).
+    #[arg(long, value_enum, default_value_t = PoseArg::Cpu)]
+    pub pose: PoseArg,
+}
+
+/// Where `shoal bench sim` and `shoal bench peer` pose the fish.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PoseArg {
+    /// The CPU pose stage: skeletons and every palette (tests, CPU skinning).
+    Cpu,
+    /// The window's: one record per fish for the GPU pose pass.
+    Gpu,
+}
+
+impl PoseArg {
+    /// The world's mode for it.
+    pub fn mode(self) -> crate::world::PoseMode {
+        match self {
+            PoseArg::Cpu => crate::world::PoseMode::Cpu,
+            PoseArg::Gpu => crate::world::PoseMode::Gpu,
+        }
+    }
+
+    /// How the table's header names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PoseArg::Cpu => "pose: CPU (skeletons and palettes)",
+            PoseArg::Gpu => "pose: GPU pass (the CPU writes its records)",
+        }
+    }
 }
 
 /// Who decides what the fish do in `shoal bench sim`.
@@ -188,19 +220,22 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     for &fish in &args.fish {
         let result = match &species {
             Some(species) => {
-                let world = bench_world(species.clone(), fish, args.seed)?;
+                let mut world = bench_world(species.clone(), fish, args.seed)?;
+                world.set_pose_mode(args.pose.mode());
                 let mut sim = RustSim::new(world, WanderDriver::default());
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
                 let mut sim = lua_sim(&args.root, fish, args.seed, args.lanes)?;
+                sim.world_mut().set_pose_mode(args.pose.mode());
                 let sampling = args.sample_functions.unwrap_or(false);
                 sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
                 if results.is_empty() && !args.json {
                     println!(
-                        "script lanes: {}, function sampling {}",
+                        "script lanes: {}, function sampling {}, {}",
                         sim.num_lanes(),
-                        if sampling { "on" } else { "off" }
+                        if sampling { "on" } else { "off" },
+                        args.pose.describe()
                     );
                 }
                 let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
@@ -228,6 +263,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "driver": driver,
+                "pose": format!("{:?}", args.pose).to_lowercase(),
                 "tick_hz": TICK_HZ,
                 "results": results,
             }))?
@@ -282,6 +318,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         }
         sim.set_lanes(n)?;
     }
+    sim.world_mut().set_pose_mode(args.pose.mode());
     let sampling = args.sample_functions.unwrap_or(true);
     sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
     // One second of warm-up, then the per-module profile counts the measured ticks only.
@@ -313,9 +350,10 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         );
     } else {
         println!(
-            "scene {}, script lanes: {}",
+            "scene {}, script lanes: {}, {}",
             scene.display(),
-            sim.num_lanes()
+            sim.num_lanes(),
+            args.pose.describe()
         );
         print_row(&result, true, Driver::Lua);
         print_profile(&modules, memory);
@@ -410,6 +448,10 @@ pub struct RenderArgs {
     /// Ignore the model's material: vertex colours only, opaque (to time what textures cost).
     #[arg(long)]
     pub no_materials: bool,
+    /// Where the fish are posed: `gpu` (the window's pose pass, the default) or `cpu` (every
+    /// palette on the CPU, uploaded each frame).
+    #[arg(long, value_enum, default_value_t = PoseArg::Gpu)]
+    pub pose: PoseArg,
 }
 
 /// Median and nearest-rank p99 of `samples` (sorted in place). Empty input gives zeros.
@@ -443,14 +485,19 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let target = OffscreenTarget::new(&gpu, args.size.0, args.size.1);
     println!(
         "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
-         last frame; LOD tolerance {} px)",
-        args.size.0, args.size.1, args.frames, args.lod_tolerance_px
+         last frame; LOD tolerance {} px; {}; pose ms: the tick's pose stage, CPU, median)",
+        args.size.0,
+        args.size.1,
+        args.frames,
+        args.lod_tolerance_px,
+        args.pose.describe()
     );
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>6} {:>7} {:>7} {:>20} {:>12}",
+        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>6} {:>7} {:>7} {:>20} {:>12}",
         "fish",
         "median ms",
         "p99 ms",
+        "pose ms",
         "upload ms",
         "draws",
         "drawn",
@@ -469,6 +516,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             bench_world(species, n, 1)?,
             WanderDriver::default(),
         ));
+        scene.set_gpu_pose(args.pose == PoseArg::Gpu);
         let num_joints = scene
             .world()
             .species(SpeciesId(0))
@@ -501,9 +549,12 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         }
         let camera = whole_tank_camera(scene.default_camera(), scene.world().tank(), args.size);
         let mut times = Vec::with_capacity(args.frames);
+        let mut pose_ms = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
         for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
+            let c = scene.world().counters();
+            pose_ms.push((c.skeleton_ns + c.palette_ns) as f64 * 1e-6);
             let mut input = scene.frame_input();
             input.camera = camera;
             let start = Instant::now();
@@ -516,10 +567,11 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             }
         }
         let (median, p99) = median_p99(&mut times);
+        let (pose, _) = median_p99(&mut pose_ms);
         let t = renderer.timings();
         let [l0, l1, l2] = t.num_fish_per_lod;
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {:>10.3} {:>6} {:>7} {:>7} {:>20} {:>12}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>6} {:>7} {:>7} {:>20} {:>12}",
             upload / args.frames as f64,
             t.num_draw_calls,
             t.num_fish_drawn,

@@ -70,6 +70,10 @@ pub struct PeerArgs {
     /// range) are printed too, which holds still on a shared machine where one round may not.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
+    /// Where shoal's side poses the fish (see `shoal bench sim --pose`): `gpu` counts what the
+    /// window's CPU does, the records for the GPU pose pass.
+    #[arg(long, value_enum, default_value_t = super::bench::PoseArg::Cpu)]
+    pub pose: super::bench::PoseArg,
 }
 
 /// An interpreter the peer runs under.
@@ -391,11 +395,12 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     if !args.json {
         println!(
             "peer: {} (mode shoal, food {}); {} s measured after 1 s of warm-up per run; \
-             shoal {} build{}",
+             shoal {} build, {}{}",
             peer.display(),
             args.food,
             args.seconds,
             profile,
+            args.pose.describe(),
             if args.repeat > 1 {
                 format!("; {} rounds per fish count", args.repeat)
             } else {
@@ -406,6 +411,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     for &fish in &args.fish {
         for round in 1..=args.repeat {
             let mut sim = super::bench::lua_sim(&args.root, fish, args.seed, args.lanes)?;
+            sim.world_mut().set_pose_mode(args.pose.mode());
             let lanes = sim.num_lanes();
             let shoal = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
             if let Some(e) = sim.error_messages().first() {
@@ -489,6 +495,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
                 "seconds": args.seconds,
                 "food": args.food,
                 "shoal_build": profile,
+                "pose": format!("{:?}", args.pose).to_lowercase(),
                 "missing": missing.iter().map(|(e, why)| serde_json::json!({
                     "engine": e, "why": why })).collect::<Vec<_>>(),
                 "results": results,
@@ -649,7 +656,8 @@ fn print_summary(summary: &[Summary], rounds: usize) {
     }
     println!(
         "grid+motion+pose ratio: shoal's grid, motion, skeleton and palette stages (wall × \
-         threads) per fish-tick against the peer's grid + motion per fish-tick."
+         threads; with --pose gpu the palette stage is the GPU pass's records) per fish-tick \
+         against the peer's grid + motion per fish-tick."
     );
 }
 
