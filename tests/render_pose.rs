@@ -149,25 +149,34 @@ fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
     let target = OffscreenTarget::new(&gpu, 64, 48);
     let input = scene.frame_input();
     let pose = input.gpu_pose.unwrap();
+    // The frame with `fish` as its records: its error.
+    let mut render_with = |fish: &[shoal::skin::pose_program::GpuFishPose]| {
+        let bad = shoal::render::FrameInput {
+            gpu_pose: Some(GpuPoseFrame { fish, ..pose }),
+            ..input
+        };
+        renderer
+            .render(&gpu, target.view(), target.size(), &bad)
+            .unwrap_err()
+    };
     let mut fish = pose.fish.to_vec();
     fish[3].program = 9;
-    let bad = shoal::render::FrameInput {
-        gpu_pose: Some(GpuPoseFrame {
-            fish: &fish,
-            ..pose
-        }),
-        ..input
-    };
-    let err = renderer
-        .render(&gpu, target.view(), target.size(), &bad)
-        .unwrap_err();
+    let err = render_with(&fish);
     assert!(matches!(err, RenderError::InvalidFrame(_)));
     assert!(err.to_string().contains("fish 3 uses program 9"), "{err}");
     fish[3] = pose.fish[3];
     fish[5].palette_offset = pose.palette_len;
+    let err = render_with(&fish);
+    assert!(
+        err.to_string().contains("fish 5 writes palette entries"),
+        "{err}"
+    );
+    // A program whose step reads a model matrix not yet made.
+    let mut programs = pose.programs.clone();
+    programs.models[1].parent = 1;
     let bad = shoal::render::FrameInput {
         gpu_pose: Some(GpuPoseFrame {
-            fish: &fish,
+            programs: &programs,
             ..pose
         }),
         ..input
@@ -175,10 +184,7 @@ fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
     let err = renderer
         .render(&gpu, target.view(), target.size(), &bad)
         .unwrap_err();
-    assert!(
-        err.to_string().contains("fish 5 writes palette entries"),
-        "{err}"
-    );
+    assert!(err.to_string().contains("model step 1: parent"), "{err}");
     // The good frame still draws.
     renderer
         .render(&gpu, target.view(), target.size(), &input)

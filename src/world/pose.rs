@@ -212,12 +212,17 @@ const SAME_PALETTE_TOLERANCE: f32 = 1e-6;
 
 /// Whether `a` equals `b` within [`SAME_PALETTE_TOLERANCE`] of `b`'s largest element (or 1).
 fn same_matrix(a: &Mat4, b: &Mat4) -> bool {
+    within(a, b, SAME_PALETTE_TOLERANCE)
+}
+
+/// Whether every element of `a` is within `tolerance` × `b`'s largest element (or 1) of `b`'s.
+fn within(a: &Mat4, b: &Mat4, tolerance: f32) -> bool {
     let scale = b.abs().to_cols_array().into_iter().fold(1.0f32, f32::max);
     (*a - *b)
         .abs()
         .to_cols_array()
         .into_iter()
-        .all(|d| d <= SAME_PALETTE_TOLERANCE * scale)
+        .all(|d| d <= tolerance * scale)
 }
 
 /// A species' skeleton prepared for posing many fish (built once per species, see

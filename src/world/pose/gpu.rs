@@ -178,6 +178,7 @@ impl PosePlan {
 
 #[cfg(test)]
 mod tests {
+    use super::super::within;
     use super::*;
     use crate::skin::pose_program::run_program;
     use crate::world::{Species, SpeciesDesc};
@@ -189,15 +190,6 @@ mod tests {
             .into_iter()
             .map(|desc| Species::load(desc, &assets).expect("shipped species"))
             .collect()
-    }
-
-    fn close(a: &Mat4, b: &Mat4, tol: f32) -> bool {
-        let scale = b.abs().to_cols_array().into_iter().fold(1.0f32, f32::max);
-        (*a - *b)
-            .abs()
-            .to_cols_array()
-            .into_iter()
-            .all(|d| d <= tol * scale)
     }
 
     #[test]
@@ -228,7 +220,7 @@ mod tests {
             for (j, &slot) in plan.slot_of_joint().iter().enumerate() {
                 let g = &gpu[usize::from(slot)];
                 assert!(
-                    close(g, &cpu[j], 2e-5),
+                    within(g, &cpu[j], 2e-5),
                     "species {k} joint {j}: program {g:?} against the CPU stage {:?}",
                     cpu[j]
                 );
@@ -240,7 +232,7 @@ mod tests {
             bent.yaw[2] += 0.4;
             let mut moved = vec![Mat4::ZERO; plan.num_slots()];
             run_program(&programs, &bent, &mut moved);
-            assert!(moved.iter().zip(&gpu).any(|(a, b)| !close(a, b, 1e-3)));
+            assert!(moved.iter().zip(&gpu).any(|(a, b)| !within(a, b, 1e-3)));
         }
     }
 
