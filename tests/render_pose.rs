@@ -74,8 +74,10 @@ fn the_pose_pass_writes_the_cpu_stages_palettes() {
             );
             worst = worst.max(e);
         }
-        // Culling reads slot 0: the CPU's own, bit for bit.
-        assert_eq!(anchors[i], w.palettes()[range.start], "fish {id:?}");
+        // Culling reads slot 0: the CPU's own to rounding, and what the pass wrote there.
+        let slot0 = &w.palettes()[range.start];
+        assert!(relative_error(&anchors[i], slot0) < 2e-6, "fish {id:?}");
+        assert!(relative_error(&anchors[i], &gpu_palette[range.start]) < 2e-6);
     }
     eprintln!("largest relative difference, GPU against CPU: {worst:e}");
     // Every fish is somewhere else: a pass that wrote one fish everywhere would fail.

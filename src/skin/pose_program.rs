@@ -118,6 +118,22 @@ pub fn fish_pose(
     }
 }
 
+/// The placement's rotation as the pose pass writes it: heading about +y, then pitch about the
+/// body's z, from full-angle sines and cosines (a level fish, pitch 0, needs no second pair).
+pub fn placement_rotation(heading: f32, pitch: f32) -> glam::Mat3A {
+    let (sh, ch) = heading.sin_cos();
+    let (sp, cp) = if pitch == 0.0 {
+        (0.0, 1.0)
+    } else {
+        pitch.sin_cos()
+    };
+    glam::Mat3A::from_cols(
+        glam::Vec3A::new(cp * ch, sp, -cp * sh),
+        glam::Vec3A::new(-sp * ch, cp, sp * sh),
+        glam::Vec3A::new(sh, 0.0, ch),
+    )
+}
+
 /// What `shaders/pose.wgsl` computes for one fish, on the CPU in f32 (the shader's formulas,
 /// not the CPU stage's): for tests of the programs without a GPU.
 pub fn run_program(programs: &GpuPosePrograms, fish: &GpuFishPose, out: &mut [Mat4]) {
@@ -125,12 +141,11 @@ pub fn run_program(programs: &GpuPosePrograms, fish: &GpuFishPose, out: &mut [Ma
         return;
     };
     let [x, y, z, h] = fish.pos_heading;
-    let (sh, ch) = h.sin_cos();
-    let (sp, cp) = fish.pitch.sin_cos();
+    let r = placement_rotation(h, fish.pitch);
     let placement = Mat4::from_cols(
-        Vec4::new(cp * ch, sp, -cp * sh, 0.0),
-        Vec4::new(-sp * ch, cp, sp * sh, 0.0),
-        Vec4::new(sh, 0.0, ch, 0.0),
+        r.x_axis.extend(0.0),
+        r.y_axis.extend(0.0),
+        r.z_axis.extend(0.0),
         Vec4::new(x, y, z, 1.0),
     ) * Mat4::from_cols_array_2d(&p.model_to_body);
     let steps = &programs.models[p.first_model as usize..][..p.num_models as usize];

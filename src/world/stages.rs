@@ -249,7 +249,7 @@ impl World {
                     let species = fish.species[i].0;
                     let (root, yaw) = (&fish.roots[i], &fish.yaw[i]);
                     *record = pose::gpu::fish_record(root, yaw, u32::from(species), offsets[i]);
-                    *anchor = plans[usize::from(species)].slot_zero(root, yaw);
+                    *anchor = plans[usize::from(species)].anchor(root, yaw);
                 }
             });
         self.counters.skeleton_ns = 0;
@@ -285,8 +285,8 @@ impl World {
     }
 
     /// Per fish (dense order), slot 0 of its palette (joint 0's entry, what the renderer culls
-    /// with), after a GPU-mode [`World::update_pose`] (empty otherwise): the same matrix the
-    /// CPU stage writes there.
+    /// with), after a GPU-mode [`World::update_pose`] (empty otherwise): the matrix the CPU stage
+    /// writes there, to f32 rounding (its placement made as the pose pass makes it).
     pub fn pose_anchors(&self) -> &[Mat4] {
         &self.pose_anchors
     }
