@@ -192,3 +192,47 @@ fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
         .render(&gpu, target.view(), target.size(), &input)
         .unwrap();
 }
+
+/// `pose.wgsl` reloads like the other shaders: a broken edit is reported by file and the pass
+/// keeps running the previous pipeline; a good edit takes effect.
+#[test]
+fn an_edited_pose_shader_is_reloaded_and_a_broken_one_reported() {
+    use shoal::render::shaders::ShaderSources;
+    let gpu = gpu();
+    let scene = scene();
+    let mut renderer = renderer(&gpu, &scene);
+    let input = scene.frame_input();
+    let pose = input.gpu_pose.unwrap();
+    let before = renderer.pose_palettes(&gpu, &pose).unwrap();
+    let with = |text: &str| {
+        let mut sources = ShaderSources::embedded();
+        for (name, t) in &mut sources.files {
+            if name == "pose.wgsl" {
+                *t = text.to_owned();
+            }
+        }
+        sources
+    };
+    let err = renderer
+        .reload_shaders(&gpu, with("fn cs_pose( -> not wgsl"))
+        .unwrap_err();
+    assert!(
+        matches!(&err, RenderError::Shader { file, .. } if file == "pose.wgsl"),
+        "{err}"
+    );
+    assert_eq!(renderer.pose_palettes(&gpu, &pose).unwrap(), before);
+    // Every entry 10 units higher.
+    let raised = ShaderSources::embedded().get("pose.wgsl").replace(
+        "palette[f.palette_offset + k] = entry;",
+        "palette[f.palette_offset + k] = entry + mat4x4<f32>(vec4<f32>(0.0), vec4<f32>(0.0), \
+         vec4<f32>(0.0), vec4<f32>(0.0, 10.0, 0.0, 0.0));",
+    );
+    assert_ne!(raised, ShaderSources::embedded().get("pose.wgsl"));
+    renderer.reload_shaders(&gpu, with(&raised)).unwrap();
+    let after = renderer.pose_palettes(&gpu, &pose).unwrap();
+    assert_eq!(after.len(), before.len());
+    for (a, b) in after.iter().zip(&before) {
+        assert!((a.w_axis.y - b.w_axis.y - 10.0).abs() < 1e-3, "{a:?} {b:?}");
+        assert_eq!(a.x_axis, b.x_axis);
+    }
+}
