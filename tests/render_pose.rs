@@ -236,3 +236,35 @@ fn an_edited_pose_shader_is_reloaded_and_a_broken_one_reported() {
         assert_eq!(a.x_axis, b.x_axis);
     }
 }
+
+/// A species reloaded with another palette layout while the world is paused (no tick, so no pose
+/// stage): the next frame's records already follow the new layout, and it draws.
+#[test]
+fn a_species_reloaded_while_paused_draws_from_fresh_records() {
+    use shoal::world::{Species, SpeciesDesc, SpeciesId};
+    let gpu = gpu();
+    let mut scene = scene();
+    let mut desc = SpeciesDesc::black_porgy();
+    desc.vertebral_joints.pop();
+    let porgy = Species::load(desc, &common::repo().join("assets")).unwrap();
+    let world = scene.sim_mut().world_mut();
+    let slots = world.num_palette_slots(SpeciesId(0));
+    world.replace_species(SpeciesId(0), porgy).unwrap();
+    assert_ne!(world.num_palette_slots(SpeciesId(0)), slots);
+    scene.step(0.0);
+    assert!(scene.take_meshes_changed());
+    let mut renderer = renderer(&gpu, &scene);
+    let input = scene.frame_input();
+    let pose = input.gpu_pose.unwrap();
+    for (inst, record) in input.instances.iter().zip(pose.fish) {
+        assert_eq!(inst.palette_offset, record.palette_offset);
+    }
+    assert_eq!(
+        Some(&pose.palette_len),
+        scene.world().palette_offsets().last()
+    );
+    let target = OffscreenTarget::new(&gpu, 64, 48);
+    renderer
+        .render(&gpu, target.view(), target.size(), &input)
+        .unwrap();
+}

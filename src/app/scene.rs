@@ -232,13 +232,16 @@ impl<S: SimView> WorldScene<S> {
     }
 
     fn rebuild_instances(&mut self) {
-        if self.layout_changed() {
+        let relayout = self.layout_changed();
+        if relayout {
             self.species = Self::species_draws(self.sim.world());
             self.meshes_changed = true;
         }
         let w = self.sim.world();
-        if w.poses_on_gpu() && w.gpu_pose_records().len() != w.num_fish() {
-            // Fish spawned or gone since the last pose stage: the pass needs one record each.
+        if relayout || (w.poses_on_gpu() && w.gpu_pose_records().len() != w.num_fish()) {
+            // A reloaded species moved the palette ranges, or fish came or went, since the last
+            // pose stage (a paused world runs none): pose again, so the frame's palettes or
+            // records match the instances.
             self.sim.world_mut().update_pose();
         }
         let w = self.sim.world();
