@@ -117,10 +117,10 @@ impl World {
             log::error!("species {:?}: {e}", s.desc.name);
         }
         self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
-        self.gpu_programs = pose::gpu::programs(&self.pose_plans);
         self.wave_tables
             .push(WaveTable::new(&s.desc.motion, &s.rig.body));
         self.species.push(s);
+        self.refresh_gpu_programs();
         SpeciesId((self.species.len() - 1) as u16)
     }
 
@@ -140,9 +140,9 @@ impl World {
         // copies, and so the fish's number of slots (the palette ranges then move).
         let slots_changed = plan.num_slots() != self.pose_plans[usize::from(id.0)].num_slots();
         self.pose_plans[usize::from(id.0)] = plan;
-        self.gpu_programs = pose::gpu::programs(&self.pose_plans);
         self.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
         *slot = s;
+        self.refresh_gpu_programs();
         if predator_changed {
             self.refresh_predators();
         }
@@ -158,6 +158,12 @@ impl World {
             self.relayout_palettes();
         }
         Ok(())
+    }
+
+    /// Rebuilds the GPU pose programs from the species' pose plans (after either changes).
+    fn refresh_gpu_programs(&mut self) {
+        let names: Vec<&str> = self.species.iter().map(|s| s.desc.name.as_str()).collect();
+        self.gpu_programs = pose::gpu::programs(&self.pose_plans, &names);
     }
 
     /// The species' palette layout: joint j's palette entry is slot `slot_of_joint(s)[j]` of a

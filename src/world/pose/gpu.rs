@@ -25,16 +25,17 @@ use crate::world::MAX_DRIVEN_JOINTS;
 
 const _: () = assert!(MAX_DRIVEN_JOINTS == crate::skin::pose_program::GPU_POSE_MAX_YAWS);
 
-/// The programs of `plans` (one per species). An error names the first species whose skeleton
-/// needs more than [`GPU_POSE_MAX_MODELS`] model matrices.
-pub fn programs(plans: &[PosePlan]) -> Result<GpuPosePrograms, String> {
+/// The programs of `plans` (one per species, named by `names`). An error names the first species
+/// whose skeleton needs more than [`GPU_POSE_MAX_MODELS`] model matrices.
+pub fn programs(plans: &[PosePlan], names: &[&str]) -> Result<GpuPosePrograms, String> {
     let mut out = GpuPosePrograms::default();
     for (species, plan) in plans.iter().enumerate() {
         let program = match &plan.matrices {
             PlanMatrices::Affine(m) => plan.gpu_program(m, &mut out),
             PlanMatrices::General(m) => plan.gpu_program(m, &mut out),
         };
-        let program = program.map_err(|e| format!("species {species}: {e}"))?;
+        let name = names.get(species).copied().unwrap_or("?");
+        let program = program.map_err(|e| format!("species {name}: {e}"))?;
         out.programs.push(program);
     }
     Ok(out)
@@ -201,7 +202,7 @@ mod tests {
             .iter()
             .map(|s| PosePlan::new(&s.rig, &s.model))
             .collect();
-        let programs = programs(&plans).unwrap();
+        let programs = programs(&plans, &["black_porgy", "eel"]).unwrap();
         assert_eq!(programs.programs.len(), 2);
         for (k, plan) in plans.iter().enumerate() {
             let root = RootState {
@@ -254,9 +255,9 @@ mod tests {
         let mut plan = PosePlan::new(&species[0].rig, &species[0].model);
         let step = plan.schedule.models[0];
         plan.schedule.models = vec![step; GPU_POSE_MAX_MODELS + 1];
-        let err = programs(&[plan]).unwrap_err();
+        let err = programs(&[plan], &["big"]).unwrap_err();
         assert!(
-            err.contains("species 0") && err.contains("33 model matrices"),
+            err.contains("species big") && err.contains("33 model matrices"),
             "{err}"
         );
     }
