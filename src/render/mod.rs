@@ -4,9 +4,10 @@
 //! - once per species, a [`MeshUpload`] (positions, normals, per-vertex colours, joint indices and
 //!   weights, triangle indices), which returns a [`MeshId`];
 //! - once per frame, a [`FrameInput`]: one flat joint palette for *every* fish (each fish's joints
-//!   contiguous, already in world space), one [`FishInstance`] per fish naming its mesh and where
-//!   its palette starts, the [`Camera`], the [`TankBounds`], the scene time and optional overlay
-//!   line segments.
+//!   contiguous, already in world space) — or, for the GPU pose pass, each species' pose program
+//!   and one small record per fish ([`GpuPoseFrame`]) —, one [`FishInstance`] per fish naming its
+//!   mesh and where its palette starts, the [`Camera`], the [`TankBounds`], the scene time and
+//!   optional overlay line segments.
 //!
 //! On the GPU every palette of the frame lives in one storage buffer, uploaded once, or written
 //! by the GPU pose pass from a few numbers per fish ([`GpuPoseFrame`]); the vertex
