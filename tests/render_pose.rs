@@ -167,13 +167,50 @@ fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
     assert!(matches!(err, RenderError::InvalidFrame(_)));
     assert!(err.to_string().contains("fish 3 uses program 9"), "{err}");
     fish[3] = pose.fish[3];
+    fish[4].palette_offset = u32::MAX;
+    let err = render_with(&fish);
+    assert!(
+        err.to_string().contains("fish 4 writes palette entries"),
+        "{err}"
+    );
+    fish[4] = pose.fish[4];
     fish[5].palette_offset = pose.palette_len;
     let err = render_with(&fish);
     assert!(
         err.to_string().contains("fish 5 writes palette entries"),
         "{err}"
     );
-    // A program whose step reads a model matrix not yet made.
+    // A palette far larger than the records can fill (the buffer is sized from it).
+    let bad = shoal::render::FrameInput {
+        gpu_pose: Some(GpuPoseFrame {
+            palette_len: u32::MAX,
+            ..pose
+        }),
+        ..input
+    };
+    let err = renderer
+        .render(&gpu, target.view(), target.size(), &bad)
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("palette entries for 20 fish records"),
+        "{err}"
+    );
+    // A program reaching past the arrays (with sums that would overflow a u32), and one whose
+    // step reads a model matrix not yet made.
+    let mut programs = pose.programs.clone();
+    programs.programs[0].first_model = u32::MAX;
+    let bad = shoal::render::FrameInput {
+        gpu_pose: Some(GpuPoseFrame {
+            programs: &programs,
+            ..pose
+        }),
+        ..input
+    };
+    let err = renderer
+        .render(&gpu, target.view(), target.size(), &bad)
+        .unwrap_err();
+    assert!(err.to_string().contains("program 0 reaches past"), "{err}");
     let mut programs = pose.programs.clone();
     programs.models[1].parent = 1;
     let bad = shoal::render::FrameInput {

@@ -33,8 +33,10 @@ pub(super) fn validate(pose: &GpuPoseFrame<'_>, num_instances: usize) -> Result<
     }
     let p = pose.programs;
     for (k, prog) in p.programs.iter().enumerate() {
-        let models = prog.first_model as usize..(prog.first_model + prog.num_models) as usize;
-        let slots = prog.first_slot as usize..(prog.first_slot + prog.num_slots) as usize;
+        // Summed in usize: nothing in a frame can overflow the check.
+        let models =
+            prog.first_model as usize..prog.first_model as usize + prog.num_models as usize;
+        let slots = prog.first_slot as usize..prog.first_slot as usize + prog.num_slots as usize;
         if models.end > p.models.len() || slots.end > p.slots.len() {
             return bad(format!("program {k} reaches past the step arrays"));
         }
@@ -62,6 +64,16 @@ pub(super) fn validate(pose: &GpuPoseFrame<'_>, num_instances: usize) -> Result<
             ));
         }
     }
+    // The buffer is sized from `palette_len`: no more than the records can write.
+    let most_slots = p.programs.iter().map(|g| u64::from(g.num_slots)).max();
+    let most = pose.fish.len() as u64 * most_slots.unwrap_or(0);
+    if u64::from(pose.palette_len) > most {
+        return bad(format!(
+            "{} palette entries for {} fish records that can write at most {most}",
+            pose.palette_len,
+            pose.fish.len()
+        ));
+    }
     for (i, f) in pose.fish.iter().enumerate() {
         let Some(prog) = p.programs.get(f.program as usize) else {
             return bad(format!(
@@ -74,7 +86,7 @@ pub(super) fn validate(pose: &GpuPoseFrame<'_>, num_instances: usize) -> Result<
             return bad(format!(
                 "fish {i} writes palette entries {}..{} past the fish's {}",
                 f.palette_offset,
-                f.palette_offset + prog.num_slots,
+                u64::from(f.palette_offset) + u64::from(prog.num_slots),
                 pose.palette_len
             ));
         }
