@@ -151,79 +151,75 @@ fn a_frame_whose_records_are_out_of_range_is_an_error_not_a_crash() {
     let target = OffscreenTarget::new(&gpu, 64, 48);
     let input = scene.frame_input();
     let pose = input.gpu_pose.unwrap();
-    // The frame with `fish` as its records: its error.
-    let mut render_with = |fish: &[shoal::skin::pose_program::GpuFishPose]| {
-        let bad = shoal::render::FrameInput {
-            gpu_pose: Some(GpuPoseFrame { fish, ..pose }),
+    // The frame with `bad` as its GPU pose: its error.
+    let mut render_with = |bad: GpuPoseFrame<'_>| {
+        let frame = shoal::render::FrameInput {
+            gpu_pose: Some(bad),
             ..input
         };
         renderer
-            .render(&gpu, target.view(), target.size(), &bad)
+            .render(&gpu, target.view(), target.size(), &frame)
             .unwrap_err()
+            .to_string()
     };
     let mut fish = pose.fish.to_vec();
     fish[3].program = 9;
-    let err = render_with(&fish);
-    assert!(matches!(err, RenderError::InvalidFrame(_)));
-    assert!(err.to_string().contains("fish 3 uses program 9"), "{err}");
+    let err = render_with(GpuPoseFrame {
+        fish: &fish,
+        ..pose
+    });
+    assert!(err.contains("fish 3 uses program 9"), "{err}");
     fish[3] = pose.fish[3];
     fish[4].palette_offset = u32::MAX;
-    let err = render_with(&fish);
-    assert!(
-        err.to_string().contains("fish 4 writes palette entries"),
-        "{err}"
-    );
+    let err = render_with(GpuPoseFrame {
+        fish: &fish,
+        ..pose
+    });
+    assert!(err.contains("fish 4 writes palette entries"), "{err}");
     fish[4] = pose.fish[4];
     fish[5].palette_offset = pose.palette_len;
-    let err = render_with(&fish);
-    assert!(
-        err.to_string().contains("fish 5 writes palette entries"),
-        "{err}"
-    );
+    let err = render_with(GpuPoseFrame {
+        fish: &fish,
+        ..pose
+    });
+    assert!(err.contains("fish 5 writes palette entries"), "{err}");
     // A palette far larger than the records can fill (the buffer is sized from it).
-    let bad = shoal::render::FrameInput {
-        gpu_pose: Some(GpuPoseFrame {
-            palette_len: u32::MAX,
-            ..pose
-        }),
-        ..input
-    };
-    let err = renderer
-        .render(&gpu, target.view(), target.size(), &bad)
-        .unwrap_err();
-    assert!(
-        err.to_string()
-            .contains("palette entries for 20 fish records"),
-        "{err}"
-    );
+    let err = render_with(GpuPoseFrame {
+        palette_len: u32::MAX,
+        ..pose
+    });
+    assert!(err.contains("palette entries for 20 fish records"), "{err}");
     // A program reaching past the arrays (with sums that would overflow a u32), and one whose
     // step reads a model matrix not yet made.
     let mut programs = pose.programs.clone();
     programs.programs[0].first_model = u32::MAX;
-    let bad = shoal::render::FrameInput {
-        gpu_pose: Some(GpuPoseFrame {
-            programs: &programs,
-            ..pose
-        }),
-        ..input
-    };
-    let err = renderer
-        .render(&gpu, target.view(), target.size(), &bad)
-        .unwrap_err();
-    assert!(err.to_string().contains("program 0 reaches past"), "{err}");
+    let err = render_with(GpuPoseFrame {
+        programs: &programs,
+        ..pose
+    });
+    assert!(err.contains("program 0 reaches past"), "{err}");
     let mut programs = pose.programs.clone();
     programs.models[1].parent = 1;
-    let bad = shoal::render::FrameInput {
-        gpu_pose: Some(GpuPoseFrame {
-            programs: &programs,
-            ..pose
-        }),
-        ..input
-    };
-    let err = renderer
-        .render(&gpu, target.view(), target.size(), &bad)
+    let err = render_with(GpuPoseFrame {
+        programs: &programs,
+        ..pose
+    });
+    assert!(err.contains("model step 1: parent"), "{err}");
+    let invalid = renderer
+        .render(
+            &gpu,
+            target.view(),
+            target.size(),
+            &shoal::render::FrameInput {
+                gpu_pose: Some(GpuPoseFrame {
+                    fish: &fish,
+                    ..pose
+                }),
+                ..input
+            },
+        )
         .unwrap_err();
-    assert!(err.to_string().contains("model step 1: parent"), "{err}");
+    assert!(matches!(invalid, RenderError::InvalidFrame(_)));
     // The good frame still draws.
     renderer
         .render(&gpu, target.view(), target.size(), &input)
