@@ -491,18 +491,25 @@ impl PosePlan {
     ) {
         for step in &schedule.models {
             let j = usize::from(step.joint);
-            let local = match step.yaw_slot {
-                NOT_DRIVEN => m.rest[j],
-                slot => match yaw.get(usize::from(slot)) {
-                    Some(&angle) if angle.is_finite() => self.bends[j].local(angle),
-                    _ => m.rest[j],
-                },
-            };
+            let local = self.local(m, j, step.yaw_slot, yaw);
             let parent = match step.parent {
                 NO_PARENT => root,
                 p => models[usize::from(p)],
             };
             models[j] = parent * local;
+        }
+    }
+
+    /// Joint `j`'s local transform, bent by the yaw at `yaw_slot` of `yaw` if it is driven
+    /// (a missing or non-finite yaw counts as rest).
+    #[inline]
+    fn local<T: Transform>(&self, m: &Matrices<T>, j: usize, yaw_slot: u8, yaw: &[f32]) -> T {
+        match yaw_slot {
+            NOT_DRIVEN => m.rest[j],
+            slot => match yaw.get(usize::from(slot)) {
+                Some(&angle) if angle.is_finite() => self.bends[j].local(angle),
+                _ => m.rest[j],
+            },
         }
     }
 
@@ -538,18 +545,13 @@ impl PosePlan {
             yaw: &[f32],
             out: &mut [Mat4],
         ) {
-            // The schedule from the plan's ops, as `PosePlan::new` builds it for the tick.
-            let schedule = Schedule::new(
-                &plan.parents,
-                &plan.yaw_slot,
-                &plan.needs_model,
-                &plan.palette_op,
-            );
+            // The schedule the tick walks.
+            let schedule = &plan.schedule;
             let mut models = vec![T::IDENTITY; plan.num_joints()];
             let root = T::placement(root, m.model_to_body);
-            plan.models(&schedule, m, root, yaw, &mut models);
+            plan.models(schedule, m, root, yaw, &mut models);
             let mut slots = vec![Mat4::IDENTITY; schedule.palette.len()];
-            plan.palette(&schedule, m, root, &models, &mut slots);
+            plan.palette(schedule, m, root, &models, &mut slots);
             for (entry, &slot) in out.iter_mut().zip(&schedule.slot_of_joint) {
                 *entry = slots[usize::from(slot)];
             }

@@ -161,13 +161,7 @@ impl PosePlan {
                 (true, NO_PARENT) => (placement * m.palette_rhs[j]).to_mat4(),
                 (true, left) => {
                     let left = usize::from(left);
-                    let local = match plan.yaw_slot[left] {
-                        super::NOT_DRIVEN => m.rest[left],
-                        slot => match yaw.get(usize::from(slot)) {
-                            Some(&angle) if angle.is_finite() => plan.bends[left].local(angle),
-                            _ => m.rest[left],
-                        },
-                    };
+                    let local = plan.local(m, left, plan.yaw_slot[left], yaw);
                     (placement * local * m.palette_rhs[j]).to_mat4()
                 }
             }
