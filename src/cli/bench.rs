@@ -128,6 +128,14 @@ impl PoseArg {
         }
     }
 
+    /// Its name on the command line (and in the JSON reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            PoseArg::Cpu => "cpu",
+            PoseArg::Gpu => "gpu",
+        }
+    }
+
     /// How the table's header names it.
     pub fn describe(self) -> &'static str {
         match self {
@@ -263,7 +271,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "driver": driver,
-                "pose": format!("{:?}", args.pose).to_lowercase(),
+                "pose": args.pose.name(),
                 "tick_hz": TICK_HZ,
                 "results": results,
             }))?

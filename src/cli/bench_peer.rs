@@ -495,7 +495,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
                 "seconds": args.seconds,
                 "food": args.food,
                 "shoal_build": profile,
-                "pose": format!("{:?}", args.pose).to_lowercase(),
+                "pose": args.pose.name(),
                 "missing": missing.iter().map(|(e, why)| serde_json::json!({
                     "engine": e, "why": why })).collect::<Vec<_>>(),
                 "results": results,
