@@ -41,10 +41,40 @@ fn relative_error(a: &Mat4, b: &Mat4) -> f32 {
         / scale
 }
 
+/// `scene()` with every fish a fraction of a second into a turn (quick, normal and serial in
+/// turn), so the pass's shape step runs both turn waves and the cross-fade from the swim.
+fn turning_scene() -> WorldScene<RustSim> {
+    use shoal::motion::{MotionRequest, Side, TurnKind};
+    let mut scene = scene();
+    let w = scene.sim_mut().world_mut();
+    let ids: Vec<_> = w.fish_ids().collect();
+    for (k, id) in ids.into_iter().enumerate() {
+        let kinds = [TurnKind::Quick, TurnKind::Normal, TurnKind::Serial];
+        let turn = MotionRequest::Turn {
+            kind: kinds[k % 3],
+            angle: 1.0,
+            side: if k % 2 == 0 { Side::Left } else { Side::Right },
+        };
+        w.request(id, turn, true).unwrap();
+    }
+    scene.step(0.2);
+    scene
+}
+
 #[test]
 fn the_pose_pass_writes_the_cpu_stages_palettes() {
     let gpu = gpu();
-    let mut scene = scene();
+    let mut scene = turning_scene();
+    let records = scene.world().gpu_pose_records();
+    // kind 1: a normal turn's wave; kind 2: a quick or serial turn's; weight < 1: cross-fading.
+    for kind in [1, 2] {
+        assert!(
+            records
+                .iter()
+                .any(|r| r.current.kind == kind && r.current.ip > 0.0)
+        );
+    }
+    assert!(records.iter().any(|r| r.wave[2] < 1.0));
     let mut renderer = renderer(&gpu, &scene);
     let posed = {
         let input = scene.frame_input();

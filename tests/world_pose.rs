@@ -294,7 +294,7 @@ fn the_pose_plan_matches_the_layers_own_jobs_on_the_shipped_fish() {
         }
         assert!(w.joint_palette(id, &mut got));
         let mut want = vec![Mat4::IDENTITY; species.model.skeleton.num_joints()];
-        reference_palette(species, w.root(id).unwrap(), yaw, &mut want).unwrap();
+        reference_palette(species, w.root(id).unwrap(), &yaw, &mut want).unwrap();
         assert_eq!(got.len(), want.len());
         for (j, (got, want)) in got.iter().zip(&want).enumerate() {
             assert!(got.abs_diff_eq(*want, 1e-4), "joint {j}: {got} vs {want}");

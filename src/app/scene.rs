@@ -517,7 +517,7 @@ impl<S: SimView> WorldScene<S> {
         };
         let body = &w.species(species).rig.body;
         for (x, l) in body.joints_x.iter().zip(lateral) {
-            out.push([f64::from(*x), f64::from(*l)]);
+            out.push([f64::from(*x), f64::from(l)]);
         }
     }
 
@@ -666,7 +666,7 @@ impl FishOverlay<'_> {
         };
         let mut prev = root.pos;
         for (x, lat) in self.species.rig.body.joints_x.iter().zip(lateral) {
-            let next = point(*x, *lat);
+            let next = point(*x, lat);
             out.push(OverlayLine {
                 a: prev,
                 b: next,

@@ -1,8 +1,11 @@
-//! The GPU pose pass's plain data (issue 18): per species a *program* — the steps the CPU pose
-//! stage walks (`world::pose`), as matrices and indices — and per fish a record of its root and
-//! driven yaws. The world builds them; the renderer uploads them and `shaders/pose.wgsl` runs
-//! each fish's program into the palette buffer, in the layout the CPU stage writes.
-//! [`run_program`] is the shader's arithmetic on the CPU, for tests without a GPU.
+//! The GPU pose pass's plain data (issue 18): per species a *program* — the body wave's
+//! per-sample constants and the steps the CPU pose stage walks (`world::pose`), as matrices and
+//! indices — and per fish a record of its root and of the motion player's shape terms (phase,
+//! speed gain, blend, turn terms). The world builds them; the renderer uploads them and
+//! `shaders/pose.wgsl` samples each fish's body shape, turns it into the driven joints' yaws
+//! (as the motion player's shape step does) and runs the program into the palette buffer, in the
+//! layout the CPU stage writes. [`run_program`] is the shader's arithmetic on the CPU, for tests
+//! without a GPU.
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
@@ -13,6 +16,10 @@ pub const GPU_POSE_MAX_YAWS: usize = 16;
 /// Model matrices one species' program may make: the size of the pass's per-fish array in
 /// `shaders/pose.wgsl` (`MAX_MODELS` there). A species needing more poses on the CPU.
 pub const GPU_POSE_MAX_MODELS: usize = 32;
+
+/// Midline samples a program's shape step reads: the head and up to
+/// [`GPU_POSE_MAX_YAWS`] + 1 `joints_x` entries.
+pub const GPU_POSE_MAX_SAMPLES: usize = GPU_POSE_MAX_YAWS + 2;
 
 /// `GpuModelStep::yaw_slot` of a joint that is not driven.
 pub const GPU_NOT_DRIVEN: u32 = u32::MAX;
@@ -54,7 +61,29 @@ pub struct GpuSlotStep {
     pub _pad: [u32; 2],
 }
 
-/// A species' program: its model steps and slots in [`GpuPosePrograms`]' arrays.
+/// One midline sample of a species' body (the motion player's wave table, head first, then
+/// each `joints_x` entry): what the shape step reads of it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct GpuShapeSample {
+    /// x' = x·l − p·l, length units.
+    pub xp: f32,
+    /// A(x) (the front wave's amplitude in front of the pivot), length units.
+    pub amp: f32,
+    /// sin and cos of the swim wave's spatial argument (2π·x'/λ' in front of the pivot, 2π·x'/λ
+    /// behind it).
+    pub swim_sin: f32,
+    /// See `swim_sin`.
+    pub swim_cos: f32,
+    /// x·l: the sample's distance from the snout, length units.
+    pub xl: f32,
+    /// The power weight of the driven joint at this sample (0 for the head and the tail tip).
+    pub power: f32,
+    /// Padding to 32 bytes.
+    pub _pad: [f32; 2],
+}
+
+/// A species' program: its shape samples, model steps and slots in [`GpuPosePrograms`]' arrays.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct GpuProgram {
@@ -68,6 +97,37 @@ pub struct GpuProgram {
     pub first_slot: u32,
     /// Its number of slots (palette entries per fish).
     pub num_slots: u32,
+    /// Its first sample in [`GpuPosePrograms::samples`].
+    pub first_sample: u32,
+    /// Its number of samples: the head, then one per `joints_x` entry (driven joints + 2).
+    pub num_samples: u32,
+    /// The species' f, eq. (5) and (6).
+    pub f: f32,
+    /// Padding to 16 bytes (WGSL struct alignment).
+    pub _pad: u32,
+}
+
+/// One motion's turn terms at the step, as the shape step reads them (the motion player's
+/// `MotionTerms`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct GpuMotionShape {
+    /// 0: no turn term; 1: a normal turn, eq. (5); 2: a quick or serial turn, eq. (6).
+    pub kind: u32,
+    /// The turn's side d.
+    pub d: f32,
+    /// I_p, eq. (7).
+    pub ip: f32,
+    /// F_st's gain over the swim amplitude.
+    pub bend: f32,
+    /// 2π·ω''·t of F_st.
+    pub omega_t: f32,
+    /// F_st's wavelength along the body, length units.
+    pub wavelength: f32,
+    /// strokes·π: past it, F_st's last lobe has left the body.
+    pub stroke_end: f32,
+    /// Padding to 32 bytes.
+    pub _pad: u32,
 }
 
 /// One fish as the pose pass reads it.
@@ -84,8 +144,13 @@ pub struct GpuFishPose {
     pub palette_offset: u32,
     /// Padding to 16 bytes (WGSL struct alignment).
     pub _pad: u32,
-    /// Driven joints' yaws, radians (non-finite ones written as 0, the rest pose).
-    pub yaw: [f32; GPU_POSE_MAX_YAWS],
+    /// The swim wave's phase φ (radians), its speed gain, the current motion's weight in the
+    /// shape's cross-fade (1: no previous motion), and 0.
+    pub wave: [f32; 4],
+    /// The current motion's turn terms.
+    pub current: GpuMotionShape,
+    /// The previous motion's, while the shape cross-fades from it.
+    pub previous: GpuMotionShape,
 }
 
 /// Every species' program, in species order (`GpuFishPose::program` is the species index).
@@ -97,25 +162,73 @@ pub struct GpuPosePrograms {
     pub models: Vec<GpuModelStep>,
     /// Every program's slots, program after program.
     pub slots: Vec<GpuSlotStep>,
+    /// Every program's shape samples, program after program.
+    pub samples: Vec<GpuShapeSample>,
 }
 
-/// The pose pass's record of one fish.
-pub fn fish_pose(
-    pos: glam::Vec3,
-    heading: f32,
-    pitch: f32,
-    yaw: &[f32; GPU_POSE_MAX_YAWS],
-    program: u32,
-    palette_offset: u32,
-) -> GpuFishPose {
-    GpuFishPose {
-        pos_heading: pos.extend(heading).to_array(),
-        pitch,
-        program,
-        palette_offset,
-        _pad: 0,
-        yaw: yaw.map(|y| if y.is_finite() { y } else { 0.0 }),
+/// Whether `x` is finite, tested on its bits (as the shader must: a GPU may assume no NaNs).
+fn finite_bits(x: f32) -> bool {
+    x.to_bits() & 0x7f80_0000 != 0x7f80_0000
+}
+
+/// The paper's F (positive to the fish's right) of `motion` at sample `s`, with `travelling`
+/// the sample's sin(2π·x'/λ − φ): `shaders/pose.wgsl`'s `motion_shape`.
+fn motion_shape(m: &GpuMotionShape, f: f32, gain: f32, s: &GpuShapeSample, travelling: f32) -> f32 {
+    let swim = s.amp * gain * travelling;
+    if m.kind == 0 || m.ip == 0.0 || s.xp <= 0.0 {
+        return swim;
     }
+    let t = if m.kind == 1 {
+        s.amp * (travelling + m.d) * f
+    } else {
+        let theta = m.omega_t - std::f32::consts::TAU * s.xp / m.wavelength;
+        if theta < 0.0 || theta > m.stroke_end {
+            0.0
+        } else {
+            s.amp * m.bend * f * m.d * theta.sin().abs()
+        }
+    };
+    swim * (1.0 - m.ip) + t * m.ip
+}
+
+/// The driven joints' yaws of `fish` under `program`, as `shaders/pose.wgsl` derives them:
+/// the shape sampled at the head and each `joints_x` entry (cross-faded between the two
+/// motions), each segment's angle atan2(rise, run), and yaw k = power·(θ_{k+1} − θ_k); non-finite
+/// values as 0.
+pub fn shape_yaws(
+    program: &GpuProgram,
+    samples: &[GpuShapeSample],
+    fish: &GpuFishPose,
+) -> [f32; GPU_POSE_MAX_YAWS] {
+    let mut yaw = [0.0f32; GPU_POSE_MAX_YAWS];
+    let [phase, gain, w, _] = fish.wave;
+    let (sin_phi, cos_phi) = phase.sin_cos();
+    let first = program.first_sample as usize;
+    let n = (program.num_samples as usize).min(GPU_POSE_MAX_SAMPLES);
+    let Some(samples) = samples.get(first..first + n) else {
+        return yaw;
+    };
+    let (mut prev_lat, mut prev_xl, mut prev_theta) = (0.0f32, 0.0f32, 0.0f32);
+    for (i, s) in samples.iter().enumerate() {
+        let travelling = s.swim_sin * cos_phi - s.swim_cos * sin_phi;
+        let mut shape = motion_shape(&fish.current, program.f, gain, s, travelling);
+        if w < 1.0 {
+            shape = shape * w
+                + motion_shape(&fish.previous, program.f, gain, s, travelling) * (1.0 - w);
+        }
+        let lat = if finite_bits(-shape) { -shape } else { 0.0 };
+        if i > 0 {
+            let theta = (lat - prev_lat).atan2(s.xl - prev_xl);
+            if i >= 2 {
+                let y = samples[i - 1].power * (theta - prev_theta);
+                yaw[i - 2] = if finite_bits(y) { y } else { 0.0 };
+            }
+            prev_theta = theta;
+        }
+        prev_lat = lat;
+        prev_xl = s.xl;
+    }
+    yaw
 }
 
 /// The placement's rotation as the pose pass writes it: heading about +y, then pitch about the
@@ -148,11 +261,12 @@ pub fn run_program(programs: &GpuPosePrograms, fish: &GpuFishPose, out: &mut [Ma
         r.z_axis.extend(0.0),
         Vec4::new(x, y, z, 1.0),
     ) * Mat4::from_cols_array_2d(&p.model_to_body);
+    let yaws = shape_yaws(p, &programs.samples, fish);
     let steps = &programs.models[p.first_model as usize..][..p.num_models as usize];
     let mut models = [Mat4::IDENTITY; GPU_POSE_MAX_MODELS];
     for (k, s) in steps.iter().enumerate().take(GPU_POSE_MAX_MODELS) {
         let a = Mat4::from_cols_array_2d(&s.a);
-        let local = match fish.yaw.get(s.yaw_slot as usize) {
+        let local = match yaws.get(s.yaw_slot as usize) {
             Some(&t) => {
                 a + Mat4::from_cols_array_2d(&s.b) * t.cos()
                     + Mat4::from_cols_array_2d(&s.c) * t.sin()

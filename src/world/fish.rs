@@ -114,13 +114,15 @@ impl World {
             .map(|d| self.state.fish.players[d].queue_len())
     }
 
-    /// The midline's lateral displacement at each of the species' `body.joints_x`, world units.
-    pub fn lateral(&self, id: FishId) -> Option<&[f32]> {
+    /// The midline's lateral displacement at each of the species' `body.joints_x`, world units
+    /// (derived from the fish's motion player when the GPU samples the shapes; see
+    /// [`FishRef::lateral`]).
+    pub fn lateral(&self, id: FishId) -> Option<Vec<f32>> {
         self.fish(id).map(|f| f.lateral())
     }
 
-    /// Each driven joint's local yaw, radians.
-    pub fn yaw(&self, id: FishId) -> Option<&[f32]> {
+    /// Each driven joint's local yaw, radians (see [`FishRef::yaw`]).
+    pub fn yaw(&self, id: FishId) -> Option<Vec<f32>> {
         self.fish(id).map(|f| f.yaw())
     }
 
@@ -195,7 +197,9 @@ impl<'w> FishRef<'w> {
     }
 
     /// The midline's lateral displacement at each of the species' `body.joints_x`, world units.
-    pub fn lateral(&self) -> &'w [f32] {
+    /// As the last motion stage stored it, or, when that stage left the body's shape to the GPU
+    /// pose pass, derived from the fish's motion player now (the same values).
+    pub fn lateral(&self) -> Vec<f32> {
         let n = self
             .species()
             .rig
@@ -203,13 +207,13 @@ impl<'w> FishRef<'w> {
             .joints_x
             .len()
             .min(MAX_DRIVEN_JOINTS + 1);
-        &self.world.state.fish.lateral[self.d][..n]
+        self.world.shape_of(self.d).0[..n].to_vec()
     }
 
-    /// Each driven joint's local yaw, radians.
-    pub fn yaw(&self) -> &'w [f32] {
+    /// Each driven joint's local yaw, radians (stored or derived, as [`FishRef::lateral`]).
+    pub fn yaw(&self) -> Vec<f32> {
         let n = self.species().rig.body.power.len().min(MAX_DRIVEN_JOINTS);
-        &self.world.state.fish.yaw[self.d][..n]
+        self.world.shape_of(self.d).1[..n].to_vec()
     }
 
     /// The steering helpers' view of it (look-ahead one body length).

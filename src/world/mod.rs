@@ -109,9 +109,12 @@ pub enum PoseMode {
     Cpu,
     /// Only what the renderer's GPU pose pass needs: one small record per fish
     /// ([`World::gpu_pose_records`]) and the palette entry it culls with
-    /// ([`World::pose_anchors`]); the GPU writes the palettes (see [`pose::gpu`]). Falls back
-    /// to [`PoseMode::Cpu`] while a species is too big for the pass
-    /// ([`World::gpu_pose_programs`] says why).
+    /// ([`World::pose_anchors`]); the GPU samples the bodies' shapes and writes the palettes
+    /// (see [`pose::gpu`]). The motion stage then moves the roots only: the fish's stored
+    /// joint arrays go stale, and [`World::lateral`], [`World::yaw`] and
+    /// [`World::joint_palette`] derive them from the motion players instead (the same values);
+    /// a CPU pose stage refreshes them first. Falls back to [`PoseMode::Cpu`] while a species
+    /// is too big for the pass ([`World::gpu_pose_programs`] says why).
     Gpu,
 }
 
@@ -176,6 +179,11 @@ pub struct World {
     gpu_fish: Vec<crate::skin::pose_program::GpuFishPose>,
     /// After a GPU-mode pose stage, per dense fish: its palette's slot 0 (culling).
     pose_anchors: Vec<Mat4>,
+    /// The fish's stored body shapes (`yaw`, `lateral`, the players' head recoil) are the
+    /// players' current ones. False after a motion stage that left the shape to the GPU pass
+    /// ([`PoseMode::Gpu`]) and after a restore: readers then derive it from the players, and
+    /// the CPU pose stage refreshes it first.
+    shapes_current: bool,
     counters: StageCounters,
     rejected_motion_steps: u64,
 }
@@ -215,6 +223,7 @@ impl World {
             gpu_programs: Ok(crate::skin::pose_program::GpuPosePrograms::default()),
             gpu_fish: Vec::new(),
             pose_anchors: Vec::new(),
+            shapes_current: true,
             counters: StageCounters::default(),
             rejected_motion_steps: 0,
         }

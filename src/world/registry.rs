@@ -162,8 +162,18 @@ impl World {
 
     /// Rebuilds the GPU pose programs from the species' pose plans (after either changes).
     fn refresh_gpu_programs(&mut self) {
-        let names: Vec<&str> = self.species.iter().map(|s| s.desc.name.as_str()).collect();
-        self.gpu_programs = pose::gpu::programs(&self.pose_plans, &names);
+        let shapes: Vec<pose::gpu::SpeciesShape<'_>> = self
+            .species
+            .iter()
+            .zip(&self.wave_tables)
+            .map(|(s, table)| pose::gpu::SpeciesShape {
+                name: &s.desc.name,
+                params: &s.desc.motion,
+                body: &s.rig.body,
+                table,
+            })
+            .collect();
+        self.gpu_programs = pose::gpu::programs(&self.pose_plans, &shapes);
     }
 
     /// The species' palette layout: joint j's palette entry is slot `slot_of_joint(s)[j]` of a

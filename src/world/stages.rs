@@ -33,6 +33,9 @@ impl World {
         let tank = self.state.tank;
         let obstacles = &self.state.obstacles;
         let currents = &self.state.currents;
+        // In GPU mode the pose pass samples the body's shape itself (`shaders/pose.wgsl`): the
+        // players only move the roots, and the stored shapes go stale until someone asks.
+        let shape_on_cpu = !self.poses_on_gpu();
         let fish = &mut self.state.fish;
         use rayon::prelude::*;
         let rejected: u64 = fish
@@ -54,16 +57,25 @@ impl World {
                 // replaced (species change no other way), so it matches without a check.
                 let table = &wave_tables[usize::from(sid.0)];
                 debug_assert!(table.matches(&sp.desc.motion, body));
-                player.step_tabled(
-                    dt,
-                    &sp.desc.motion,
-                    body,
-                    table,
-                    root,
-                    &mut lateral[..samples],
-                    &mut yaw[..driven],
-                );
                 let mut rejected = 0;
+                if shape_on_cpu {
+                    player.step_tabled(
+                        dt,
+                        &sp.desc.motion,
+                        body,
+                        table,
+                        root,
+                        &mut lateral[..samples],
+                        &mut yaw[..driven],
+                    );
+                    if !finite_shape(&lateral[..samples], &yaw[..driven]) {
+                        lateral.fill(0.0);
+                        yaw.fill(0.0);
+                        rejected = 1;
+                    }
+                } else {
+                    player.advance_tabled(dt, &sp.desc.motion, root);
+                }
                 if !(root.pos.is_finite()
                     && root.heading.is_finite()
                     && root.pitch.is_finite()
@@ -75,21 +87,13 @@ impl World {
                     };
                     rejected = 1;
                 }
-                if lateral[..samples]
-                    .iter()
-                    .chain(&yaw[..driven])
-                    .any(|v| !v.is_finite())
-                {
-                    lateral.fill(0.0);
-                    yaw.fill(0.0);
-                    rejected = 1;
-                }
                 root.heading = wrap_angle(root.heading);
                 root.pos += drift(currents, root.pos) * dt;
                 *contact = resolve_contact(root, sp.desc.motion.l, &tank, obstacles);
                 rejected
             })
             .sum();
+        self.shapes_current = shape_on_cpu;
         if rejected > 0 {
             if self.rejected_motion_steps == 0 {
                 log::warn!("{rejected} motion steps produced non-finite values and were discarded");
@@ -100,6 +104,74 @@ impl World {
         self.state.time += f64::from(dt);
         self.state.tick += 1;
         self.counters.motion_ns = start.elapsed().as_nanos() as u64;
+    }
+
+    /// Fish `d`'s body shape now — its midline's lateral displacement at each `joints_x` entry
+    /// and its driven joints' yaws (unused entries 0) — as stored, or derived from its motion
+    /// player when the last motion stage left the shape to the GPU pass.
+    pub(super) fn shape_of(
+        &self,
+        d: usize,
+    ) -> ([f32; MAX_DRIVEN_JOINTS + 1], [f32; MAX_DRIVEN_JOINTS]) {
+        let fish = &self.state.fish;
+        let (mut lateral, mut yaw) = (fish.lateral[d], fish.yaw[d]);
+        if !self.shapes_current {
+            let sid = usize::from(fish.species[d].0);
+            let sp = &self.species[sid];
+            let body = &sp.rig.body;
+            let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
+            let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
+            fish.players[d].shape_tabled(
+                fish.roots[d].speed,
+                &sp.desc.motion,
+                body,
+                &self.wave_tables[sid],
+                &mut lateral[..samples],
+                &mut yaw[..driven],
+            );
+            if !finite_shape(&lateral[..samples], &yaw[..driven]) {
+                (lateral, yaw) = Default::default();
+            }
+        }
+        (lateral, yaw)
+    }
+
+    /// Brings the stored body shapes (and the players' head recoil) up to date after motion
+    /// stages that left them to the GPU pass: what whole motion steps would have stored, bit
+    /// for bit.
+    fn refresh_shapes(&mut self) {
+        use rayon::prelude::*;
+        if self.shapes_current {
+            return;
+        }
+        let (species, wave_tables) = (&self.species, &self.wave_tables);
+        let fish = &mut self.state.fish;
+        fish.players
+            .par_iter_mut()
+            .zip(fish.roots.par_iter())
+            .zip(fish.lateral.par_iter_mut())
+            .zip(fish.yaw.par_iter_mut())
+            .zip(fish.species.par_iter())
+            .with_min_len(256)
+            .for_each(|((((player, root), lateral), yaw), sid)| {
+                let sp = &species[usize::from(sid.0)];
+                let body = &sp.rig.body;
+                let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
+                let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
+                player.refresh_shape(
+                    root.speed,
+                    &sp.desc.motion,
+                    body,
+                    &wave_tables[usize::from(sid.0)],
+                    &mut lateral[..samples],
+                    &mut yaw[..driven],
+                );
+                if !finite_shape(&lateral[..samples], &yaw[..driven]) {
+                    lateral.fill(0.0);
+                    yaw.fill(0.0);
+                }
+            });
+        self.shapes_current = true;
     }
 
     /// Motion steps discarded because they produced NaN or infinity (a motion-layer bug).
@@ -121,6 +193,7 @@ impl World {
             self.write_gpu_pose_records();
             return;
         }
+        self.refresh_shapes();
         self.gpu_fish.clear();
         self.pose_anchors.clear();
         let start = Instant::now();
@@ -236,22 +309,34 @@ impl World {
         let n = self.state.fish.len();
         self.gpu_fish.resize(n, bytemuck::Zeroable::zeroed());
         self.pose_anchors.resize(n, Mat4::IDENTITY);
-        let fish = &self.state.fish;
-        let (plans, offsets) = (&self.pose_plans, &self.palette_offsets);
-        self.gpu_fish
+        let mut records = std::mem::take(&mut self.gpu_fish);
+        let mut anchors = std::mem::take(&mut self.pose_anchors);
+        let world = &*self;
+        let fish = &world.state.fish;
+        let (plans, offsets) = (&world.pose_plans, &world.palette_offsets);
+        records
             .par_chunks_mut(pose::LEAF_FISH)
-            .zip(self.pose_anchors.par_chunks_mut(pose::LEAF_FISH))
+            .zip(anchors.par_chunks_mut(pose::LEAF_FISH))
             .enumerate()
             .for_each(|(chunk, (records, anchors))| {
                 let first = chunk * pose::LEAF_FISH;
                 for (k, (record, anchor)) in records.iter_mut().zip(anchors).enumerate() {
                     let i = first + k;
                     let species = fish.species[i].0;
-                    let (root, yaw) = (&fish.roots[i], &fish.yaw[i]);
-                    *record = pose::gpu::fish_record(root, yaw, u32::from(species), offsets[i]);
-                    *anchor = plans[usize::from(species)].anchor(root, yaw);
+                    let sp = &world.species[usize::from(species)];
+                    let root = &fish.roots[i];
+                    let terms = fish.players[i].shape_terms(root.speed, &sp.desc.motion);
+                    *record = pose::gpu::fish_record(root, &terms, u32::from(species), offsets[i]);
+                    let plan = &plans[usize::from(species)];
+                    *anchor = if plan.anchor_reads_yaw() {
+                        plan.anchor(root, &world.shape_of(i).1)
+                    } else {
+                        plan.anchor(root, &[])
+                    };
                 }
             });
+        self.gpu_fish = records;
+        self.pose_anchors = anchors;
         self.counters.skeleton_ns = 0;
         self.counters.palette_ns = start.elapsed().as_nanos() as u64;
     }
@@ -309,7 +394,8 @@ impl World {
     /// The fish's per-joint palette (one entry per skeleton joint, as `skin::palette` makes
     /// it), expanded from its slots into `out` — the same matrices bit for bit. False (and
     /// `out` empty) for a fish that is gone or not yet posed. When the pose stage runs on the
-    /// GPU it is computed here, from the fish's current root and yaws, as the CPU stage would.
+    /// GPU it is computed here, from the fish's current root and body shape, as the CPU stage
+    /// would.
     pub fn joint_palette(&self, id: FishId, out: &mut Vec<Mat4>) -> bool {
         out.clear();
         if self.poses_on_gpu() {
@@ -318,7 +404,7 @@ impl World {
             };
             let plan = &self.pose_plans[usize::from(species.0)];
             out.resize(plan.num_joints(), Mat4::IDENTITY);
-            plan.palette_of(&self.state.fish.roots[d], &self.state.fish.yaw[d], out);
+            plan.palette_of(&self.state.fish.roots[d], &self.shape_of(d).1, out);
             return true;
         }
         let (Some(range), Some(species)) = (self.palette_range(id), self.species_of(id)) else {
@@ -342,4 +428,9 @@ impl World {
     pub fn counters_mut(&mut self) -> &mut StageCounters {
         &mut self.counters
     }
+}
+
+/// Whether a body shape's values are all finite.
+fn finite_shape(lateral: &[f32], yaw: &[f32]) -> bool {
+    lateral.iter().chain(yaw).all(|v| v.is_finite())
 }

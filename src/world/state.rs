@@ -35,7 +35,9 @@ pub struct FoodDrops {
 }
 
 /// Everything that defines a world at a tick (see the module docs). Two worlds with equal states
-/// and the same species run the same future.
+/// and the same species run the same future. (Not conversely: a world posing on the GPU leaves
+/// its fish's joint arrays and the players' head recoil, which the future never reads, stale;
+/// [`World::restore`] and the CPU pose stage bring them up to date.)
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorldState {
     /// The tank.
@@ -167,6 +169,8 @@ impl World {
             self.food_grid = fresh.food_grid;
         }
         self.food_in_grid = 0;
+        // The state may come from a world that left the body shapes to the GPU.
+        self.shapes_current = false;
         self.refresh_predators();
         self.relayout_palettes();
         self.rebuild_grid();

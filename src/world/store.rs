@@ -38,9 +38,12 @@ pub(crate) struct FishStore {
     /// step of the tick), which then moves a pointer instead of ~190 bytes each way.
     #[allow(clippy::vec_box)]
     pub players: Vec<Box<MotionPlayer>>,
-    /// Driven joints' local yaw, radians; the first `body.power.len()` entries are used.
+    /// Driven joints' local yaw, radians; the first `body.power.len()` entries are used. Written
+    /// by the motion stage when it evaluates the body's shape (not in GPU pose mode: see
+    /// `World::shape_of`); a function of the player's state, so it never changes the future.
     pub yaw: Vec<[f32; MAX_DRIVEN_JOINTS]>,
-    /// Midline lateral displacement at `body.joints_x`, world units; first `joints_x.len()` used.
+    /// Midline lateral displacement at `body.joints_x`, world units; first `joints_x.len()` used
+    /// (written with `yaw`).
     pub lateral: Vec<[f32; MAX_DRIVEN_JOINTS + 1]>,
     pub behaviors: Vec<Option<String>>,
     pub seeds: Vec<u64>,

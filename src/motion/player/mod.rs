@@ -21,6 +21,7 @@ mod table;
 mod tests;
 
 use active::{Active, Plan};
+pub(crate) use shape::{MotionTerms, ShapeTerms};
 use shape::{ShapeContext, TurnStep, posed_lateral, shape};
 use table::WaveSample;
 pub use table::WaveTable;
@@ -238,8 +239,8 @@ impl MotionPlayer {
     /// species and replaced with them, so it steps through here without comparing them per
     /// fish). Its stages, in order: [`MotionPlayer::advance_queue`],
     /// [`MotionPlayer::move_root`], [`MotionPlayer::advance_phase`],
-    /// [`MotionPlayer::advance_blend`], [`MotionPlayer::sample_shape`],
-    /// [`MotionPlayer::pose_body`].
+    /// [`MotionPlayer::advance_blend`] (together [`MotionPlayer::advance_tabled`]), then
+    /// [`MotionPlayer::sample_shape`] and `pose_body` (together [`MotionPlayer::shape_tabled`]).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn step_tabled(
         &mut self,
@@ -251,6 +252,43 @@ impl MotionPlayer {
         lateral: &mut [f32],
         yaw: &mut [f32],
     ) {
+        self.advance_tabled(dt, params, root);
+        let (head_lateral, head_yaw) =
+            self.shape_tabled(root.speed, params, body, table, lateral, yaw);
+        self.head_lateral = head_lateral;
+        self.head_yaw = head_yaw;
+    }
+
+    /// The step without the body's shape: queue, root locomotion, phase and blend, as
+    /// [`MotionPlayer::step_tabled`] does them, but `lateral`, `yaw`,
+    /// [`MotionPlayer::head_lateral`] and [`MotionPlayer::head_yaw`] are left as they were. For a
+    /// caller that derives the shape elsewhere (the GPU pose pass, from
+    /// [`MotionPlayer::shape_terms`]) or later ([`MotionPlayer::shape_tabled`]).
+    pub(crate) fn advance_tabled(&mut self, dt: f32, params: &MotionParams, root: &mut RootState) {
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        if !root.speed.is_finite() || root.speed < 0.0 {
+            root.speed = 0.0;
+        }
+        self.advance_queue(params, root.speed);
+        let v = self.move_root(dt, params, root);
+        self.advance_phase(v, dt, params);
+        self.advance_blend(dt);
+    }
+
+    /// The body's shape now, for a root moving at `speed` (the step's `root.speed`): writes
+    /// `lateral` and `yaw` as [`MotionPlayer::step_tabled`] does and returns what it stores as
+    /// (`head_lateral`, `head_yaw`). A function of the player's state alone: after
+    /// [`MotionPlayer::advance_tabled`] it gives, bit for bit, what the whole step would have.
+    /// `table` must match `params` and `body`. Panics only on mismatched slice lengths.
+    pub(crate) fn shape_tabled(
+        &self,
+        speed: f32,
+        params: &MotionParams,
+        body: &Body,
+        table: &WaveTable,
+        lateral: &mut [f32],
+        yaw: &mut [f32],
+    ) -> (f32, f32) {
         assert_eq!(
             lateral.len(),
             body.joints_x.len(),
@@ -261,16 +299,53 @@ impl MotionPlayer {
             body.num_joints(),
             "yaw needs one entry per driven joint"
         );
-        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
-        if !root.speed.is_finite() || root.speed < 0.0 {
-            root.speed = 0.0;
+        let head = self.sample_shape(self.blend_weight(), speed, params, table, lateral);
+        pose_body(head, params, body, lateral, yaw)
+    }
+
+    /// Recomputes [`MotionPlayer::head_lateral`] and [`MotionPlayer::head_yaw`] with
+    /// [`MotionPlayer::shape_tabled`], writing `lateral` and `yaw`: after steps taken with
+    /// [`MotionPlayer::advance_tabled`], the player and the arrays are then as whole steps
+    /// would have left them.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn refresh_shape(
+        &mut self,
+        speed: f32,
+        params: &MotionParams,
+        body: &Body,
+        table: &WaveTable,
+        lateral: &mut [f32],
+        yaw: &mut [f32],
+    ) {
+        let (head_lateral, head_yaw) = self.shape_tabled(speed, params, body, table, lateral, yaw);
+        self.head_lateral = head_lateral;
+        self.head_yaw = head_yaw;
+    }
+
+    /// What the GPU pose pass needs to evaluate the body's shape itself (`shaders/pose.wgsl`
+    /// mirrors [`MotionPlayer::shape_tabled`]'s sampling from these): the phase, the speed
+    /// gain at `speed`, the blend weight, and each motion's turn terms.
+    pub(crate) fn shape_terms(&self, speed: f32, params: &MotionParams) -> ShapeTerms {
+        let tt = params.tt;
+        ShapeTerms {
+            phase: self.phase,
+            gain: speed_gain(speed, params),
+            weight: self.blend_weight(),
+            current: MotionTerms::of(&self.current, tt),
+            previous: self
+                .previous
+                .as_ref()
+                .map_or(MotionTerms::PLAIN, |prev| MotionTerms::of(prev, tt)),
         }
-        self.advance_queue(params, root.speed);
-        let v = self.move_root(dt, params, root);
-        self.advance_phase(v, dt, params);
-        let w = self.advance_blend(dt);
-        let head = self.sample_shape(w, root.speed, params, table, lateral);
-        self.pose_body(head, params, body, lateral, yaw);
+    }
+
+    /// The current motion's weight in the shape's cross-fade: below 1 while the previous
+    /// motion's shape fades out, 1 once it is gone.
+    fn blend_weight(&self) -> f32 {
+        match self.previous {
+            Some(_) => smoothstep(self.blend_elapsed_s / SHAPE_BLEND_S),
+            None => 1.0,
+        }
     }
 
     /// Transitions (Fig. 10): the next request, an interrupt, or the implicit continuation,
@@ -375,21 +450,16 @@ impl MotionPlayer {
         }
     }
 
-    /// Advances the cross-fade from the previous motion's body shape by `dt` and returns the
-    /// current shape's weight in [0, 1] (1, and the previous motion dropped, once it is over).
-    fn advance_blend(&mut self, dt: f32) -> f32 {
-        let w = match self.previous.as_mut() {
-            Some(prev) => {
-                prev.elapsed_s += dt;
-                self.blend_elapsed_s += dt;
-                smoothstep(self.blend_elapsed_s / SHAPE_BLEND_S)
-            }
-            None => 1.0,
-        };
-        if w >= 1.0 {
+    /// Advances the cross-fade from the previous motion's body shape by `dt`; the previous motion
+    /// is dropped once the current one's weight ([`MotionPlayer::blend_weight`]) reaches 1.
+    fn advance_blend(&mut self, dt: f32) {
+        if let Some(prev) = self.previous.as_mut() {
+            prev.elapsed_s += dt;
+            self.blend_elapsed_s += dt;
+        }
+        if self.blend_weight() >= 1.0 {
             self.previous = None;
         }
-        w
     }
 
     /// Body shape: the current motion's, cross-faded from the previous one's with weight `w`,
@@ -404,7 +474,7 @@ impl MotionPlayer {
         lateral: &mut [f32],
     ) -> f32 {
         let context = ShapeContext {
-            gain: smoothstep(speed / (FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l)),
+            gain: speed_gain(speed, params),
             phase: self.phase.sin_cos(),
             tt: params.tt,
             f: params.f,
@@ -435,38 +505,45 @@ impl MotionPlayer {
         }
         head
     }
+}
 
-    /// Turns the sampled midline (`head`, then `lateral`) into the joint yaws, weighted by
-    /// `body.power`, and the head's yaw; then rewrites `lateral` as the body so posed.
-    fn pose_body(
-        &mut self,
-        head: f32,
-        params: &MotionParams,
-        body: &Body,
-        lateral: &mut [f32],
-        yaw: &mut [f32],
-    ) {
-        self.head_lateral = head;
-        self.head_yaw = curve_to_yaw(params.l, &body.joints_x, &body.power, head, lateral, yaw);
-        for y in yaw.iter_mut() {
-            if !y.is_finite() {
-                *y = 0.0;
-            }
-        }
-        if !self.head_yaw.is_finite() {
-            self.head_yaw = 0.0;
-        }
-        // Report the body as posed: the weighted yaws, chained from the head, give each
-        // sample's sideways displacement (what a renderer driving the joints shows).
-        posed_lateral(params.l, &body.joints_x, head, self.head_yaw, yaw, lateral);
-        // The body recoils so that its centre of mass stays on the travel line (a body with a
-        // mass model; the recoil is 0 without one).
-        let recoil = body.recoil(head, lateral);
-        if recoil != 0.0 && recoil.is_finite() {
-            self.head_lateral -= recoil;
-            lateral.iter_mut().for_each(|y| *y -= recoil);
+/// The swim wave's amplitude gain at `speed`: it fades (smoothstep) to a straight body at rest
+/// below [`FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S`].
+fn speed_gain(speed: f32, params: &MotionParams) -> f32 {
+    smoothstep(speed / (FULL_AMPLITUDE_SPEED_BODY_LENGTHS_PER_S * params.l))
+}
+
+/// Turns the sampled midline (`head`, then `lateral`) into the joint yaws, weighted by
+/// `body.power`, and the head's yaw; then rewrites `lateral` as the body so posed. Returns the
+/// head's lateral displacement (after the recoil) and yaw.
+fn pose_body(
+    head: f32,
+    params: &MotionParams,
+    body: &Body,
+    lateral: &mut [f32],
+    yaw: &mut [f32],
+) -> (f32, f32) {
+    let mut head_lateral = head;
+    let mut head_yaw = curve_to_yaw(params.l, &body.joints_x, &body.power, head, lateral, yaw);
+    for y in yaw.iter_mut() {
+        if !y.is_finite() {
+            *y = 0.0;
         }
     }
+    if !head_yaw.is_finite() {
+        head_yaw = 0.0;
+    }
+    // Report the body as posed: the weighted yaws, chained from the head, give each
+    // sample's sideways displacement (what a renderer driving the joints shows).
+    posed_lateral(params.l, &body.joints_x, head, head_yaw, yaw, lateral);
+    // The body recoils so that its centre of mass stays on the travel line (a body with a
+    // mass model; the recoil is 0 without one).
+    let recoil = body.recoil(head, lateral);
+    if recoil != 0.0 && recoil.is_finite() {
+        head_lateral -= recoil;
+        lateral.iter_mut().for_each(|y| *y -= recoil);
+    }
+    (head_lateral, head_yaw)
 }
 
 impl Default for MotionPlayer {

@@ -56,6 +56,100 @@ impl TurnStep {
     }
 }
 
+/// The body shape's inputs that change from step to step, for a pass that samples the shape
+/// itself (the GPU pose pass; see [`super::MotionPlayer::shape_terms`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ShapeTerms {
+    /// The swim wave's phase φ, radians.
+    pub phase: f32,
+    /// The swim wave's speed gain.
+    pub gain: f32,
+    /// The current motion's weight in the cross-fade (1: no previous motion).
+    pub weight: f32,
+    /// The current motion's turn terms.
+    pub current: MotionTerms,
+    /// The previous motion's (plain when there is none).
+    pub previous: MotionTerms,
+}
+
+/// One motion's turn terms at the step (what [`shape`] reads of it besides the sample).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct MotionTerms {
+    /// [`MotionTerms::PLAIN_KIND`], [`MotionTerms::NORMAL_TURN`] or [`MotionTerms::STROKE_TURN`].
+    pub kind: u32,
+    /// The turn's side d.
+    pub d: f32,
+    /// I_p at the motion's time.
+    pub ip: f32,
+    /// F_st's gain over the swim amplitude (quick or serial turn).
+    pub bend: f32,
+    /// 2π·ω''·t of F_st.
+    pub omega_t: f32,
+    /// F_st's wavelength along the body, length units.
+    pub wavelength: f32,
+    /// strokes·π: the phase after which F_st's last lobe has passed.
+    pub stroke_end: f32,
+}
+
+impl MotionTerms {
+    /// No turn term: the shape is the swim wave.
+    pub const PLAIN_KIND: u32 = 0;
+    /// A normal turn: eq. (5).
+    pub const NORMAL_TURN: u32 = 1;
+    /// A quick or serial turn: eq. (6), one lobe per stroke.
+    pub const STROKE_TURN: u32 = 2;
+    /// A motion without turn terms.
+    pub const PLAIN: Self = Self {
+        kind: Self::PLAIN_KIND,
+        d: 0.0,
+        ip: 0.0,
+        bend: 0.0,
+        omega_t: 0.0,
+        wavelength: 1.0,
+        stroke_end: 0.0,
+    };
+
+    /// Motion `a`'s terms (Tt = `tt`), as [`TurnStep::new`] and [`shape`] take them.
+    pub(super) fn of(a: &Active, tt: f32) -> Self {
+        let Plan::Turn {
+            kind,
+            d,
+            wavelength,
+            strokes,
+            ..
+        } = a.plan
+        else {
+            return Self::PLAIN;
+        };
+        let ip = a.ip(a.elapsed_s);
+        match kind {
+            TurnKind::Normal => Self {
+                kind: Self::NORMAL_TURN,
+                d,
+                ip,
+                ..Self::PLAIN
+            },
+            TurnKind::Quick | TurnKind::Serial => Self {
+                kind: Self::STROKE_TURN,
+                d,
+                ip,
+                bend: if kind == TurnKind::Quick {
+                    QUICK_TURN_BEND_GAIN
+                } else {
+                    SERIAL_TURN_BEND_GAIN
+                },
+                omega_t: if ip != 0.0 {
+                    TAU * wave::omega_2(tt) * a.elapsed_s
+                } else {
+                    0.0
+                },
+                wavelength,
+                stroke_end: strokes as f32 * PI,
+            },
+        }
+    }
+}
+
 /// The paper's F (positive to the fish's right) of motion `a` at midline sample `s` (see
 /// [`WaveTable`]); `turn` holds the motion's turn terms for this step.
 pub(super) fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSample) -> f32 {

@@ -90,6 +90,12 @@ impl WaveTable {
                 .all(|(&b, x)| b == x.to_bits())
     }
 
+    /// Each midline sample's constants, head first: x' and A(x) (length units), and the sine
+    /// and cosine of the swim wave's spatial argument (for the GPU pose pass's shape step).
+    pub(crate) fn shape_samples(&self) -> impl Iterator<Item = (f32, f32, (f32, f32))> + '_ {
+        self.samples.iter().map(|s| (s.xp, s.amp, s.swim))
+    }
+
     /// Rebuilds in place for `params` and `body` (allocates only to grow).
     pub(super) fn rebuild(&mut self, params: &MotionParams, body: &Body) {
         self.params_bits = param_bits(params);

@@ -455,3 +455,84 @@ fn test_recoil_keeps_the_centre_of_mass_on_the_travel_line() {
         "the body never recoiled ({largest_shift})"
     );
 }
+
+/// The root-only step and the shape derived afterwards are, bit for bit, the whole step: through
+/// swims, each kind of turn and their cross-fades, a player stepped with `advance_tabled` and
+/// refreshed with `refresh_shape` equals one stepped with `step_tabled`, and so do the arrays.
+#[test]
+fn test_advance_then_shape_is_the_whole_step_bit_for_bit() {
+    let params = MotionParams::default();
+    let body = Body::black_porgy();
+    let table = WaveTable::new(&params, &body);
+    let mut whole = MotionPlayer::with_phase(1.3);
+    let mut split = whole.clone();
+    let mut root_whole = RootState::default();
+    let mut root_split = root_whole;
+    let (mut lat_w, mut yaw_w) = (vec![0.0; 7], vec![0.0; 6]);
+    let (mut lat_s, mut yaw_s) = (vec![0.0; 7], vec![0.0; 6]);
+    let requests = [
+        MotionRequest::Swim { speed: 60.0 },
+        MotionRequest::Turn {
+            kind: TurnKind::Quick,
+            angle: 1.0,
+            side: Side::Left,
+        },
+        MotionRequest::Turn {
+            kind: TurnKind::Serial,
+            angle: 2.0,
+            side: Side::Right,
+        },
+        MotionRequest::Turn {
+            kind: TurnKind::Normal,
+            angle: 0.8,
+            side: Side::Left,
+        },
+    ];
+    let mut checked = 0;
+    for step in 0..400 {
+        if step % 40 == 0 {
+            let r = requests[(step / 40) % requests.len()];
+            whole.interrupt(r).unwrap();
+            split.interrupt(r).unwrap();
+        }
+        whole.step_tabled(
+            1.0 / 60.0,
+            &params,
+            &body,
+            &table,
+            &mut root_whole,
+            &mut lat_w,
+            &mut yaw_w,
+        );
+        split.advance_tabled(1.0 / 60.0, &params, &mut root_split);
+        assert_eq!(root_whole, root_split);
+        if step % 3 == 0 {
+            // Derived without touching the player, then stored.
+            let (head_lateral, head_yaw) = split.shape_tabled(
+                root_split.speed,
+                &params,
+                &body,
+                &table,
+                &mut lat_s,
+                &mut yaw_s,
+            );
+            assert_eq!(head_lateral.to_bits(), whole.head_lateral().to_bits());
+            assert_eq!(head_yaw.to_bits(), whole.head_yaw().to_bits());
+            split.refresh_shape(
+                root_split.speed,
+                &params,
+                &body,
+                &table,
+                &mut lat_s,
+                &mut yaw_s,
+            );
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&lat_s), bits(&lat_w), "step {step}");
+            assert_eq!(bits(&yaw_s), bits(&yaw_w), "step {step}");
+            assert_eq!(split, whole, "step {step}");
+            assert!(yaw_w.iter().any(|&y| y != 0.0));
+            checked += 1;
+        }
+    }
+    assert!(checked > 100);
+}

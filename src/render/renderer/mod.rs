@@ -189,6 +189,7 @@ struct PoseBuffers {
     programs: GrowBuffer,
     models: GrowBuffer,
     slots: GrowBuffer,
+    samples: GrowBuffer,
     params: wgpu::Buffer,
 }
 
@@ -200,6 +201,7 @@ impl PoseBuffers {
             programs: storage("pose pass: species programs"),
             models: storage("pose pass: model steps"),
             slots: storage("pose pass: palette slots"),
+            samples: storage("pose pass: shape samples"),
             params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("pose pass: params"),
                 size: 16,
@@ -339,6 +341,7 @@ impl Renderer {
                 storage_entry(3, true),
                 uniform_entry(4),
                 storage_entry(5, false),
+                storage_entry(6, true),
             ],
         });
         let pose = PoseBuffers::new(device);

@@ -7,7 +7,9 @@ use wgpu::util::DeviceExt;
 
 use super::{GrowBuffer, PoseBuffers, Renderer};
 use crate::render::{FrameInput, Gpu, GpuPoseFrame, RenderError};
-use crate::skin::pose_program::{GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GpuPosePrograms};
+use crate::skin::pose_program::{
+    GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GPU_POSE_MAX_SAMPLES, GPU_POSE_MAX_YAWS, GpuPosePrograms,
+};
 
 /// Fish per workgroup (`@workgroup_size` in `pose.wgsl`).
 const WORKGROUP: u32 = 64;
@@ -37,8 +39,17 @@ pub(super) fn validate(pose: &GpuPoseFrame<'_>, num_instances: usize) -> Result<
         let models =
             prog.first_model as usize..prog.first_model as usize + prog.num_models as usize;
         let slots = prog.first_slot as usize..prog.first_slot as usize + prog.num_slots as usize;
-        if models.end > p.models.len() || slots.end > p.slots.len() {
+        let samples =
+            prog.first_sample as usize..prog.first_sample as usize + prog.num_samples as usize;
+        if models.end > p.models.len() || slots.end > p.slots.len() || samples.end > p.samples.len()
+        {
             return bad(format!("program {k} reaches past the step arrays"));
+        }
+        if prog.num_samples as usize > GPU_POSE_MAX_SAMPLES {
+            return bad(format!(
+                "program {k} has {} shape samples; the pass holds {GPU_POSE_MAX_SAMPLES}",
+                prog.num_samples
+            ));
         }
         if prog.num_models as usize > GPU_POSE_MAX_MODELS {
             return bad(format!(
@@ -47,8 +58,8 @@ pub(super) fn validate(pose: &GpuPoseFrame<'_>, num_instances: usize) -> Result<
             ));
         }
         for (i, step) in p.models[models].iter().enumerate() {
-            let yaw_ok = step.yaw_slot == GPU_NOT_DRIVEN
-                || (step.yaw_slot as usize) < crate::skin::pose_program::GPU_POSE_MAX_YAWS;
+            let yaw_ok =
+                step.yaw_slot == GPU_NOT_DRIVEN || (step.yaw_slot as usize) < GPU_POSE_MAX_YAWS;
             if step.parent >= i as i32 || !yaw_ok {
                 return bad(format!(
                     "program {k}, model step {i}: parent or yaw out of range"
@@ -118,6 +129,11 @@ impl PoseBuffers {
             bytemuck::cast_slice(&programs.models),
         );
         upload(gpu, &mut self.slots, bytemuck::cast_slice(&programs.slots));
+        upload(
+            gpu,
+            &mut self.samples,
+            bytemuck::cast_slice(&programs.samples),
+        );
         let params = [pose.fish.len() as u32, 0, 0, 0];
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::cast_slice(&params));
@@ -155,6 +171,7 @@ impl Renderer {
                 entry(3, &b.slots.buffer),
                 entry(4, &b.params),
                 entry(5, palette),
+                entry(6, &b.samples.buffer),
             ],
         });
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

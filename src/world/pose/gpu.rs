@@ -3,59 +3,144 @@
 //!
 //! Each species' [`PosePlan`] becomes a small program ([`GpuPosePrograms`], plain data in
 //! [`crate::skin::pose_program`]) of the same steps
-//! the CPU walks: its model steps (`model[k] = model[parent] · local`, the local transform written
+//! the CPU walks, after its body's midline samples (the motion player's wave table, the joints'
+//! positions and power weights): its model steps (`model[k] = model[parent] · local`, the local transform written
 //! `a + cos θ·b + sin θ·c`, so a driven joint's Rodrigues bend and a rest joint's constant
 //! matrix are one formula) and its palette slots (`model[left] · rhs`, or the placement). Per
-//! fish the world writes one [`GpuFishPose`] (position, heading, pitch, driven yaws, palette
-//! offset: 96 bytes, against 64 bytes per palette slot posed on the CPU) and the slot-0 entry
-//! the renderer culls with, its placement made the shader's way. `shaders/pose.wgsl`
-//! runs the program once per fish into the palette buffer, in the layout the CPU stage writes;
-//! the two agree to f32 rounding (`tests/render_pose.rs`).
+//! fish the world writes one [`GpuFishPose`] (position, heading, pitch, palette offset, and the
+//! motion player's shape terms — phase, speed gain, blend weight, each motion's turn terms: 112
+//! bytes, against 64 bytes per palette slot posed on the CPU) and the slot-0 entry the renderer
+//! culls with, its placement made the shader's way. `shaders/pose.wgsl` samples the body's
+//! shape, derives the driven joints' yaws and runs the program once per fish into the palette
+//! buffer, in the layout the CPU stage writes; the two agree to f32 rounding
+//! (`tests/render_pose.rs`). So in GPU mode the motion stage moves the roots only: the body's
+//! shape, most of that stage's cost, is the pass's.
 
 use glam::{Mat4, Vec4};
 
 use super::{Matrices, PlanMatrices, PosePlan, Transform};
-use crate::motion::RootState;
+use crate::motion::player::{MotionTerms, ShapeTerms};
+use crate::motion::{Body, MotionParams, RootState, WaveTable};
 use crate::skeleton::NO_PARENT;
 use crate::skin::pose_program::{
-    GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GpuFishPose, GpuModelStep, GpuPosePrograms, GpuProgram,
-    GpuSlotStep, placement_rotation,
+    GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GPU_POSE_MAX_SAMPLES, GpuFishPose, GpuModelStep,
+    GpuMotionShape, GpuPosePrograms, GpuProgram, GpuShapeSample, GpuSlotStep, placement_rotation,
 };
 use crate::world::MAX_DRIVEN_JOINTS;
 
 const _: () = assert!(MAX_DRIVEN_JOINTS == crate::skin::pose_program::GPU_POSE_MAX_YAWS);
 
-/// The programs of `plans` (one per species, named by `names`). An error names the first species
-/// whose skeleton needs more than [`GPU_POSE_MAX_MODELS`] model matrices.
-pub fn programs(plans: &[PosePlan], names: &[&str]) -> Result<GpuPosePrograms, String> {
+/// What the pass's shape step needs of a species: its name (for errors), motion parameters,
+/// body and the body wave's table (built for those two).
+pub struct SpeciesShape<'a> {
+    /// The species' name.
+    pub name: &'a str,
+    /// Its motion parameters.
+    pub params: &'a MotionParams,
+    /// Its body (midline samples, power weights).
+    pub body: &'a Body,
+    /// Its wave table.
+    pub table: &'a WaveTable,
+}
+
+/// The programs of `plans`, one per species of `shapes`. An error names the first species whose
+/// skeleton needs more than [`GPU_POSE_MAX_MODELS`] model matrices or whose body has more
+/// midline samples than the pass holds.
+pub fn programs(
+    plans: &[PosePlan],
+    shapes: &[SpeciesShape<'_>],
+) -> Result<GpuPosePrograms, String> {
     let mut out = GpuPosePrograms::default();
     for (species, plan) in plans.iter().enumerate() {
+        let Some(shape) = shapes.get(species) else {
+            return Err(format!("species {species}: no body for its pose program"));
+        };
         let program = match &plan.matrices {
             PlanMatrices::Affine(m) => plan.gpu_program(m, &mut out),
             PlanMatrices::General(m) => plan.gpu_program(m, &mut out),
-        };
-        let name = names.get(species).copied().unwrap_or("?");
-        let program = program.map_err(|e| format!("species {name}: {e}"))?;
+        }
+        .and_then(|program| shape_samples(shape, program, &mut out));
+        let program = program.map_err(|e| format!("species {}: {e}", shape.name))?;
         out.programs.push(program);
     }
     Ok(out)
 }
 
-/// The pose pass's record of a fish at `root` with its driven joints' `yaw`.
-pub fn fish_record(
+/// Appends the body's midline samples (head first) to `out` and returns `program` with them.
+fn shape_samples(
+    shape: &SpeciesShape<'_>,
+    mut program: GpuProgram,
+    out: &mut GpuPosePrograms,
+) -> Result<GpuProgram, String> {
+    let body = shape.body;
+    let n = body.joints_x.len() + 1;
+    if n > GPU_POSE_MAX_SAMPLES || body.power.len() + 2 != n {
+        return Err(format!(
+            "its body has {} driven joints and {} midline samples; the GPU pose pass holds {} \
+             driven joints",
+            body.power.len(),
+            body.joints_x.len(),
+            GPU_POSE_MAX_SAMPLES - 2
+        ));
+    }
+    if !shape.table.matches(shape.params, body) {
+        return Err("its wave table was built for other parameters".to_owned());
+    }
+    program.first_sample = out.samples.len() as u32;
+    program.num_samples = n as u32;
+    program.f = shape.params.f;
+    let l = shape.params.l;
+    let xs = std::iter::once(0.0).chain(body.joints_x.iter().copied());
+    for (i, ((xp, amp, (swim_sin, swim_cos)), x)) in shape.table.shape_samples().zip(xs).enumerate()
+    {
+        out.samples.push(GpuShapeSample {
+            xp,
+            amp,
+            swim_sin,
+            swim_cos,
+            xl: x * l,
+            // Sample i ≥ 1 is joint i − 1's position; the tail tip drives nothing.
+            power: i
+                .checked_sub(1)
+                .and_then(|j| body.power.get(j))
+                .copied()
+                .unwrap_or(0.0),
+            _pad: [0.0; 2],
+        });
+    }
+    Ok(program)
+}
+
+fn motion_shape(m: &MotionTerms) -> GpuMotionShape {
+    GpuMotionShape {
+        kind: m.kind,
+        d: m.d,
+        ip: m.ip,
+        bend: m.bend,
+        omega_t: m.omega_t,
+        wavelength: m.wavelength,
+        stroke_end: m.stroke_end,
+        _pad: 0,
+    }
+}
+
+/// The pose pass's record of a fish at `root` whose motion player's shape terms are `terms`.
+pub(crate) fn fish_record(
     root: &RootState,
-    yaw: &[f32; MAX_DRIVEN_JOINTS],
+    terms: &ShapeTerms,
     program: u32,
     palette_offset: u32,
 ) -> GpuFishPose {
-    crate::skin::pose_program::fish_pose(
-        root.pos,
-        root.heading,
-        root.pitch,
-        yaw,
+    GpuFishPose {
+        pos_heading: root.pos.extend(root.heading).to_array(),
+        pitch: root.pitch,
         program,
         palette_offset,
-    )
+        _pad: 0,
+        wave: [terms.phase, terms.gain, terms.weight, 0.0],
+        current: motion_shape(&terms.current),
+        previous: motion_shape(&terms.previous),
+    }
 }
 
 fn cols(m: Mat4) -> [[f32; 4]; 4] {
@@ -136,6 +221,21 @@ impl PosePlan {
             num_models: schedule.models.len() as u32,
             first_slot,
             num_slots: schedule.palette.len() as u32,
+            first_sample: 0,
+            num_samples: 0,
+            f: 0.0,
+            _pad: 0,
+        })
+    }
+
+    /// Whether [`PosePlan::anchor`] reads a driven joint's yaw (slot 0 made from a driven
+    /// joint's model); none of the shipped rigs does, so the GPU stage rarely needs a fish's
+    /// yaws on the CPU.
+    pub fn anchor_reads_yaw(&self) -> bool {
+        self.schedule.palette.first().is_some_and(|step| {
+            step.product
+                && step.left != NO_PARENT
+                && self.yaw_slot[usize::from(step.left)] != super::NOT_DRIVEN
         })
     }
 
@@ -177,7 +277,8 @@ impl PosePlan {
 mod tests {
     use super::super::within;
     use super::*;
-    use crate::skin::pose_program::run_program;
+    use crate::motion::{MotionPlayer, MotionRequest, Side, TurnKind};
+    use crate::skin::pose_program::{run_program, shape_yaws};
     use crate::world::{Species, SpeciesDesc};
     use glam::Vec3;
 
@@ -189,67 +290,138 @@ mod tests {
             .collect()
     }
 
+    fn shapes<'a>(species: &'a [Species], tables: &'a [WaveTable]) -> Vec<SpeciesShape<'a>> {
+        species
+            .iter()
+            .zip(tables)
+            .map(|(s, table)| SpeciesShape {
+                name: &s.desc.name,
+                params: &s.desc.motion,
+                body: &s.rig.body,
+                table,
+            })
+            .collect()
+    }
+
+    /// The shipped fish swimming, turning each way and cross-fading between motions: the
+    /// program's yaws (the shader's shape step on the CPU) are the motion player's, and its
+    /// palettes the CPU stage's, to f32 rounding.
     #[test]
-    fn programs_pose_the_shipped_fish_as_the_cpu_stage_does() {
+    fn programs_pose_the_shipped_fish_as_the_motion_player_and_cpu_stage_do() {
         let species = shipped();
+        let tables: Vec<WaveTable> = species
+            .iter()
+            .map(|s| WaveTable::new(&s.desc.motion, &s.rig.body))
+            .collect();
         let plans: Vec<PosePlan> = species
             .iter()
             .map(|s| PosePlan::new(&s.rig, &s.model))
             .collect();
-        let programs = programs(&plans, &["black_porgy", "eel"]).unwrap();
+        let programs = programs(&plans, &shapes(&species, &tables)).unwrap();
         assert_eq!(programs.programs.len(), 2);
-        for (k, plan) in plans.iter().enumerate() {
-            let root = RootState {
+        let (mut blended, mut stroke_turns, mut normal_turns) = (0, 0, 0);
+        for (k, (sp, plan)) in species.iter().zip(&plans).enumerate() {
+            let (params, body) = (&sp.desc.motion, &sp.rig.body);
+            let driven = body.power.len();
+            let mut player = MotionPlayer::with_phase(0.7 + k as f32);
+            let mut root = RootState {
                 pos: Vec3::new(120.0, -40.0, 310.0),
                 heading: 2.1,
                 pitch: -0.3,
-                speed: 1.0,
+                speed: 0.0,
             };
+            let mut lateral = vec![0.0; body.joints_x.len()];
             let mut yaw = [0.0f32; MAX_DRIVEN_JOINTS];
-            for (i, y) in yaw.iter_mut().enumerate() {
-                *y = 0.25 * ((i as f32) * 1.3).sin();
-            }
-            let mut cpu = vec![Mat4::ZERO; plan.num_joints()];
-            plan.palette_of(&root, &yaw, &mut cpu);
-            let fish = fish_record(&root, &yaw, k as u32, 0);
-            let mut gpu = vec![Mat4::ZERO; plan.num_slots()];
-            run_program(&programs, &fish, &mut gpu);
-            for (j, &slot) in plan.slot_of_joint().iter().enumerate() {
-                let g = &gpu[usize::from(slot)];
+            player
+                .push(MotionRequest::Swim { speed: params.s })
+                .unwrap();
+            let turns = [
+                (TurnKind::Quick, Side::Left),
+                (TurnKind::Normal, Side::Right),
+                (TurnKind::Serial, Side::Left),
+            ];
+            for step in 0..600 {
+                if step % 150 == 90 {
+                    let (kind, side) = turns[(step / 150) % turns.len()];
+                    let turn = MotionRequest::Turn {
+                        kind,
+                        angle: 1.2,
+                        side,
+                    };
+                    player.interrupt(turn).unwrap();
+                }
+                player.step_with(
+                    1.0 / 60.0,
+                    params,
+                    body,
+                    &tables[k],
+                    &mut root,
+                    &mut lateral,
+                    &mut yaw[..driven],
+                );
+                if step % 7 != 0 {
+                    continue;
+                }
+                let terms = player.shape_terms(root.speed, params);
+                blended += usize::from(terms.weight < 1.0);
+                let turning = |kind| terms.current.kind == kind && terms.current.ip > 0.0;
+                stroke_turns += usize::from(turning(MotionTerms::STROKE_TURN));
+                normal_turns += usize::from(turning(MotionTerms::NORMAL_TURN));
+                let fish = fish_record(&root, &terms, k as u32, 0);
+                let derived = shape_yaws(&programs.programs[k], &programs.samples, &fish);
+                for (j, (g, c)) in derived.iter().zip(&yaw).enumerate() {
+                    assert!(
+                        (g - c).abs() <= 2e-5 * (1.0 + c.abs()),
+                        "species {k} step {step} joint {j}: shape step {g} against the player's {c}"
+                    );
+                }
+                let mut cpu = vec![Mat4::ZERO; plan.num_joints()];
+                plan.palette_of(&root, &yaw, &mut cpu);
+                let mut gpu = vec![Mat4::ZERO; plan.num_slots()];
+                run_program(&programs, &fish, &mut gpu);
+                for (j, &slot) in plan.slot_of_joint().iter().enumerate() {
+                    let g = &gpu[usize::from(slot)];
+                    assert!(
+                        within(g, &cpu[j], 5e-5),
+                        "species {k} step {step} joint {j}: program {g:?} against the CPU stage {:?}",
+                        cpu[j]
+                    );
+                }
+                // The culling anchor is the CPU stage's slot 0 to rounding, and the program's.
+                assert!(!plan.anchor_reads_yaw());
+                let anchor = plan.anchor(&root, &[]);
                 assert!(
-                    within(g, &cpu[j], 2e-5),
-                    "species {k} joint {j}: program {g:?} against the CPU stage {:?}",
-                    cpu[j]
+                    within(&anchor, &cpu[0], 2e-6),
+                    "{anchor:?} against {:?}",
+                    cpu[0]
+                );
+                assert!(
+                    within(&anchor, &gpu[0], 2e-6),
+                    "{anchor:?} against {:?}",
+                    gpu[0]
                 );
             }
-            // The culling anchor is the CPU stage's slot 0 to rounding, and the program's.
-            let anchor = plan.anchor(&root, &yaw);
-            assert!(
-                within(&anchor, &cpu[0], 2e-6),
-                "{anchor:?} against {:?}",
-                cpu[0]
-            );
-            assert!(
-                within(&anchor, &gpu[0], 2e-6),
-                "{anchor:?} against {:?}",
-                gpu[0]
-            );
-            // A changed yaw changes the tail's entry: the program reads the yaws.
-            let mut bent = fish;
-            bent.yaw[2] += 0.4;
-            let mut moved = vec![Mat4::ZERO; plan.num_slots()];
-            run_program(&programs, &bent, &mut moved);
-            assert!(moved.iter().zip(&gpu).any(|(a, b)| !within(a, b, 1e-3)));
         }
+        // The states compared include cross-fades and both kinds of turn wave.
+        assert!(
+            blended > 4 && stroke_turns > 4 && normal_turns > 4,
+            "blended {blended}, stroke turns {stroke_turns}, normal turns {normal_turns}"
+        );
     }
 
     #[test]
     fn a_skeleton_too_big_for_the_pass_is_refused_by_name() {
         let species = shipped();
+        let tables = [WaveTable::new(
+            &species[0].desc.motion,
+            &species[0].rig.body,
+        )];
         let mut plan = PosePlan::new(&species[0].rig, &species[0].model);
         let step = plan.schedule.models[0];
         plan.schedule.models = vec![step; GPU_POSE_MAX_MODELS + 1];
-        let err = programs(&[plan], &["big"]).unwrap_err();
+        let mut shape = shapes(&species[..1], &tables);
+        shape[0].name = "big";
+        let err = programs(&[plan], &shape).unwrap_err();
         assert!(
             err.contains("species big") && err.contains("33 model matrices"),
             "{err}"
@@ -257,16 +429,51 @@ mod tests {
     }
 
     #[test]
-    fn non_finite_yaws_are_written_as_rest() {
-        let root = RootState::default();
-        let mut yaw = [0.1f32; MAX_DRIVEN_JOINTS];
-        yaw[3] = f32::NAN;
-        yaw[4] = f32::INFINITY;
-        let f = fish_record(&root, &yaw, 0, 7);
-        assert_eq!(f.yaw[3], 0.0);
-        assert_eq!(f.yaw[4], 0.0);
-        assert_eq!(f.yaw[5], 0.1);
+    fn a_body_with_a_stale_wave_table_is_refused_by_name() {
+        let species = shipped();
+        let tables = [WaveTable::new(
+            &species[1].desc.motion,
+            &species[1].rig.body,
+        )];
+        let plan = PosePlan::new(&species[0].rig, &species[0].model);
+        // The eel's table beside the porgy's parameters and body.
+        let shape = shapes(&species[..1], &tables);
+        let err = programs(&[plan], &shape).unwrap_err();
+        assert!(err.contains("species black_porgy"), "{err}");
+    }
+
+    #[test]
+    fn non_finite_terms_pose_the_rest_shape() {
+        let species = shipped();
+        let tables = [WaveTable::new(
+            &species[0].desc.motion,
+            &species[0].rig.body,
+        )];
+        let plan = PosePlan::new(&species[0].rig, &species[0].model);
+        let programs = programs(&[plan], &shapes(&species[..1], &tables)).unwrap();
+        let terms = ShapeTerms {
+            phase: f32::NAN,
+            gain: 1.0,
+            weight: 1.0,
+            current: MotionTerms::PLAIN,
+            previous: MotionTerms::PLAIN,
+        };
+        let f = fish_record(&RootState::default(), &terms, 0, 7);
         assert_eq!(f.palette_offset, 7);
-        assert_eq!(std::mem::size_of::<GpuFishPose>(), 96);
+        let yaws = shape_yaws(&programs.programs[0], &programs.samples, &f);
+        assert!(yaws.iter().all(|&y| y == 0.0), "{yaws:?}");
+        // A finite phase bends the body: the yaws come from the terms.
+        let f = fish_record(
+            &RootState::default(),
+            &ShapeTerms {
+                phase: 1.0,
+                ..terms
+            },
+            0,
+            7,
+        );
+        let yaws = shape_yaws(&programs.programs[0], &programs.samples, &f);
+        assert!(yaws.iter().any(|&y| y.abs() > 1e-3), "{yaws:?}");
+        assert_eq!(std::mem::size_of::<GpuFishPose>(), 112);
     }
 }
