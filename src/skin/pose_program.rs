@@ -107,28 +107,10 @@ pub struct GpuProgram {
     pub _pad: u32,
 }
 
-/// One motion's turn terms at the step, as the shape step reads them (the motion player's
-/// `MotionTerms`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct GpuMotionShape {
-    /// 0: no turn term; 1: a normal turn, eq. (5); 2: a quick or serial turn, eq. (6).
-    pub kind: u32,
-    /// The turn's side d.
-    pub d: f32,
-    /// I_p, eq. (7).
-    pub ip: f32,
-    /// F_st's gain over the swim amplitude.
-    pub bend: f32,
-    /// 2π·ω''·t of F_st.
-    pub omega_t: f32,
-    /// F_st's wavelength along the body, length units.
-    pub wavelength: f32,
-    /// strokes·π: past it, F_st's last lobe has left the body.
-    pub stroke_end: f32,
-    /// Padding to 32 bytes.
-    pub _pad: u32,
-}
+/// One motion's turn terms at the step, as the shape step reads them: the motion player's
+/// [`MotionTerms`](crate::motion::player::MotionTerms) (kind 0: no turn term; 1: a normal turn,
+/// eq. (5); 2: a quick or serial turn, eq. (6)).
+pub type GpuMotionShape = crate::motion::player::MotionTerms;
 
 /// One fish as the pose pass reads it.
 #[repr(C)]

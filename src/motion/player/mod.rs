@@ -21,7 +21,7 @@ mod table;
 mod tests;
 
 use active::{Active, Plan};
-pub(crate) use shape::{MotionTerms, ShapeTerms};
+pub use shape::{MotionTerms, ShapeTerms};
 use shape::{ShapeContext, TurnStep, posed_lateral, shape};
 use table::WaveSample;
 pub use table::WaveTable;

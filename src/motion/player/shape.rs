@@ -59,7 +59,7 @@ impl TurnStep {
 /// The body shape's inputs that change from step to step, for a pass that samples the shape
 /// itself (the GPU pose pass; see [`super::MotionPlayer::shape_terms`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct ShapeTerms {
+pub struct ShapeTerms {
     /// The swim wave's phase φ, radians.
     pub phase: f32,
     /// The swim wave's speed gain.
@@ -72,14 +72,17 @@ pub(crate) struct ShapeTerms {
     pub previous: MotionTerms,
 }
 
-/// One motion's turn terms at the step (what [`shape`] reads of it besides the sample).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct MotionTerms {
+/// One motion's turn terms at the step (what [`shape`] reads of it besides the sample). Plain
+/// data in the GPU pose pass's layout: it is the record's `GpuMotionShape`
+/// (`crate::skin::pose_program`), read by `shaders/pose.wgsl`'s `MotionShape`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MotionTerms {
     /// [`MotionTerms::PLAIN_KIND`], [`MotionTerms::NORMAL_TURN`] or [`MotionTerms::STROKE_TURN`].
     pub kind: u32,
     /// The turn's side d.
     pub d: f32,
-    /// I_p at the motion's time.
+    /// I_p at the motion's time, eq. (7).
     pub ip: f32,
     /// F_st's gain over the swim amplitude (quick or serial turn).
     pub bend: f32,
@@ -87,8 +90,10 @@ pub(crate) struct MotionTerms {
     pub omega_t: f32,
     /// F_st's wavelength along the body, length units.
     pub wavelength: f32,
-    /// strokes·π: the phase after which F_st's last lobe has passed.
+    /// strokes·π: the phase after which F_st's last lobe has left the body.
     pub stroke_end: f32,
+    /// Padding to 32 bytes.
+    pub _pad: u32,
 }
 
 impl MotionTerms {
@@ -107,6 +112,7 @@ impl MotionTerms {
         omega_t: 0.0,
         wavelength: 1.0,
         stroke_end: 0.0,
+        _pad: 0,
     };
 
     /// Motion `a`'s terms (Tt = `tt`), as [`TurnStep::new`] and [`shape`] take them.
@@ -145,6 +151,7 @@ impl MotionTerms {
                 },
                 wavelength,
                 stroke_end: strokes as f32 * PI,
+                _pad: 0,
             },
         }
     }

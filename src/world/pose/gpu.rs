@@ -19,12 +19,12 @@
 use glam::{Mat4, Vec4};
 
 use super::{Matrices, PlanMatrices, PosePlan, Transform};
-use crate::motion::player::{MotionTerms, ShapeTerms};
+use crate::motion::player::ShapeTerms;
 use crate::motion::{Body, MotionParams, RootState, WaveTable};
 use crate::skeleton::NO_PARENT;
 use crate::skin::pose_program::{
     GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GPU_POSE_MAX_SAMPLES, GpuFishPose, GpuModelStep,
-    GpuMotionShape, GpuPosePrograms, GpuProgram, GpuShapeSample, GpuSlotStep, placement_rotation,
+    GpuPosePrograms, GpuProgram, GpuShapeSample, GpuSlotStep, placement_rotation,
 };
 use crate::world::MAX_DRIVEN_JOINTS;
 
@@ -111,19 +111,6 @@ fn shape_samples(
     Ok(program)
 }
 
-fn motion_shape(m: &MotionTerms) -> GpuMotionShape {
-    GpuMotionShape {
-        kind: m.kind,
-        d: m.d,
-        ip: m.ip,
-        bend: m.bend,
-        omega_t: m.omega_t,
-        wavelength: m.wavelength,
-        stroke_end: m.stroke_end,
-        _pad: 0,
-    }
-}
-
 /// The pose pass's record of a fish at `root` whose motion player's shape terms are `terms`.
 pub(crate) fn fish_record(
     root: &RootState,
@@ -138,8 +125,8 @@ pub(crate) fn fish_record(
         palette_offset,
         _pad: 0,
         wave: [terms.phase, terms.gain, terms.weight, 0.0],
-        current: motion_shape(&terms.current),
-        previous: motion_shape(&terms.previous),
+        current: terms.current,
+        previous: terms.previous,
     }
 }
 
@@ -277,6 +264,7 @@ impl PosePlan {
 mod tests {
     use super::super::within;
     use super::*;
+    use crate::motion::player::MotionTerms;
     use crate::motion::{MotionPlayer, MotionRequest, Side, TurnKind};
     use crate::skin::pose_program::{run_program, shape_yaws};
     use crate::world::{Species, SpeciesDesc};
