@@ -419,12 +419,14 @@ impl MotionPlayer {
         if heading != root.heading {
             // Turns yaw the body about its turning axis (the pivot unless the species sets one
             // apart), not about the head: the head, that far in front of it, swings round with
-            // the heading.
+            // the heading. The head moves by arm·(cos h1 − cos h0, −(sin h1 − sin h0)); with
+            // h_mid = (h0 + h1)/2 and Δ = h1 − h0 that is 2·arm·sin(Δ/2)·(−sin h_mid, −cos h_mid):
+            // the mid-heading's sine and cosine are already taken, and the half-step's sine
+            // replaces two sine-cosine pairs (and the difference of two nearly equal cosines).
             let arm = params.turn_axis_fraction() * params.l;
-            let (s0, c0) = root.heading.sin_cos();
-            let (s1, c1) = heading.sin_cos();
-            root.pos.x += arm * (c1 - c0);
-            root.pos.z -= arm * (s1 - s0);
+            let k = 2.0 * arm * (0.5 * (heading - root.heading)).sin();
+            root.pos.x -= k * sh;
+            root.pos.z -= k * ch;
         }
         root.pos.y += dy;
         root.heading = wrap_angle(heading);
