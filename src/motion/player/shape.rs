@@ -18,12 +18,11 @@ pub(super) struct ShapeContext {
     pub(super) f: f32,
 }
 
-/// A motion's turn terms for this step (the same at every sample).
+/// A motion's turn terms for this step (the same at every sample): its [`MotionTerms`], which
+/// the GPU pose pass reads too, and what the table-driven F_st adds to them.
 pub(super) struct TurnStep {
-    /// I_p at the motion's time.
-    ip: f32,
-    /// 2π·ω''·t of F_st, and its sine and cosine.
-    omega_t: f32,
+    terms: MotionTerms,
+    /// sin and cos of the terms' 2π·ω''·t.
     sin_cos: (f32, f32),
     /// The table's turn wavelength is the motion's (else F_st is evaluated directly).
     tabled: bool,
@@ -31,27 +30,19 @@ pub(super) struct TurnStep {
 
 impl TurnStep {
     pub(super) fn new(a: &Active, c: &ShapeContext, table: &WaveTable) -> Self {
-        let ip = a.ip(a.elapsed_s);
-        match a.plan {
-            Plan::Turn {
-                kind: TurnKind::Quick | TurnKind::Serial,
-                wavelength,
-                ..
-            } if ip != 0.0 => {
-                let omega_t = TAU * wave::omega_2(c.tt) * a.elapsed_s;
-                TurnStep {
-                    ip,
-                    omega_t,
-                    sin_cos: omega_t.sin_cos(),
-                    tabled: wavelength.to_bits() == table.turn_wavelength.to_bits(),
-                }
+        let terms = MotionTerms::of(a, c.tt);
+        if terms.kind == MotionTerms::STROKE_TURN && terms.ip != 0.0 {
+            TurnStep {
+                terms,
+                sin_cos: terms.omega_t.sin_cos(),
+                tabled: terms.wavelength.to_bits() == table.turn_wavelength.to_bits(),
             }
-            _ => TurnStep {
-                ip,
-                omega_t: 0.0,
+        } else {
+            TurnStep {
+                terms,
                 sin_cos: (0.0, 1.0),
                 tabled: true,
-            },
+            }
         }
     }
 }
@@ -115,7 +106,8 @@ impl MotionTerms {
         _pad: 0,
     };
 
-    /// Motion `a`'s terms (Tt = `tt`), as [`TurnStep::new`] and [`shape`] take them.
+    /// Motion `a`'s terms (Tt = `tt`): the one place a motion's plan becomes its turn terms,
+    /// for the CPU's [`shape`] (through [`TurnStep`]) and the GPU pass alike.
     pub(super) fn of(a: &Active, tt: f32) -> Self {
         let Plan::Turn {
             kind,
@@ -164,48 +156,33 @@ pub(super) fn shape(a: &Active, c: &ShapeContext, turn: &TurnStep, s: &WaveSampl
     let (sin_phi, cos_phi) = c.phase;
     let travelling = s.swim.0 * cos_phi - s.swim.1 * sin_phi;
     let swim = s.amp * c.gain * travelling;
-    let Plan::Turn {
-        kind,
-        d,
-        wavelength,
-        strokes,
-        ..
-    } = a.plan
-    else {
-        return swim;
-    };
-    let (ip, xp, amp) = (turn.ip, s.xp, s.amp);
-    if ip == 0.0 || xp <= 0.0 {
-        // The turn functions only change the part behind the pivot (paper 3.5.2). A sample on
-        // the pivot (x' = 0, as the black porgy's first joint is) has A(x) = 0, so its swim and
-        // turn waves are both 0 and (7) gives 0 = `swim`: skip them.
+    let m = &turn.terms;
+    let (ip, xp, amp) = (m.ip, s.xp, s.amp);
+    if m.kind == MotionTerms::PLAIN_KIND || ip == 0.0 || xp <= 0.0 {
+        // Not a turn, or the turn functions only change the part behind the pivot (paper
+        // 3.5.2). A sample on the pivot (x' = 0, as the black porgy's first joint is) has
+        // A(x) = 0, so its swim and turn waves are both 0 and (7) gives 0 = `swim`: skip them.
         return swim;
     }
-    let t = match kind {
+    let t = if m.kind == MotionTerms::NORMAL_TURN {
         // Eq. (5), F_nt = A(x)·(sin(2π·x'/λ − φ) + d)·f: behind the pivot its sine is the swim
         // wave's.
-        TurnKind::Normal => amp * (travelling + d) * c.f,
-        TurnKind::Quick | TurnKind::Serial => {
-            // One |sin| lobe per stroke: the bend enters at the pivot when the stroke starts
-            // and runs to the tail; before it arrives (and after the last stroke) a point is
-            // not bent, so no lobe of a stroke that never happened shows.
-            let theta = turn.omega_t - TAU * xp / wavelength;
-            if theta < 0.0 || theta > strokes as f32 * PI {
-                0.0
+        amp * (travelling + m.d) * c.f
+    } else {
+        // One |sin| lobe per stroke: the bend enters at the pivot when the stroke starts and
+        // runs to the tail; before it arrives (and after the last stroke) a point is not bent,
+        // so no lobe of a stroke that never happened shows.
+        let theta = m.omega_t - TAU * xp / m.wavelength;
+        if theta < 0.0 || theta > m.stroke_end {
+            0.0
+        } else {
+            let a_st = amp * m.bend * c.f;
+            if turn.tabled {
+                // Eq. (6), F_st = A·d·|sin(2π·x'/Λ'' − 2π·ω''·t)|, by angle subtraction.
+                let (sin_t, cos_t) = turn.sin_cos;
+                a_st * m.d * (s.turn.0 * cos_t - s.turn.1 * sin_t).abs()
             } else {
-                let gain = if kind == TurnKind::Quick {
-                    QUICK_TURN_BEND_GAIN
-                } else {
-                    SERIAL_TURN_BEND_GAIN
-                };
-                let a_st = amp * gain * c.f;
-                if turn.tabled {
-                    // Eq. (6), F_st = A·d·|sin(2π·x'/Λ'' − 2π·ω''·t)|, by angle subtraction.
-                    let (sin_t, cos_t) = turn.sin_cos;
-                    a_st * d * (s.turn.0 * cos_t - s.turn.1 * sin_t).abs()
-                } else {
-                    wave::f_st(a_st, xp, wavelength, a.elapsed_s, c.tt, d)
-                }
+                wave::f_st(a_st, xp, m.wavelength, a.elapsed_s, c.tt, m.d)
             }
         }
     };
