@@ -8,9 +8,7 @@ use rand_pcg::Pcg32;
 use super::sense::wrap_angle;
 use super::steer::{self, Agent, Steer, SteerMemo, SteerParams};
 use super::types::finite;
-use super::{
-    CONTACT_MARGIN_LENGTHS, FishId, MAX_DRIVEN_JOINTS, Species, SpeciesId, World, WorldError,
-};
+use super::{CONTACT_MARGIN_LENGTHS, FishId, Species, SpeciesId, World, WorldError};
 use crate::motion::{MotionPlayer, MotionRequest, RootState};
 
 /// What a fish's behaviour may change while it decides, checked out of the world by
@@ -200,19 +198,13 @@ impl<'w> FishRef<'w> {
     /// As the last motion stage stored it, or, when that stage left the body's shape to the GPU
     /// pose pass, derived from the fish's motion player now (the same values).
     pub fn lateral(&self) -> Vec<f32> {
-        let n = self
-            .species()
-            .rig
-            .body
-            .joints_x
-            .len()
-            .min(MAX_DRIVEN_JOINTS + 1);
+        let (n, _) = super::stages::shape_lens(&self.species().rig.body);
         self.world.shape_of(self.d).0[..n].to_vec()
     }
 
     /// Each driven joint's local yaw, radians (stored or derived, as [`FishRef::lateral`]).
     pub fn yaw(&self) -> Vec<f32> {
-        let n = self.species().rig.body.power.len().min(MAX_DRIVEN_JOINTS);
+        let (_, n) = super::stages::shape_lens(&self.species().rig.body);
         self.world.shape_of(self.d).1[..n].to_vec()
     }
 

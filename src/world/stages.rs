@@ -50,8 +50,7 @@ impl World {
             .map(|(((((player, root), lateral), yaw), contact), sid)| {
                 let sp = &species[usize::from(sid.0)];
                 let body = &sp.rig.body;
-                let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
-                let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
+                let (samples, driven) = shape_lens(body);
                 let before = *root;
                 // The table was built from this species' params and body when it was added or
                 // replaced (species change no other way), so it matches without a check.
@@ -117,21 +116,14 @@ impl World {
         let (mut lateral, mut yaw) = (fish.lateral[d], fish.yaw[d]);
         if !self.shapes_current {
             let sid = usize::from(fish.species[d].0);
-            let sp = &self.species[sid];
-            let body = &sp.rig.body;
-            let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
-            let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
-            fish.players[d].shape_tabled(
+            derive_shape(
+                &fish.players[d],
                 fish.roots[d].speed,
-                &sp.desc.motion,
-                body,
+                &self.species[sid],
                 &self.wave_tables[sid],
-                &mut lateral[..samples],
-                &mut yaw[..driven],
+                &mut lateral,
+                &mut yaw,
             );
-            if !finite_shape(&lateral[..samples], &yaw[..driven]) {
-                (lateral, yaw) = Default::default();
-            }
         }
         (lateral, yaw)
     }
@@ -154,22 +146,16 @@ impl World {
             .zip(fish.species.par_iter())
             .with_min_len(256)
             .for_each(|((((player, root), lateral), yaw), sid)| {
-                let sp = &species[usize::from(sid.0)];
-                let body = &sp.rig.body;
-                let samples = body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1);
-                let driven = body.power.len().min(MAX_DRIVEN_JOINTS);
-                player.refresh_shape(
+                let s = usize::from(sid.0);
+                let head = derive_shape(
+                    player,
                     root.speed,
-                    &sp.desc.motion,
-                    body,
-                    &wave_tables[usize::from(sid.0)],
-                    &mut lateral[..samples],
-                    &mut yaw[..driven],
+                    &species[s],
+                    &wave_tables[s],
+                    lateral,
+                    yaw,
                 );
-                if !finite_shape(&lateral[..samples], &yaw[..driven]) {
-                    lateral.fill(0.0);
-                    yaw.fill(0.0);
-                }
+                player.set_head_shape(head);
             });
         self.shapes_current = true;
     }
@@ -428,6 +414,43 @@ impl World {
     pub fn counters_mut(&mut self) -> &mut StageCounters {
         &mut self.counters
     }
+}
+
+/// How many entries of a fish's stored `lateral` and `yaw` arrays `body` uses: its `joints_x`
+/// samples and its driven joints.
+pub(super) fn shape_lens(body: &crate::motion::Body) -> (usize, usize) {
+    (
+        body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1),
+        body.power.len().min(MAX_DRIVEN_JOINTS),
+    )
+}
+
+/// `player`'s body shape for a root moving at `speed`, into `lateral` and `yaw` as the motion
+/// stage stores them (all 0 if a value is not finite); returns the head's lateral offset and
+/// yaw, for [`crate::motion::MotionPlayer::set_head_shape`].
+fn derive_shape(
+    player: &crate::motion::MotionPlayer,
+    speed: f32,
+    sp: &super::Species,
+    table: &crate::motion::WaveTable,
+    lateral: &mut [f32; MAX_DRIVEN_JOINTS + 1],
+    yaw: &mut [f32; MAX_DRIVEN_JOINTS],
+) -> (f32, f32) {
+    let body = &sp.rig.body;
+    let (samples, driven) = shape_lens(body);
+    let head = player.shape_tabled(
+        speed,
+        &sp.desc.motion,
+        body,
+        table,
+        &mut lateral[..samples],
+        &mut yaw[..driven],
+    );
+    if !finite_shape(&lateral[..samples], &yaw[..driven]) {
+        lateral.fill(0.0);
+        yaw.fill(0.0);
+    }
+    head
 }
 
 /// Whether a body shape's values are all finite.

@@ -253,17 +253,16 @@ impl MotionPlayer {
         yaw: &mut [f32],
     ) {
         self.advance_tabled(dt, params, root);
-        let (head_lateral, head_yaw) =
-            self.shape_tabled(root.speed, params, body, table, lateral, yaw);
-        self.head_lateral = head_lateral;
-        self.head_yaw = head_yaw;
+        let head = self.shape_tabled(root.speed, params, body, table, lateral, yaw);
+        self.set_head_shape(head);
     }
 
     /// The step without the body's shape: queue, root locomotion, phase and blend, as
     /// [`MotionPlayer::step_tabled`] does them, but `lateral`, `yaw`,
     /// [`MotionPlayer::head_lateral`] and [`MotionPlayer::head_yaw`] are left as they were. For a
     /// caller that derives the shape elsewhere (the GPU pose pass, from
-    /// [`MotionPlayer::shape_terms`]) or later ([`MotionPlayer::shape_tabled`]).
+    /// [`MotionPlayer::shape_terms`]) or later ([`MotionPlayer::shape_tabled`], then
+    /// [`MotionPlayer::set_head_shape`]).
     pub(crate) fn advance_tabled(&mut self, dt: f32, params: &MotionParams, root: &mut RootState) {
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         if !root.speed.is_finite() || root.speed < 0.0 {
@@ -303,21 +302,10 @@ impl MotionPlayer {
         pose_body(head, params, body, lateral, yaw)
     }
 
-    /// Recomputes [`MotionPlayer::head_lateral`] and [`MotionPlayer::head_yaw`] with
-    /// [`MotionPlayer::shape_tabled`], writing `lateral` and `yaw`: after steps taken with
-    /// [`MotionPlayer::advance_tabled`], the player and the arrays are then as whole steps
-    /// would have left them.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn refresh_shape(
-        &mut self,
-        speed: f32,
-        params: &MotionParams,
-        body: &Body,
-        table: &WaveTable,
-        lateral: &mut [f32],
-        yaw: &mut [f32],
-    ) {
-        let (head_lateral, head_yaw) = self.shape_tabled(speed, params, body, table, lateral, yaw);
+    /// Stores what [`MotionPlayer::shape_tabled`] returned as [`MotionPlayer::head_lateral`]
+    /// and [`MotionPlayer::head_yaw`]: after steps taken with [`MotionPlayer::advance_tabled`],
+    /// the player is then as whole steps would have left it.
+    pub(crate) fn set_head_shape(&mut self, (head_lateral, head_yaw): (f32, f32)) {
         self.head_lateral = head_lateral;
         self.head_yaw = head_yaw;
     }
