@@ -4,7 +4,8 @@
 //! The grid is rebuilt from scratch every tick by a counting sort into flat arrays: count items per
 //! cell, prefix-sum the counts into `cell_start`, scatter the items. Within a cell items keep their
 //! input order, so queries visit items in a deterministic order. After the first rebuild at a given
-//! size no rebuild allocates.
+//! size no rebuild allocates. [`Grid::rebuild_indexed`] (the fish grid's) does the same over every
+//! core, slot for slot.
 //!
 //! Items outside the grid's bounds are clamped into the border cells, so a query still finds them:
 //! clamping is monotonic, so an item within `radius` of the query point always lies in the (clamped)
@@ -16,6 +17,12 @@ use glam::Vec3;
 
 /// Upper bound on the number of cells; a cell size that would give more is enlarged.
 pub const MAX_CELLS: usize = 1 << 18;
+
+/// Fewest items [`Grid::rebuild_indexed`] hands a thread; below it one thread does the scatter.
+const PAR_MIN_ITEMS: usize = 2048;
+
+/// Most blocks [`Grid::rebuild_indexed`] scatters in parallel.
+const MAX_SCATTER_BLOCKS: usize = 16;
 
 /// A uniform grid over an axis-aligned box, holding items (by `u32` key) with positions.
 #[derive(Debug, Clone)]
@@ -32,6 +39,8 @@ pub struct Grid {
     positions: Vec<Vec3>,
     /// Scratch: the cell of each input item, in input order.
     cell_of: Vec<u32>,
+    /// Scratch of [`Grid::rebuild_indexed`]: each cell's next free slot while scattering.
+    cursor: Vec<u32>,
 }
 
 impl Default for Grid {
@@ -54,6 +63,7 @@ impl Grid {
             keys: Vec::new(),
             positions: Vec::new(),
             cell_of: Vec::new(),
+            cursor: Vec::new(),
         };
         grid.configure(min, max, cell_size);
         grid
@@ -162,6 +172,83 @@ impl Grid {
             self.cell_start[c] = self.cell_start[c - 1];
         }
         self.cell_start[0] = 0;
+    }
+
+    /// [`Grid::rebuild`] of items keyed by their index, `0..n` at `pos_of(i)`, over every core:
+    /// the same keys, positions and cells, slot for slot.
+    ///
+    /// The cells are worked out in parallel, counted and prefix-summed on one thread (a few
+    /// instructions an item), then scattered in parallel by blocks of consecutive cells: each
+    /// block's slots are one contiguous run of the arrays, so each thread owns its run, and it
+    /// scans the items in input order, so items keep that order within a cell. Once the arrays
+    /// have grown to the item count it allocates only the list of blocks (one per thread).
+    pub fn rebuild_indexed(&mut self, n: usize, pos_of: impl Fn(usize) -> Vec3 + Sync) {
+        use rayon::prelude::*;
+        let cells = self.num_cells();
+        self.cell_of.resize(n, 0);
+        let mut cell_of = std::mem::take(&mut self.cell_of);
+        let grid = &*self;
+        cell_of
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(PAR_MIN_ITEMS)
+            .for_each(|(i, c)| *c = grid.cell_index(grid.coord(pos_of(i))) as u32);
+        self.cell_of = cell_of;
+        // Counts, then the start of each cell (cell_start[c + 1] is the end of cell c).
+        self.cell_start.fill(0);
+        for &c in &self.cell_of {
+            self.cell_start[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        self.keys.resize(n, 0);
+        self.positions.resize(n, Vec3::ZERO);
+        // Blocks of consecutive cells holding about n / blocks items each, and their slot runs.
+        let blocks = rayon::current_num_threads().clamp(1, MAX_SCATTER_BLOCKS);
+        let blocks = if n < PAR_MIN_ITEMS { 1 } else { blocks };
+        let mut ends = [0usize; MAX_SCATTER_BLOCKS];
+        let mut c = 0;
+        for (b, end) in ends.iter_mut().enumerate().take(blocks) {
+            let want = (n * (b + 1)).div_ceil(blocks) as u32;
+            while c < cells && self.cell_start[c + 1] <= want && b + 1 < blocks {
+                c += 1;
+            }
+            *end = if b + 1 == blocks { cells } else { c };
+        }
+        // Running slot of each cell (from its start), split with the arrays by block.
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.cell_start[..cells]);
+        let mut work = Vec::with_capacity(blocks);
+        let (mut keys, mut positions) = (&mut self.keys[..], &mut self.positions[..]);
+        let mut cursor = &mut self.cursor[..];
+        let mut first_cell = 0;
+        for &end_cell in &ends[..blocks] {
+            let len = (self.cell_start[end_cell] - self.cell_start[first_cell]) as usize;
+            let (k, rest_k) = keys.split_at_mut(len);
+            let (p, rest_p) = positions.split_at_mut(len);
+            let (c, rest_c) = cursor.split_at_mut(end_cell - first_cell);
+            work.push((first_cell as u32, self.cell_start[first_cell], c, k, p));
+            (keys, positions, cursor) = (rest_k, rest_p, rest_c);
+            first_cell = end_cell;
+        }
+        let cell_of = &self.cell_of;
+        work.into_par_iter()
+            .for_each(|(lo, base, cursor, keys, positions)| {
+                let hi = lo + cursor.len() as u32;
+                if lo == hi {
+                    return;
+                }
+                for (i, &c) in cell_of.iter().enumerate() {
+                    if c >= lo && c < hi {
+                        let slot = &mut cursor[(c - lo) as usize];
+                        let at = (*slot - base) as usize;
+                        keys[at] = i as u32;
+                        positions[at] = pos_of(i);
+                        *slot += 1;
+                    }
+                }
+            });
     }
 
     /// Item keys in the grid's cell order (slot order): entry `s` is the item in slot `s`.
@@ -287,6 +374,57 @@ mod tests {
             true
         });
         assert_eq!(found, vec![0, 2]);
+    }
+
+    /// The parallel rebuild gives the serial one's grid, slot for slot, whatever the thread
+    /// count: clustered and empty cells, items outside the box, NaN positions.
+    #[test]
+    fn parallel_rebuild_equals_the_serial_one() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1 << 24) as f32
+        };
+        for (n, threads) in [(0, 2), (5, 2), (3000, 1), (9000, 2), (9000, 3), (20000, 7)] {
+            let pts: Vec<Vec3> = (0..n)
+                .map(|i| match i % 97 {
+                    0 => Vec3::new(-50.0, next() * 10.0, 200.0),
+                    1 => Vec3::NAN,
+                    // A dense school in a few cells, the rest spread over the box.
+                    k if k < 60 => Vec3::new(30.0 + next(), 40.0 + next(), 50.0 + next()),
+                    _ => Vec3::new(next() * 100.0, next() * 60.0, next() * 80.0),
+                })
+                .collect();
+            let mut serial = Grid::new(Vec3::ZERO, Vec3::new(100.0, 60.0, 80.0), 7.0);
+            serial.rebuild(pts.iter().enumerate().map(|(i, &p)| (i as u32, p)));
+            let mut parallel = Grid::new(Vec3::ZERO, Vec3::new(100.0, 60.0, 80.0), 7.0);
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            // Twice: the second rebuild reuses the arrays of the first.
+            for _ in 0..2 {
+                pool.install(|| parallel.rebuild_indexed(n, |i| pts[i]));
+                assert_eq!(
+                    parallel.cell_start, serial.cell_start,
+                    "{n} items, {threads} threads"
+                );
+                assert_eq!(parallel.keys, serial.keys, "{n} items, {threads} threads");
+                let bits = |g: &Grid| -> Vec<[u32; 3]> {
+                    g.positions
+                        .iter()
+                        .map(|p| p.to_array().map(f32::to_bits))
+                        .collect()
+                };
+                assert_eq!(
+                    bits(&parallel),
+                    bits(&serial),
+                    "{n} items, {threads} threads"
+                );
+            }
+        }
     }
 
     #[test]

@@ -29,6 +29,8 @@ pub(in crate::world) struct CrowdColumns {
     groups: Vec<Candidates>,
     /// Slots filled (without the padding).
     slots: usize,
+    /// Scratch of [`CrowdColumns::fill`]: each fish's heading vector, in fish order.
+    headings: Vec<Vec2>,
 }
 
 /// The key of a padding slot: never a fish's dense index.
@@ -63,17 +65,27 @@ impl CrowdColumns {
     }
 
     /// Fills the columns from the grid's cell-ordered `keys`, `positions` and `species`, with
-    /// each fish's heading read by `heading(key)`, over both cores.
+    /// the heading of fish `k` (a key, `0..num_fish`) read by `heading(k)`, over both cores.
+    /// The headings' cosines and sines are taken first in fish order, where `heading` reads
+    /// memory in order, then gathered in slot order.
     pub(in crate::world) fn fill(
         &mut self,
         keys: &[u32],
         positions: &[Vec3],
         species: &[SpeciesId],
-        heading: impl Fn(u32) -> f32 + Sync,
+        num_fish: usize,
+        heading: impl Fn(usize) -> f32 + Sync,
     ) {
-        self.slots = keys.len();
-        self.groups.resize(keys.len().div_ceil(4), Candidates::PAD);
         use rayon::prelude::*;
+        self.slots = keys.len();
+        self.headings.resize(num_fish, Vec2::ZERO);
+        self.headings
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(k, h)| *h = super::heading_vector(heading(k)));
+        let headings = &self.headings;
+        self.groups.resize(keys.len().div_ceil(4), Candidates::PAD);
         self.groups
             .par_iter_mut()
             .zip(keys.par_chunks(4))
@@ -91,7 +103,7 @@ impl CrowdColumns {
                 ];
                 let (mut sp, mut key) = ([0; 4], [PAD_KEY; 4]);
                 for (lane, ((&k, p), s)) in keys.iter().zip(positions).zip(species).enumerate() {
-                    let h = super::heading_vector(heading(k));
+                    let h = headings[k as usize];
                     (f[0][lane], f[1][lane], f[2][lane]) = (p.x, p.y, p.z);
                     (f[3][lane], f[4][lane]) = (h.x, h.y);
                     (sp[lane], key[lane]) = (u32::from(s.0), k);
@@ -254,7 +266,7 @@ mod tests {
             .collect();
         let species: Vec<SpeciesId> = (0..n).map(|i| SpeciesId((i % 3 == 0) as u16)).collect();
         let mut c = CrowdColumns::default();
-        c.fill(&keys, &positions, &species, |k| 0.37 * k as f32);
+        c.fill(&keys, &positions, &species, n as usize, |k| 0.37 * k as f32);
         let me = 5usize;
         let slot = keys.iter().position(|&k| k as usize == me).unwrap();
         let q = LaneQuery::new(positions[slot], me, species[slot], [4.0, 36.0, 100.0]);
