@@ -449,3 +449,27 @@ fn vision_batch_equals_one_query_per_fish_on_any_thread_count() {
         );
     }
 }
+
+/// Fish running one behaviour share its name's allocation (the behaviour stage finds a fish's
+/// module by that pointer), a switch to a name some fish already runs shares it too, and
+/// another name gets its own.
+#[test]
+fn fish_running_one_behaviour_share_its_name() {
+    let (mut w, porgy, _) = world();
+    let with = |name: &str, x: f32| SpawnParams {
+        behavior: Some(name.to_owned()),
+        ..at(porgy, Vec3::new(x, 100.0, 100.0), 0.0)
+    };
+    let a = w.spawn(with("school", 100.0)).unwrap();
+    let b = w.spawn(with("forage", 200.0)).unwrap();
+    let c = w.spawn(with("school", 300.0)).unwrap();
+    let name = |w: &shoal::world::World, id| w.behavior_name_of(id).unwrap().clone();
+    assert!(std::sync::Arc::ptr_eq(&name(&w, a), &name(&w, c)));
+    assert!(!std::sync::Arc::ptr_eq(&name(&w, a), &name(&w, b)));
+    assert!(w.set_behavior(b, Some("school".to_owned())));
+    assert!(std::sync::Arc::ptr_eq(&name(&w, a), &name(&w, b)));
+    assert_eq!(w.behavior_of(b), Some("school"));
+    assert!(w.set_behavior(c, Some("wander".to_owned())));
+    assert_eq!(w.behavior_of(c), Some("wander"));
+    assert!(!std::sync::Arc::ptr_eq(&name(&w, a), &name(&w, c)));
+}

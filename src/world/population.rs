@@ -165,12 +165,21 @@ impl World {
             .and_then(|d| self.state.fish.behaviors[d].as_deref())
     }
 
+    /// [`World::behavior_of`] as the name's shared allocation: fish running the same behaviour
+    /// hold the same one, so callers can tell names apart by pointer.
+    pub fn behavior_name_of(&self, id: FishId) -> Option<&std::sync::Arc<str>> {
+        self.state
+            .fish
+            .dense(id)
+            .and_then(|d| self.state.fish.behaviors[d].as_ref())
+    }
+
     /// Sets (or clears) the behaviour a fish runs. False if `id` is stale.
     pub fn set_behavior(&mut self, id: FishId, behavior: Option<String>) -> bool {
         let Some(d) = self.state.fish.dense(id) else {
             return false;
         };
-        self.state.fish.behaviors[d] = behavior;
+        self.state.fish.behaviors[d] = behavior.map(|name| self.state.fish.intern(name));
         true
     }
 

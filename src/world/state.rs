@@ -106,7 +106,14 @@ impl WorldState {
             v.capacity() * std::mem::size_of::<T>()
         }
         let f = &self.fish;
-        let names: usize = f.behaviors.iter().flatten().map(String::capacity).sum();
+        // Each shared name once (fish running one behaviour hold the same allocation).
+        let mut distinct: Vec<&std::sync::Arc<str>> = Vec::new();
+        for b in f.behaviors.iter().flatten() {
+            if !distinct.iter().any(|d| std::sync::Arc::ptr_eq(d, b)) {
+                distinct.push(b);
+            }
+        }
+        let names: usize = distinct.iter().map(|b| b.len()).sum();
         size_of_val(self)
             + vec(&f.ids)
             + vec(&f.roots)

@@ -5,6 +5,8 @@
 //! into the hole, so the arrays stay dense; handles survive that because a slot table maps each
 //! handle's `index` to its dense position, and a per-slot generation makes stale handles miss.
 
+use std::sync::Arc;
+
 use rand::SeedableRng;
 use rand_pcg::Pcg32;
 
@@ -45,7 +47,10 @@ pub(crate) struct FishStore {
     /// Midline lateral displacement at `body.joints_x`, world units; first `joints_x.len()` used
     /// (written with `yaw`).
     pub lateral: Vec<[f32; MAX_DRIVEN_JOINTS + 1]>,
-    pub behaviors: Vec<Option<String>>,
+    /// Each fish's behaviour, by name. Fish running the same behaviour share one allocation
+    /// ([`FishStore::intern`]), so a state clones without copying names and the behaviour stage
+    /// finds a fish's module by pointer.
+    pub behaviors: Vec<Option<Arc<str>>>,
     pub seeds: Vec<u64>,
     pub rngs: Vec<Pcg32>,
     pub contact: Vec<bool>,
@@ -84,12 +89,31 @@ impl FishStore {
         self.players.push(Box::new(fish.player));
         self.yaw.push([0.0; MAX_DRIVEN_JOINTS]);
         self.lateral.push([0.0; MAX_DRIVEN_JOINTS + 1]);
-        self.behaviors.push(fish.behavior);
+        let behavior = fish.behavior.map(|name| self.intern(name));
+        self.behaviors.push(behavior);
         self.seeds.push(fish.seed);
         self.rngs.push(Pcg32::seed_from_u64(fish.seed));
         self.contact.push(false);
         self.steer.push(SteerMemo::default());
         id
+    }
+
+    /// `name` as a shared behaviour name: the allocation a fish already running it holds, else a
+    /// new one. Called when a fish is added or switches behaviour. Scans the fish from the most
+    /// recent, comparing text only where the allocation changes (a few distinct names live at a
+    /// time), so a batch of fish with one behaviour shares it at once.
+    pub fn intern(&self, name: String) -> Arc<str> {
+        let mut last: Option<&Arc<str>> = None;
+        for b in self.behaviors.iter().rev().flatten() {
+            if last.is_some_and(|l| Arc::ptr_eq(l, b)) {
+                continue;
+            }
+            if **b == *name {
+                return Arc::clone(b);
+            }
+            last = Some(b);
+        }
+        Arc::from(name)
     }
 
     /// Removes `id`; the last fish moves into its dense position. Returns the dense position

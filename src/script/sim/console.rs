@@ -233,9 +233,9 @@ impl Simulation {
         for lane in &self.sim.behavior.lanes {
             for (name, _) in &lane.module_of {
                 if let Some(why) = lane.host.quarantine_of(name)
-                    && !out.iter().any(|(n, _)| n == name)
+                    && !out.iter().any(|(n, _)| **n == **name)
                 {
-                    out.push((name.clone(), why.to_owned()));
+                    out.push((name.to_string(), why.to_owned()));
                 }
             }
         }

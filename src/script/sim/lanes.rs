@@ -26,18 +26,26 @@ struct Due {
     controls: FishControls,
 }
 
-/// The lane's module for `behavior`, loading it on first use.
+/// The lane's module for `behavior`, loading it on first use. Found by the name's allocation
+/// (fish running one behaviour share it; see `World::behavior_name_of`), by its text only when
+/// that misses: a string comparison per decision read each fish's name from memory.
 fn module_for(
-    module_of: &mut Vec<(String, Option<ModuleIndex>)>,
+    module_of: &mut Vec<(Arc<str>, Option<ModuleIndex>)>,
     host: &mut ScriptHost,
-    behavior: &str,
+    behavior: &Arc<str>,
     time_s: f64,
 ) -> Option<ModuleIndex> {
+    if let Some((_, m)) = module_of
+        .iter()
+        .find(|(name, _)| Arc::ptr_eq(name, behavior))
+    {
+        return *m;
+    }
     if let Some((_, m)) = module_of.iter().find(|(name, _)| name == behavior) {
         return *m;
     }
     let m = host.module(behavior, time_s);
-    module_of.push((behavior.to_owned(), m));
+    module_of.push((Arc::clone(behavior), m));
     m
 }
 
@@ -47,7 +55,7 @@ pub(super) struct Lane {
     pub(super) host: ScriptHost,
     /// Behaviour name → the lane's module (`None`: it failed to load). A handful of entries,
     /// searched linearly.
-    pub(super) module_of: Vec<(String, Option<ModuleIndex>)>,
+    pub(super) module_of: Vec<(Arc<str>, Option<ModuleIndex>)>,
     due: Vec<Due>,
     /// `due.len()` entries are live; the rest keep their buffers for later ticks.
     num_due: usize,
@@ -154,7 +162,7 @@ impl Lane {
             for d in due.iter_mut() {
                 // The fish's module and table are found here, in the lane's thread.
                 let sid = d.species;
-                let Some(behavior) = world.behavior_of(d.id) else {
+                let Some(behavior) = world.behavior_name_of(d.id) else {
                     continue;
                 };
                 let Some(module) = module_for(module_of, host, behavior, time_s) else {

@@ -106,7 +106,7 @@ impl Simulation {
                         let never_loaded = |stem: &str| {
                             lane.module_of
                                 .iter()
-                                .position(|(n, m)| n == stem && m.is_none())
+                                .position(|(n, m)| **n == *stem && m.is_none())
                         };
                         if let (Some(stem), true) = (stem, in_behaviors)
                             && let Some(i) = never_loaded(&stem)
