@@ -159,10 +159,7 @@ impl World {
 
     /// The behaviour script a fish runs.
     pub fn behavior_of(&self, id: FishId) -> Option<&str> {
-        self.state
-            .fish
-            .dense(id)
-            .and_then(|d| self.state.fish.behaviors[d].as_deref())
+        self.behavior_name_of(id).map(|name| &**name)
     }
 
     /// [`World::behavior_of`] as the name's shared allocation: fish running the same behaviour

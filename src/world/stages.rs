@@ -49,31 +49,18 @@ impl World {
             .with_min_len(256)
             .map(|(((((player, root), lateral), yaw), contact), sid)| {
                 let sp = &species[usize::from(sid.0)];
-                let body = &sp.rig.body;
-                let (samples, driven) = shape_lens(body);
                 let before = *root;
                 // The table was built from this species' params and body when it was added or
                 // replaced (species change no other way), so it matches without a check.
                 let table = &wave_tables[usize::from(sid.0)];
-                debug_assert!(table.matches(&sp.desc.motion, body));
+                debug_assert!(table.matches(&sp.desc.motion, &sp.rig.body));
                 let mut rejected = 0;
+                // The whole step (`MotionPlayer::step_tabled`) is these halves, bit for bit.
+                player.advance_tabled(dt, &sp.desc.motion, root);
                 if shape_on_cpu {
-                    player.step_tabled(
-                        dt,
-                        &sp.desc.motion,
-                        body,
-                        table,
-                        root,
-                        &mut lateral[..samples],
-                        &mut yaw[..driven],
-                    );
-                    if !finite_shape(&lateral[..samples], &yaw[..driven]) {
-                        lateral.fill(0.0);
-                        yaw.fill(0.0);
-                        rejected = 1;
-                    }
-                } else {
-                    player.advance_tabled(dt, &sp.desc.motion, root);
+                    let (head, finite) = derive_shape(player, root.speed, sp, table, lateral, yaw);
+                    player.set_head_shape(head);
+                    rejected = u64::from(!finite);
                 }
                 if !(root.pos.is_finite()
                     && root.heading.is_finite()
@@ -147,7 +134,7 @@ impl World {
             .with_min_len(256)
             .for_each(|((((player, root), lateral), yaw), sid)| {
                 let s = usize::from(sid.0);
-                let head = derive_shape(
+                let (head, _) = derive_shape(
                     player,
                     root.speed,
                     &species[s],
@@ -428,7 +415,7 @@ pub(super) fn shape_lens(body: &crate::motion::Body) -> (usize, usize) {
 
 /// `player`'s body shape for a root moving at `speed`, into `lateral` and `yaw` as the motion
 /// stage stores them (all 0 if a value is not finite); returns the head's lateral offset and
-/// yaw, for [`crate::motion::MotionPlayer::set_head_shape`].
+/// yaw, for [`crate::motion::MotionPlayer::set_head_shape`], and whether the shape was finite.
 fn derive_shape(
     player: &crate::motion::MotionPlayer,
     speed: f32,
@@ -436,7 +423,7 @@ fn derive_shape(
     table: &crate::motion::WaveTable,
     lateral: &mut [f32; MAX_DRIVEN_JOINTS + 1],
     yaw: &mut [f32; MAX_DRIVEN_JOINTS],
-) -> (f32, f32) {
+) -> ((f32, f32), bool) {
     let body = &sp.rig.body;
     let (samples, driven) = shape_lens(body);
     let head = player.shape_tabled(
@@ -447,11 +434,12 @@ fn derive_shape(
         &mut lateral[..samples],
         &mut yaw[..driven],
     );
-    if !finite_shape(&lateral[..samples], &yaw[..driven]) {
+    let finite = finite_shape(&lateral[..samples], &yaw[..driven]);
+    if !finite {
         lateral.fill(0.0);
         yaw.fill(0.0);
     }
-    head
+    (head, finite)
 }
 
 /// Whether a body shape's values are all finite.
