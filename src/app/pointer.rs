@@ -46,9 +46,133 @@ impl Pointer {
     }
 }
 
+/// Whether the pointer at `pos` (physical pixels, as the window's latest event put it) belongs
+/// to the panel or another egui area rather than to the 3D view. `panel`: the side panel's
+/// rect in physical pixels, as last drawn; `pixels_per_point`: egui's scale.
+///
+/// Decided from `pos`, not from egui's own hover state: egui learns where the pointer is only
+/// when it runs its next frame, so right after the pointer leaves the panel,
+/// `egui_wants_pointer_input` (and the `consumed` flag egui-winit derives from it) still say
+/// "over the panel". Trusting them ate the first click in the view after the pointer left
+/// the panel — for a whole frame, which on a software renderer is a quarter of a second. A
+/// drag egui is carrying out (a slider, the panel's resize edge) stays egui's wherever the
+/// pointer is.
+pub fn pointer_over_ui(
+    ctx: &egui::Context,
+    pos: Vec2,
+    panel: Option<egui::Rect>,
+    pixels_per_point: f32,
+) -> bool {
+    let px = egui::pos2(pos.x, pos.y);
+    if panel.is_some_and(|r| r.contains(px)) || ctx.egui_is_using_pointer() {
+        return true;
+    }
+    // Windows, pop-ups and other interactable areas over the view, where they were last drawn.
+    let point = px / pixels_per_point.max(f32::MIN_POSITIVE);
+    ctx.layer_id_at(point)
+        .is_some_and(|layer| layer.order != egui::Order::Background)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One egui frame of a window 800×600 points with a 200-point panel on the right holding
+    /// a slider, the pointer events `events` fed in first.
+    fn frame(ctx: &egui::Context, events: Vec<egui::Event>, value: &mut f32) -> egui::Rect {
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(800.0, 600.0),
+            )),
+            events,
+            ..Default::default()
+        };
+        let mut panel = egui::Rect::NOTHING;
+        let mut output = ctx.run_ui(input, |ui| {
+            let shown = egui::Panel::right("tuning")
+                .exact_size(200.0)
+                .show(ui, |ui| {
+                    ui.add(egui::Slider::new(value, 0.0..=1.0).text("speed"));
+                });
+            panel = shown.response.rect;
+        });
+        output.textures_delta.clear(); // no renderer to hand the font atlas to
+        panel
+    }
+
+    #[test]
+    fn a_click_just_after_leaving_the_panel_is_the_views() {
+        let ctx = egui::Context::default();
+        let mut value = 0.5;
+        let moved = |x: f32, y: f32| egui::Event::PointerMoved(egui::pos2(x, y));
+        frame(&ctx, vec![], &mut value);
+        // egui's last frame saw the pointer over the panel.
+        let panel = frame(&ctx, vec![moved(700.0, 300.0)], &mut value);
+        assert!(panel.contains(egui::pos2(700.0, 300.0)), "{panel:?}");
+        assert!(
+            ctx.egui_wants_pointer_input(),
+            "egui still thinks it has the pointer"
+        );
+        // The pointer has since moved into the view (no frame in between): the press there is
+        // the view's, while one on the panel stays the panel's.
+        let view = Vec2::new(300.0, 300.0);
+        assert!(!pointer_over_ui(&ctx, view, Some(panel), 1.0));
+        assert!(pointer_over_ui(
+            &ctx,
+            Vec2::new(700.0, 300.0),
+            Some(panel),
+            1.0
+        ));
+        // At 2 physical pixels per point the panel rect comes in pixels and areas in points.
+        let panel_px = panel * 2.0;
+        assert!(!pointer_over_ui(&ctx, view * 2.0, Some(panel_px), 2.0));
+        assert!(pointer_over_ui(
+            &ctx,
+            Vec2::new(1400.0, 600.0),
+            Some(panel_px),
+            2.0
+        ));
+    }
+
+    #[test]
+    fn a_drag_egui_is_carrying_out_stays_egui_s_over_the_view() {
+        let ctx = egui::Context::default();
+        let mut value = 0.5;
+        let button = |pos: egui::Pos2, pressed: bool| egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        };
+        let panel = frame(&ctx, vec![], &mut value);
+        // Find the slider: press on the panel's first row and drag left into the view.
+        let start = egui::pos2(panel.left() + 40.0, panel.top() + 12.0);
+        frame(
+            &ctx,
+            vec![egui::Event::PointerMoved(start), button(start, true)],
+            &mut value,
+        );
+        let into_view = egui::pos2(300.0, 300.0);
+        frame(&ctx, vec![egui::Event::PointerMoved(into_view)], &mut value);
+        assert!(ctx.egui_is_using_pointer(), "the slider is being dragged");
+        assert!(pointer_over_ui(
+            &ctx,
+            Vec2::new(into_view.x, into_view.y),
+            Some(panel),
+            1.0
+        ));
+        // Released: the view has the pointer again.
+        frame(&ctx, vec![button(into_view, false)], &mut value);
+        frame(&ctx, vec![], &mut value);
+        assert!(!ctx.egui_is_using_pointer());
+        assert!(!pointer_over_ui(
+            &ctx,
+            Vec2::new(into_view.x, into_view.y),
+            Some(panel),
+            1.0
+        ));
+    }
 
     #[test]
     fn a_click_in_the_view_picks_and_a_click_egui_took_does_not() {

@@ -694,17 +694,20 @@ impl ApplicationHandler for App {
             }
             _ => {
                 // egui sees every event first; the view only gets the pointer where egui does
-                // not want it (a click on a panel button must not also pick a fish).
-                let cursor = self.aq.ui.pointer.cursor;
-                let over_panel = self
-                    .aq
-                    .ui
-                    .panel_rect_px
-                    .is_some_and(|r| r.contains(egui::pos2(cursor.x, cursor.y)));
-                let over_ui = response.consumed
-                    || over_panel
-                    || ws.egui_ctx.is_pointer_over_egui()
-                    || ws.egui_ctx.egui_wants_pointer_input();
+                // not want it (a click on a panel button must not also pick a fish). Where the
+                // pointer is comes from the events, not from egui's last frame (see
+                // `pointer_over_ui`).
+                let over_ui = match &event {
+                    WindowEvent::CursorMoved { .. }
+                    | WindowEvent::MouseInput { .. }
+                    | WindowEvent::MouseWheel { .. } => super::pointer::pointer_over_ui(
+                        &ws.egui_ctx,
+                        self.aq.ui.pointer.cursor,
+                        self.aq.ui.panel_rect_px,
+                        ws.egui_ctx.pixels_per_point(),
+                    ),
+                    _ => response.consumed,
+                };
                 self.handle_input(&event, over_ui);
             }
         }
