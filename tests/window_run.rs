@@ -258,3 +258,45 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
         &w.seen[before_click..]
     );
 }
+
+/// The 3D view is drawn left of the panel, not under it: the window says how wide it draws the
+/// view, and that is where the panel begins (so the camera looks at the middle of what is seen,
+/// and a followed fish is there). A click in the middle of that view reaches the picker.
+#[test]
+fn the_3d_view_ends_where_the_panel_begins() {
+    let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
+    // The panel settles its layout over the first frames: its buttons stop moving.
+    w.button("pause");
+    let line = w
+        .seen
+        .iter()
+        .rev()
+        .find(|l| l.starts_with("ui: 3D view "))
+        .cloned()
+        .unwrap_or_else(|| panic!("the window never said how wide its view is:\n{:#?}", w.seen));
+    // "ui: 3D view WxH, panel from x=Some(L)"
+    let size = line["ui: 3D view ".len()..].split(',').next().unwrap();
+    let (width, height) = size.split_once('x').expect("WxH");
+    let width: u32 = width.parse().expect("width");
+    assert_eq!(height, "760", "{line}");
+    let panel_left: u32 = line
+        .split("x=Some(")
+        .nth(1)
+        .and_then(|r| r.strip_suffix(')'))
+        .and_then(|x| x.parse::<f32>().ok())
+        .unwrap_or_else(|| panic!("no panel in {line:?}")) as u32;
+    assert_eq!(width, panel_left, "{line}");
+    assert!(width < 1280 && width > 400, "{line}");
+    // A click in the middle of the view is the view's.
+    let before_click = w.seen.len();
+    let x = (width / 2).to_string();
+    w.xdotool(&["mousemove", &x, "380"]);
+    std::thread::sleep(Duration::from_millis(700));
+    w.xdotool(&["click", "1"]);
+    assert!(
+        w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60))
+            .is_some(),
+        "the click in the middle of the view did not reach the picker:\n{:#?}",
+        &w.seen[before_click..]
+    );
+}

@@ -293,10 +293,19 @@ impl UiState {
             r.width(),
             r.height()
         );
-        match self.traced.iter_mut().find(|(l, _)| l == label) {
+        self.trace_line(label, line);
+    }
+
+    /// With [`UiState::trace`], prints `line` unless the last line traced under `key` was the
+    /// same.
+    pub fn trace_line(&mut self, key: &str, line: String) {
+        if !self.trace {
+            return;
+        }
+        match self.traced.iter_mut().find(|(l, _)| l == key) {
             Some((_, last)) if *last == line => return,
             Some((_, last)) => *last = line.clone(),
-            None => self.traced.push((label.to_owned(), line.clone())),
+            None => self.traced.push((key.to_owned(), line.clone())),
         }
         println!("{line}");
     }

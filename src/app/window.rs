@@ -92,8 +92,11 @@ struct WindowState {
     egui_ctx: egui::Context,
     egui_state: egui_winit::State,
     egui_renderer: egui_wgpu::Renderer,
-    /// The split tank's two views' textures (A, B), each half the view wide.
-    split_targets: Vec<wgpu::Texture>,
+    /// The 3D view's textures, left of the panel: the aquarium's, or the split tank's two (A,
+    /// B), each half the view wide.
+    view_targets: Vec<wgpu::Texture>,
+    /// Whether the surface can be copied to (the views are drawn at their own size and copied).
+    surface_copyable: bool,
 }
 
 struct App {
@@ -137,19 +140,19 @@ impl App {
             .or_else(|| caps.formats.first().copied())
             .ok_or_else(|| GpuError::Surface("the surface supports no format".into()))?;
         let size = window.inner_size();
-        // The split tank copies its two views onto the surface; a single view draws straight
-        // into it.
+        // The 3D view left of the panel is drawn at its own size and copied onto the surface
+        // (see `encode_views`). A surface that cannot be copied to gets the aquarium drawn
+        // straight into the whole of it, under the panel too; the split tank needs the copy.
         let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        if self.aq.ui.split.is_some() {
-            if !caps.usages.contains(wgpu::TextureUsages::COPY_DST) {
-                return Err(GpuError::Surface(
-                    "this window surface cannot be copied to, which the split tank's two views \
-                     need"
-                        .into(),
-                )
-                .into());
-            }
+        let copyable = caps.usages.contains(wgpu::TextureUsages::COPY_DST);
+        if copyable {
             usage |= wgpu::TextureUsages::COPY_DST;
+        } else if self.aq.ui.split.is_some() {
+            return Err(GpuError::Surface(
+                "this window surface cannot be copied to, which the split tank's two views need"
+                    .into(),
+            )
+            .into());
         }
         let config = wgpu::SurfaceConfiguration {
             usage,
@@ -229,18 +232,15 @@ impl App {
             egui_ctx,
             egui_state,
             egui_renderer,
-            split_targets: Vec::new(),
+            view_targets: Vec::new(),
+            surface_copyable: copyable,
         });
         Ok(())
     }
 
     fn pick(&mut self, at: Vec2) {
         let Some(ws) = &self.window else { return };
-        let size = Vec2::new(ws.config.width as f32, ws.config.height as f32);
-        let size = match self.aq.ui.split {
-            Some(_) => Vec2::new(split_width(ws, &self.aq) as f32, size.y),
-            None => size,
-        };
+        let size = Vec2::new(views_width(ws, &self.aq) as f32, ws.config.height as f32);
         select_at(&mut self.aq.scene, &mut self.aq.ui, at, size);
     }
 
@@ -338,23 +338,13 @@ impl App {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("window frame encoder"),
             });
-        let size = (ws.config.width, ws.config.height);
-        let rt = if self.aq.ui.split.is_some() {
-            encode_split(
-                ws,
-                &mut self.aq,
-                &mut encoder,
-                &surface_texture.texture,
-                &view,
-            )?
-        } else {
-            let mut input = self.aq.scene.frame_input();
-            input.camera = self.aq.ui.camera;
-            input.overlay = &self.aq.ui.overlay;
-            ws.renderer
-                .encode(&ws.gpu, &mut encoder, &view, size, &input)?;
-            ws.renderer.timings()
-        };
+        let rt = encode_views(
+            ws,
+            &mut self.aq,
+            &mut encoder,
+            &surface_texture.texture,
+            &view,
+        )?;
         self.aq.ui.render_counts = rt;
         let extra = draw_panel(ws, &mut self.aq, &mut encoder, &view);
 
@@ -383,40 +373,63 @@ impl App {
     }
 }
 
-/// Width of the split tank's two views together, physical pixels: the window left of the panel
-/// (as it was last frame).
-fn split_width(ws: &WindowState, aq: &Aquarium) -> u32 {
-    let left = aq
-        .ui
-        .panel_rect_px
-        .map_or(ws.config.width as f32, |r| r.left());
-    (left.round() as u32).clamp(2, ws.config.width.max(2))
+/// Width of the 3D view (the split tank's two views together), physical pixels: the window
+/// left of the panel (as it was last frame), so the camera looks at the middle of what is
+/// seen and nothing is drawn under the panel — or the whole window where the surface cannot
+/// be copied to (see `encode_views`).
+fn views_width(ws: &WindowState, aq: &Aquarium) -> u32 {
+    let whole = ws.config.width.max(2);
+    if aq.ui.split.is_none() && !ws.surface_copyable {
+        return whole;
+    }
+    let left = aq.ui.panel_rect_px.map_or(whole as f32, |r| r.left());
+    (left.round() as u32).clamp(2, whole)
 }
 
-/// The split tank's views: A into the left texture and B into the right one, each half the view
-/// wide and submitted on its own (the renderer's buffers hold one frame at a time, and queued
-/// writes land before the next submission), then cleared and copied side by side into the
-/// surface by `encoder`. Returns A's render timings.
-fn encode_split(
+/// The 3D view left of the panel: the aquarium, or for the split tank A in the left half and
+/// B in the right. Each view is drawn into a texture of its own size and submitted on its own
+/// (the renderer's buffers hold one frame at a time, and queued writes land before the next
+/// submission), then the surface is cleared and `encoder` copies the views onto it side by
+/// side. Without a panel (before the first frame), or on a surface that cannot be copied to,
+/// the aquarium is drawn straight onto the whole surface. Returns A's render timings.
+fn encode_views(
     ws: &mut WindowState,
     aq: &mut Aquarium,
     encoder: &mut wgpu::CommandEncoder,
     surface: &wgpu::Texture,
     surface_view: &wgpu::TextureView,
 ) -> Result<crate::render::RenderTimings, AppError> {
-    let Some(split) = &aq.ui.split else {
-        return Ok(ws.renderer.timings());
-    };
-    let half = (split_width(ws, aq) / 2).max(1);
     let height = ws.config.height.max(1);
+    let width = views_width(ws, aq);
+    let panel_left = aq.ui.panel_rect_px.map(|r| r.left().round());
+    aq.ui.trace_line(
+        "3D view",
+        format!("ui: 3D view {width}x{height}, panel from x={panel_left:?}"),
+    );
+    if aq.ui.split.is_none() && width >= ws.config.width {
+        let mut input = aq.scene.frame_input();
+        input.camera = aq.ui.camera;
+        input.overlay = &aq.ui.overlay;
+        ws.renderer
+            .encode(&ws.gpu, encoder, surface_view, (width, height), &input)?;
+        return Ok(ws.renderer.timings());
+    }
+    let labels: &[&str] = match aq.ui.split {
+        Some(_) => &["split view A", "split view B"],
+        None => &["aquarium view"],
+    };
+    let each = (width / labels.len() as u32).max(1);
     let extent = wgpu::Extent3d {
-        width: half,
+        width: each,
         height,
         depth_or_array_layers: 1,
     };
-    if ws.split_targets.first().is_none_or(|t| t.size() != extent) {
-        ws.split_targets = ["split view A", "split view B"]
-            .map(|label| {
+    if ws.view_targets.len() != labels.len()
+        || ws.view_targets.first().is_none_or(|t| t.size() != extent)
+    {
+        ws.view_targets = labels
+            .iter()
+            .map(|&label| {
                 ws.gpu.device.create_texture(&wgpu::TextureDescriptor {
                     label: Some(label),
                     size: extent,
@@ -428,14 +441,13 @@ fn encode_split(
                     view_formats: &[],
                 })
             })
-            .into();
+            .collect();
     }
     let mut timings = None;
-    for (k, target) in ws.split_targets.iter().enumerate() {
-        let (scene, overlay) = if k == 0 {
-            (&aq.scene, aq.ui.overlay.as_slice())
-        } else {
-            (&split.scene, split.overlay.as_slice())
+    for (k, target) in ws.view_targets.iter().enumerate() {
+        let (scene, overlay) = match (&aq.ui.split, k) {
+            (Some(split), 1) => (&split.scene, split.overlay.as_slice()),
+            _ => (&aq.scene, aq.ui.overlay.as_slice()),
         };
         let mut input = scene.frame_input();
         input.camera = aq.ui.camera;
@@ -445,16 +457,16 @@ fn encode_split(
             .gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("split view encoder"),
+                label: Some("view encoder"),
             });
         ws.renderer
-            .encode(&ws.gpu, &mut own, &view, (half, height), &input)?;
+            .encode(&ws.gpu, &mut own, &view, (each, height), &input)?;
         ws.gpu.queue.submit([own.finish()]);
         timings.get_or_insert(ws.renderer.timings());
     }
     // Under the panel and in an odd pixel column nothing is drawn: clear the surface first.
     drop(encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("split clear"),
+        label: Some("view clear"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view: surface_view,
             depth_slice: None,
@@ -474,14 +486,14 @@ fn encode_split(
         occlusion_query_set: None,
         multiview_mask: None,
     }));
-    for (k, target) in ws.split_targets.iter().enumerate() {
+    for (k, target) in ws.view_targets.iter().enumerate() {
         encoder.copy_texture_to_texture(
             target.as_image_copy(),
             wgpu::TexelCopyTextureInfo {
                 texture: surface,
                 mip_level: 0,
                 origin: wgpu::Origin3d {
-                    x: half * k as u32,
+                    x: each * k as u32,
                     y: 0,
                     z: 0,
                 },
