@@ -60,6 +60,35 @@ fn shoal_run_presents_30_frames_under_xvfb_and_exits_cleanly() {
         stdout.contains("adapter: "),
         "adapter not reported:\n{stdout}"
     );
+    // MSAA by default: off on a software renderer (lavapipe, as in CI), 4× on a GPU.
+    let software = stdout
+        .lines()
+        .any(|l| l.starts_with("adapter: ") && l.contains(", Cpu,"));
+    let msaa = if software {
+        "MSAA 1× (a software renderer"
+    } else {
+        "MSAA 4×"
+    };
+    assert!(
+        stderr.contains(msaa),
+        "expected {msaa:?}\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+}
+
+#[test]
+fn shoal_run_refuses_an_msaa_count_it_does_not_draw_with() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["run", "--msaa", "2"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("shoal runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--msaa") && stderr.contains("1 (off) or 4"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -264,9 +293,17 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
 /// and a followed fish is there). A click in the middle of that view reaches the picker.
 #[test]
 fn the_3d_view_ends_where_the_panel_begins() {
-    let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
+    // (With --msaa 4, which the window then says it uses whatever the adapter.)
+    let mut w = TracedWindow::start(&["run", "--frames", "100000", "--msaa", "4"]);
     // The panel settles its layout over the first frames: its buttons stop moving.
     w.button("pause");
+    assert!(
+        w.seen
+            .iter()
+            .any(|l| l.starts_with("console: ") && l.contains("MSAA 4× (--msaa)")),
+        "the window did not draw with the MSAA asked for:\n{:#?}",
+        w.seen
+    );
     let line = w
         .seen
         .iter()

@@ -35,6 +35,10 @@ pub struct Args {
     /// Show every debug overlay at start.
     #[arg(long)]
     pub overlays: bool,
+    /// Multisample anti-aliasing, samples a pixel: 4 or 1. Default: 4 on a GPU, 1 on a
+    /// software renderer such as lavapipe (where 4 costs ~2.7× the frame time).
+    #[arg(long, value_name = "N", value_parser = parse_msaa)]
+    pub msaa: Option<u32>,
     /// Open a recording (`.shoalrun`, from `shoal record`, `replay`, or a failing behaviour
     /// test's `--trace`) at `--at`: its scene and seed, paused at that moment, with the
     /// recording's future as the ghost that playing on (with the current scripts) is compared
@@ -56,6 +60,17 @@ pub struct Args {
     /// simulation, the window does not redraw.
     #[command(flatten)]
     pub dap: super::DapArg,
+}
+
+/// `--msaa`: 1 or 4.
+fn parse_msaa(s: &str) -> Result<u32, String> {
+    match s.trim() {
+        "1" => Ok(1),
+        "4" => Ok(4),
+        other => Err(format!(
+            "{other:?} is not a sample count shoal draws with: 1 (off) or 4"
+        )),
+    }
 }
 
 /// Runs `shoal run`.
@@ -93,6 +108,7 @@ fn options(args: &Args, select: Option<FishId>) -> AppOptions {
         } else {
             OverlayToggles::default()
         },
+        msaa: args.msaa,
     }
 }
 

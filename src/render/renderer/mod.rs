@@ -264,6 +264,17 @@ impl Renderer {
         color_format: wgpu::TextureFormat,
         sources: ShaderSources,
     ) -> Result<Self, RenderError> {
+        Self::with_shaders_and_msaa(gpu, color_format, sources, 4)
+    }
+
+    /// Like [`Renderer::with_shaders`], multisampling with at most `max_samples` samples a
+    /// pixel: 4 where the adapter supports it and `max_samples` allows, else 1.
+    pub fn with_shaders_and_msaa(
+        gpu: &Gpu,
+        color_format: wgpu::TextureFormat,
+        sources: ShaderSources,
+        max_samples: u32,
+    ) -> Result<Self, RenderError> {
         let device = &gpu.device;
         let color_ok = gpu
             .adapter
@@ -275,7 +286,11 @@ impl Renderer {
             .get_texture_format_features(DEPTH_FORMAT)
             .flags
             .sample_count_supported(4);
-        let sample_count = if color_ok && depth_ok { 4 } else { 1 };
+        let sample_count = if color_ok && depth_ok && max_samples >= 4 {
+            4
+        } else {
+            1
+        };
 
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("scene bind group layout"),
