@@ -75,14 +75,19 @@ fn shoal_run_presents_30_frames_under_xvfb_and_exits_cleanly() {
     );
 }
 
-#[test]
-fn shoal_run_refuses_an_msaa_count_it_does_not_draw_with() {
-    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
-        .args(["run", "--msaa", "2"])
+/// `shoal` with `args` and no display at all.
+fn without_display(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(args)
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
         .output()
-        .expect("shoal runs");
+        .expect("shoal runs")
+}
+
+#[test]
+fn shoal_run_refuses_an_msaa_count_it_does_not_draw_with() {
+    let out = without_display(&["run", "--msaa", "2"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(
@@ -93,12 +98,7 @@ fn shoal_run_refuses_an_msaa_count_it_does_not_draw_with() {
 
 #[test]
 fn shoal_run_without_a_display_points_to_shoal_render() {
-    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
-        .args(["run", "--frames", "1"])
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .expect("shoal runs");
+    let out = without_display(&["run", "--frames", "1"]);
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("shoal render"), "stderr:\n{stderr}");
