@@ -267,7 +267,7 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
 /// line is the evidence that the click reached it.
 #[test]
 fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
-    // Fish 0 selected and followed: the camera turns to look at it from the window's middle.
+    // Fish 0 selected: pausing and clicking change nothing else that prints `selected: `.
     let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
     w.click_button("pause");
     w.wait_for(
@@ -275,8 +275,8 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
         Duration::from_secs(60),
     )
     .unwrap_or_else(|| panic!("pause did not pause:\n{:#?}", w.seen));
-    // The pointer rests on the panel for several frames, then moves onto the middle of the
-    // 1280×760 window and clicks in one go.
+    // The pointer rests on the panel for several frames, then moves into the view (x 640 is
+    // left of the panel, which begins near 830) and clicks in one go.
     std::thread::sleep(Duration::from_millis(1500));
     let before_click = w.seen.len();
     w.xdotool(&["mousemove", "640", "380", "click", "1"]);

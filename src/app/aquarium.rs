@@ -281,27 +281,25 @@ impl UiState {
     /// With [`UiState::trace`], prints a widget's centre and size in physical pixels whenever it
     /// is drawn somewhere new: `ui: button "quick turn left" at X,Y size WxH`.
     pub fn trace_widget(&mut self, ui: &egui::Ui, label: &str, response: &egui::Response) {
-        if !self.trace {
-            return;
-        }
-        let ppp = ui.ctx().pixels_per_point();
-        let r = response.rect * ppp;
-        let line = format!(
-            "ui: button {label:?} at {:.0},{:.0} size {:.0}x{:.0}",
-            r.center().x,
-            r.center().y,
-            r.width(),
-            r.height()
-        );
-        self.trace_line(label, line);
+        self.trace_line(label, || {
+            let r = response.rect * ui.ctx().pixels_per_point();
+            format!(
+                "ui: button {label:?} at {:.0},{:.0} size {:.0}x{:.0}",
+                r.center().x,
+                r.center().y,
+                r.width(),
+                r.height()
+            )
+        });
     }
 
-    /// With [`UiState::trace`], prints `line` unless the last line traced under `key` was the
-    /// same.
-    pub fn trace_line(&mut self, key: &str, line: String) {
+    /// With [`UiState::trace`], prints the line `line` makes unless the last line traced under
+    /// `key` was the same (without tracing, `line` is not called).
+    pub fn trace_line(&mut self, key: &str, line: impl FnOnce() -> String) {
         if !self.trace {
             return;
         }
+        let line = line();
         match self.traced.iter_mut().find(|(l, _)| l == key) {
             Some((_, last)) if *last == line => return,
             Some((_, last)) => *last = line.clone(),

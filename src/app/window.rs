@@ -51,10 +51,10 @@ pub struct AppOptions {
     pub msaa: Option<u32>,
 }
 
-/// The window's MSAA samples on an adapter of `device_type` when the user did not choose: 4, except on a software
-/// renderer (lavapipe, llvmpipe, WARP), where 4× multiplies the frame time by ~2.7 (255 against
-/// 92 ms a frame for 40 fish at 1280×760 on lavapipe, 2 cores) and a designer would get 3–4
-/// frames a second.
+/// The window's MSAA samples on an adapter of `device_type` when the user did not choose: 4,
+/// except on a software renderer (lavapipe, llvmpipe, WARP), where 4× multiplies the frame time
+/// by ~2.7 (255 against 92 ms a frame for 40 fish at 1280×760 on lavapipe, 2 cores) and a
+/// designer would get 3–4 frames a second.
 pub fn default_msaa(device_type: wgpu::DeviceType) -> u32 {
     if device_type == wgpu::DeviceType::Cpu {
         1
@@ -240,7 +240,7 @@ impl App {
         };
         let why = match self.options.msaa {
             Some(_) => " (--msaa)",
-            None if info.device_type == wgpu::DeviceType::Cpu => {
+            None if default_msaa(info.device_type) == 1 => {
                 " (a software renderer: --msaa 4 for smoother edges, ~2.7× the frame time)"
             }
             None => "",
@@ -429,10 +429,9 @@ fn encode_views(
     let height = ws.config.height.max(1);
     let width = views_width(ws, aq);
     let panel_left = aq.ui.panel_rect_px.map(|r| r.left().round());
-    aq.ui.trace_line(
-        "3D view",
-        format!("ui: 3D view {width}x{height}, panel from x={panel_left:?}"),
-    );
+    aq.ui.trace_line("3D view", || {
+        format!("ui: 3D view {width}x{height}, panel from x={panel_left:?}")
+    });
     if aq.ui.split.is_none() && width >= ws.config.width {
         let mut input = aq.scene.frame_input();
         input.camera = aq.ui.camera;
@@ -736,15 +735,16 @@ impl ApplicationHandler for App {
                 // not want it (a click on a panel button must not also pick a fish). Where the
                 // pointer is comes from the events, not from egui's last frame (see
                 // `pointer_over_ui`).
+                // (A cursor move needs no answer: a drag belongs to whoever had its press.)
                 let over_ui = match &event {
-                    WindowEvent::CursorMoved { .. }
-                    | WindowEvent::MouseInput { .. }
-                    | WindowEvent::MouseWheel { .. } => super::pointer::pointer_over_ui(
-                        &ws.egui_ctx,
-                        self.aq.ui.pointer.cursor,
-                        self.aq.ui.panel_rect_px,
-                        ws.egui_ctx.pixels_per_point(),
-                    ),
+                    WindowEvent::MouseInput { .. } | WindowEvent::MouseWheel { .. } => {
+                        super::pointer::pointer_over_ui(
+                            &ws.egui_ctx,
+                            self.aq.ui.pointer.cursor,
+                            self.aq.ui.panel_rect_px,
+                            ws.egui_ctx.pixels_per_point(),
+                        )
+                    }
                     _ => response.consumed,
                 };
                 self.handle_input(&event, over_ui);

@@ -424,7 +424,8 @@ impl Renderer {
         self.color_format
     }
 
-    /// MSAA sample count in use (4, or 1 where the adapter lacks 4×).
+    /// MSAA sample count in use (4, or 1 where the adapter lacks 4× or the renderer was made
+    /// with fewer, [`Renderer::with_shaders_and_msaa`]).
     pub fn sample_count(&self) -> u32 {
         self.sample_count
     }
