@@ -97,3 +97,56 @@ fn test_species_reload_applies_to_live_fish() {
     );
     assert_eq!(sim.world().species(sid).desc.max_speed, 77.0);
 }
+
+/// A scene whose pellets sink and dissolve: a drop at the surface reaches the floor and lies
+/// there until the lifetime ends; nobody eats it (no fish), so it dissolves uneaten.
+#[test]
+fn test_scene_pellets_sink_settle_and_dissolve() {
+    let (_dir, root) = common::scratch_repo();
+    let scene = root.join("scripts/scenes/sinking.lua");
+    std::fs::write(
+        &scene,
+        "return { tank = { min = {-200, 0, -200}, max = {200, 300, 200} },\n\
+         food = { {0, 290, 0} }, food_sink_speed = 20, food_lifetime = 20 }\n",
+    )
+    .unwrap();
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/sinking.lua"), 1).unwrap();
+    let (id, _) = sim.world().foods().next().expect("the pellet");
+    sim.run(5.0);
+    let y = sim.world().food(id).unwrap().pos.y;
+    assert!((y - 190.0).abs() < 0.5, "20 units/s for 5 s from 290: {y}");
+    sim.run(10.0);
+    let f = *sim.world().food(id).unwrap();
+    assert!(f.settled && f.pos.y == 0.0, "on the floor: {f:?}");
+    sim.run(6.0);
+    assert!(sim.world().food(id).is_none(), "dissolved after 20 s");
+    assert!(!sim.world().was_eaten(id));
+}
+
+/// Nonsense pellet physics are refused with the file and the key.
+#[test]
+fn test_scene_food_physics_errors_name_the_key() {
+    let (_dir, root) = common::scratch_repo();
+    for (body, key) in [
+        (
+            "food_sink_speed = -3",
+            "food_sink_speed: -3 is out of range",
+        ),
+        ("food_lifetime = 0", "food_lifetime: 0 is out of range"),
+        ("food_sink = 3", "food_sink"),
+    ] {
+        std::fs::write(
+            root.join("scripts/scenes/bad.lua"),
+            format!(
+                "return {{ tank = {{ min = {{0, 0, 0}}, max = {{100, 100, 100}} }}, {body} }}\n"
+            ),
+        )
+        .unwrap();
+        let err = Simulation::from_scene(&root, Path::new("scenes/bad.lua"), 1)
+            .err()
+            .unwrap_or_else(|| panic!("{body} accepted"))
+            .to_string();
+        assert!(err.contains("scenes/bad.lua"), "{body}: {err}");
+        assert!(err.contains(key), "{body}: {err}");
+    }
+}

@@ -131,6 +131,8 @@
 ---@field fish? shoal.FishGroup[]
 ---@field food? shoal.Vec3[]    # pellets present at the start
 ---@field food_drops? shoal.FoodDrops
+---@field food_sink_speed? number  # how fast pellets sink, units/s (default 0: they stay where dropped)
+---@field food_lifetime? number    # seconds an uneaten pellet lasts before it dissolves (default: for ever)
 ---@field obstacles? shoal.Obstacle[]
 ---@field currents? shoal.Current[]
 

@@ -13,6 +13,7 @@
 //!   food = { {0, 150, 0} },                                     -- pellets at start
 //!   food_drops = { every = 6, count = 4, start = 2,              -- seconds
 //!                  region = { min = {-200, 280, -150}, max = {200, 290, 150} } },
+//!   food_sink_speed = 10, food_lifetime = 90,                   -- units/s, seconds
 //!   obstacles = { { pos = {100, 40, 0}, radius = 40 } },
 //!   currents = { { pos = {0, 150, 0}, radius = 120, velocity = {10, 0, 0} } },
 //! }
@@ -132,6 +133,12 @@ pub struct SceneDesc {
     /// Periodic food drops.
     #[serde(default)]
     pub food_drops: Option<FoodDrops>,
+    /// How fast pellets sink, world units per second (default 0: they stay where dropped).
+    #[serde(default)]
+    pub food_sink_speed: Option<f32>,
+    /// Seconds an uneaten pellet lasts before it dissolves (default: for ever).
+    #[serde(default)]
+    pub food_lifetime: Option<f32>,
     /// Obstacles.
     #[serde(default)]
     pub obstacles: Vec<ObstacleDesc>,
@@ -425,6 +432,16 @@ pub fn validate_scene(desc: &SceneDesc) -> Result<(), String> {
     }
     for (i, p) in desc.food.iter().enumerate() {
         finite3(p, &format!("food[{}]", i + 1))?;
+    }
+    if let Some(v) = desc.food_sink_speed
+        && !(v.is_finite() && v >= 0.0)
+    {
+        return Err(format!(
+            "food_sink_speed: {v} is out of range: expected a number ≥ 0 (world units per second)"
+        ));
+    }
+    if let Some(l) = desc.food_lifetime {
+        positive(l, "food_lifetime", "seconds")?;
     }
     if let Some(d) = &desc.food_drops {
         positive(d.every, "food_drops.every", "seconds")?;

@@ -197,6 +197,8 @@ impl World {
                 eaten: false,
                 eaten_by: None,
                 eaten_at: None,
+                dropped_at: self.state.time,
+                settled: false,
             },
         ));
         id
@@ -221,9 +223,19 @@ impl World {
             .map(|i| &self.state.eaten[i].1)
     }
 
-    /// Whether pellet `id` was given out and has been eaten (however long ago).
+    /// Whether pellet `id` was given out and has been eaten, however long ago: `false` for a
+    /// pellet in the water or one that dissolved uneaten (see [`super::FoodPhysics`]). A pellet
+    /// older than every one the eaten history remembers counts as eaten once it has left the
+    /// water.
     pub fn was_eaten(&self, id: FoodId) -> bool {
-        id.0 < self.state.next_food && self.food_index(id).is_none()
+        if id.0 >= self.state.next_food || self.food_index(id).is_some() {
+            return false;
+        }
+        let eaten = &self.state.eaten;
+        let remembered = eaten.binary_search_by_key(&id, |(i, _)| *i).is_ok();
+        let before_history =
+            eaten.len() == EATEN_HISTORY && eaten.front().is_some_and(|(first, _)| id < *first);
+        remembered || before_history
     }
 
     /// The pellets in the water, in the order they were dropped.
@@ -269,10 +281,13 @@ impl World {
         f.eaten = true;
         f.eaten_by = by;
         f.eaten_at = Some(self.state.time);
+        // Kept in id order (pellets are not eaten in the order they were dropped), which
+        // `food` and `was_eaten` search by; when full, the oldest pellet is forgotten.
         if self.state.eaten.len() == EATEN_HISTORY {
             self.state.eaten.pop_front();
         }
-        self.state.eaten.push_back((id, f));
+        let at = self.state.eaten.partition_point(|(i, _)| *i < id);
+        self.state.eaten.insert(at, (id, f));
         // The grid's keys are positions in the list, which just shifted.
         self.food_in_grid = 0;
         true

@@ -22,7 +22,8 @@ impl World {
     /// body (head, middle and tail along its heading) is pushed out of obstacles and back inside
     /// the tank, with `contact` set — so no script can take a fish out of the tank or through a
     /// rock. A motion step that yields a non-finite root is discarded (the fish keeps its last
-    /// root and stops). Timed into `motion_ns`.
+    /// root and stops). Then the pellets sink, drift and dissolve (`World::step_food`). Timed
+    /// into `motion_ns`.
     pub fn step_motion(&mut self, dt: f32) {
         if !(dt.is_finite() && dt > 0.0) {
             return;
@@ -87,6 +88,7 @@ impl World {
             self.rejected_motion_steps += rejected;
         }
         self.grid_positions_current = false;
+        self.step_food(dt);
         self.state.time += f64::from(dt);
         self.state.tick += 1;
         self.counters.motion_ns = start.elapsed().as_nanos() as u64;

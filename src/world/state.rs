@@ -14,6 +14,7 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
+use super::food::FoodPhysics;
 use super::store::FishStore;
 use super::{Current, Food, FoodId, Obstacle, Tank, World};
 
@@ -52,7 +53,8 @@ pub struct WorldState {
     pub(super) fish: FishStore,
     /// Pellets in the water, in the order they were dropped (their ids increase).
     pub(super) foods: Vec<(FoodId, Food)>,
-    /// The last [`EATEN_HISTORY`] pellets eaten, oldest first.
+    /// The pellets eaten, in id order (the order they were dropped); at most [`EATEN_HISTORY`],
+    /// the oldest forgotten first.
     pub(super) eaten: VecDeque<(FoodId, Food)>,
     /// The id the next pellet gets.
     pub(super) next_food: u32,
@@ -66,6 +68,8 @@ pub struct WorldState {
     pub(super) food_drops: Option<FoodDrops>,
     /// Time of the next food drop, seconds.
     pub(super) next_drop_s: f64,
+    /// How pellets sink and how long they last.
+    pub(super) food_physics: FoodPhysics,
 }
 
 impl WorldState {
@@ -85,6 +89,7 @@ impl WorldState {
             scene_rng: Pcg32::seed_from_u64(seed ^ 0x5eed_5cee),
             food_drops: None,
             next_drop_s: f64::INFINITY,
+            food_physics: FoodPhysics::default(),
         }
     }
 

@@ -5,7 +5,8 @@
 //!   1. scene events   World::scene_events     periodic food drops
 //!   2. behaviour      Behavior::decide        the fish due this tick decide (Lua or Rust);
 //!                                             perception_ns, lua_ns
-//!   3. motion         World::step_motion      motion players, currents, contact; motion_ns
+//!   3. motion         World::step_motion      motion players, currents, contact, then the
+//!                                             pellets (sinking, drifting, dissolving); motion_ns
 //!                                             (PoseMode::Gpu: the roots only; the body's
 //!                                             shape is the pose pass's)
 //!   4. pose           World::update_pose      skeletons and skinning palettes;

@@ -135,6 +135,11 @@ pub struct Food {
     pub eaten_by: Option<FishId>,
     /// World time it was eaten at, seconds.
     pub eaten_at: Option<f64>,
+    /// World time it was dropped at, seconds (its age counts against the scene's
+    /// `food_lifetime`).
+    pub dropped_at: f64,
+    /// Whether it has come to rest on the floor or a rock (it no longer sinks or drifts).
+    pub settled: bool,
 }
 
 /// A spherical obstacle (a rock).

@@ -40,8 +40,8 @@ use super::reload::ScriptWatcher;
 use super::sandbox::Limits;
 use super::scene::{BoxDesc, SceneDesc, SpeciesFile, species_from_table};
 use crate::world::{
-    Current, FishId, FoodDrops, Sim, SpawnParams, Species, SpeciesId, TICK_HZ, Tank, World,
-    random_point,
+    Current, FishId, FoodDrops, FoodPhysics, Sim, SpawnParams, Species, SpeciesId, TICK_HZ, Tank,
+    World, random_point,
 };
 
 mod console;
@@ -98,6 +98,14 @@ fn food_drops(desc: &SceneDesc) -> Option<FoodDrops> {
         start: d.start.unwrap_or(d.every),
         region: d.region.map(|r| (v3(r.min), v3(r.max))),
     })
+}
+
+/// How the scene's pellets sink and how long they last.
+fn food_physics(desc: &SceneDesc) -> FoodPhysics {
+    FoodPhysics {
+        sink_speed: desc.food_sink_speed.unwrap_or(0.0),
+        lifetime: desc.food_lifetime,
+    }
 }
 
 impl Simulation {
@@ -161,6 +169,8 @@ impl Simulation {
             fish: Vec::new(),
             food: Vec::new(),
             food_drops: None,
+            food_sink_speed: None,
+            food_lifetime: None,
             obstacles: Vec::new(),
             currents: Vec::new(),
         };
@@ -254,6 +264,7 @@ impl Simulation {
         let assets_dir = root.join(desc.assets.as_deref().unwrap_or("assets"));
         let mut world = World::new(tank, seed);
         world.set_food_drops(food_drops(desc));
+        world.set_food_physics(food_physics(desc));
         let scripts = Scripts {
             lanes,
             species: Vec::new(),
@@ -299,6 +310,7 @@ impl Simulation {
         // The scene's generator and food drops go on in the new tank.
         *world.scene_rng() = self.sim.world_mut().scene_rng().clone();
         world.set_food_drops(self.scene.as_ref().and_then(food_drops));
+        world.set_food_physics(self.scene.as_ref().map(food_physics).unwrap_or_default());
         self.sim.set_world(world);
         Ok(())
     }
