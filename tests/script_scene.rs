@@ -29,6 +29,20 @@ fn test_default_scene_runs_without_script_errors() {
         let intention = sim.inspect(id).into_iter().find(|(k, _)| k == "intention");
         assert!(intention.is_some(), "{id:?} has decided");
     }
+    // The pellets sink through the school, and hungry porgies break off to eat them (when
+    // they floated at the surface, the first bite came after ~2.5 minutes on average).
+    sim.run(25.0);
+    let eaten = sim.world().eaten_foods().count();
+    assert!(eaten >= 1, "no pellet eaten in 45 s");
+    let lowest = sim
+        .world()
+        .foods()
+        .map(|(_, f)| f.pos.y)
+        .fold(f32::MAX, f32::min);
+    assert!(
+        lowest < 100.0,
+        "pellets sink towards the floor: lowest at {lowest}"
+    );
 }
 
 #[test]

@@ -1,6 +1,7 @@
--- The default aquarium: a school of black porgies crowding in mid-water, food dropped in from the
--- surface every few seconds (hungry porgies break off to eat it), two eels wandering near the
--- floor, and a barracuda patrolling that hunts porgies and scatters the school as it passes.
+-- The default aquarium: a school of black porgies crowding in mid-water, food dropped in at the
+-- surface every few seconds that sinks slowly through the school (hungry porgies break off to eat
+-- it; what nobody eats settles on the floor and dissolves), two eels wandering near the floor,
+-- and a barracuda patrolling that hunts porgies and scatters the school as it passes.
 -- Edit and save: the panel offers to restart the scene.
 ---@type shoal.Scene
 local scene = {
@@ -19,6 +20,8 @@ local scene = {
   },
 
   food = { { 0, 380, 0 } },
+  food_sink_speed = 12,   -- units/s: about half a minute from the surface to the floor
+  food_lifetime = 90,     -- seconds before an uneaten pellet dissolves
   food_drops = { every = 5, count = 3, start = 3,
                  region = { min = { -300, 370, -200 }, max = { 300, 385, 200 } } },
 

@@ -264,12 +264,19 @@ impl<S: SimView> WorldScene<S> {
         }
         for (_, food) in w.foods() {
             if !food.eaten {
+                // A pellet is a point to the world; one that has settled is drawn resting on
+                // what it settled on rather than half sunk into it.
+                let lift = if food.settled {
+                    FOOD_PELLET_RADIUS
+                } else {
+                    0.0
+                };
                 self.props.push(Prop {
                     mesh: pellet,
                     transform: Mat4::from_scale_rotation_translation(
                         Vec3::splat(FOOD_PELLET_RADIUS),
                         glam::Quat::IDENTITY,
-                        food.pos,
+                        food.pos + Vec3::Y * lift,
                     ),
                     tint: [1.0; 3],
                 });
