@@ -421,6 +421,48 @@ end)
     );
 }
 
+/// A comparison given something that is not a number (a field still nil) fails that check,
+/// saying which value, and the test goes on; bad `t:world{food = …}` values name the key.
+#[test]
+fn test_comparisons_of_non_numbers_fail_with_what_was_given() {
+    let source = r#"
+test("nil compared", function(t)
+  local w = t:world{ seed = 1 }
+  local pellet = w:food{ pos = {0, 200, 0} }
+  t:less(pellet.eaten_at, 20, "eaten soon")
+  t:near(1, "x", 0.1, "close")
+  t:greater(2, 1, "still checked")
+end)
+test("bad food physics", function(t)
+  t:world{ food = { sink_speed = -1 } }
+end)
+test("food typo", function(t)
+  t:world{ food = { sink = 1 } }
+end)
+"#;
+    let outcomes = run_source("compare_test.lua", source, None);
+    let failures: Vec<&str> = outcomes[0]
+        .failures
+        .iter()
+        .map(|f| f.message.as_str())
+        .collect();
+    assert_eq!(
+        failures,
+        vec![
+            "eaten soon: t:less's first value must be a number, got nil",
+            "close: t:near's second value must be a number, got \"x\"",
+        ],
+        "the third check passed and nothing else failed"
+    );
+    let f = &outcomes[1].failures[0];
+    assert!(f.message.contains("food.sink_speed must be ≥ 0"), "{f}");
+    let f = &outcomes[2].failures[0];
+    assert!(
+        f.message.contains("unknown key `sink`") && f.message.contains("sink_speed"),
+        "{f}"
+    );
+}
+
 /// The trace CSV carries motion, intention and memory; a spreadsheet-style reader parses the
 /// memory column back to the fish's memory.
 #[test]

@@ -9,6 +9,7 @@
 ---@class (exact) shoal.TestWorldOptions
 ---@field seed? integer            # the world's seed (default 1)
 ---@field scene? string            # a scene file (`scenes/default.lua`); default: the empty tank
+---@field food? {sink_speed?: number, lifetime?: number}  # how pellets sink (units/s, default 0) and how long an uneaten one lasts (seconds, default for ever); default: the scene's
 ---@field tank? {min: shoal.Vec3, max: shoal.Vec3}  # the tank's corners
 ---@field scratch? boolean         # a private copy of scripts/ and assets/ (for `w:write_script`)
 ---@field allow_errors? boolean    # script errors are expected (check them with `w:errors()`)
@@ -199,6 +200,9 @@ function TestFish:set_behavior(name) end
 ---@class shoal.TestFood
 ---@field eaten boolean
 ---@field eaten_at? number  # simulated seconds
+---@field pos shoal.Vec3     # where it is ({0, 0, 0} once eaten or dissolved)
+---@field settled boolean    # resting on the floor or a rock (see t:world's `food`)
+---@field dissolved boolean  # gone uneaten after its lifetime
 
 ---Declares a behaviour test.
 ---@param name string

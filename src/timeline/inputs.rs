@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::motion::MotionRequest;
 use crate::script::Simulation;
-use crate::world::FishId;
+use crate::world::{FishId, FoodPhysics};
 
 /// One action on the world from outside the scripts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -36,6 +36,13 @@ pub enum Input {
         speed: Option<f32>,
         /// Behaviour module.
         behavior: Option<String>,
+    },
+    /// How pellets sink and how long they last (`t:world{food = …}`).
+    FoodPhysics {
+        /// Sinking speed, world units per second.
+        sink_speed: f32,
+        /// Seconds an uneaten pellet lasts (none: for ever).
+        lifetime: Option<f32>,
     },
     /// A food pellet (`w:food{…}`).
     Food {
@@ -109,6 +116,16 @@ pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, String> {
             .spawn(species, *pos, *heading, *pitch, *speed, behavior.as_deref())
             .map(Applied::Fish)
             .map_err(|e| e.to_string()),
+        Input::FoodPhysics {
+            sink_speed,
+            lifetime,
+        } => {
+            sim.world_mut().set_food_physics(FoodPhysics {
+                sink_speed: *sink_speed,
+                lifetime: *lifetime,
+            });
+            Ok(Applied::Done)
+        }
         Input::Food { pos } => Ok(Applied::Food(sim.world_mut().add_food(*pos))),
         Input::Obstacle { pos, radius } => {
             sim.world_mut().add_obstacle(*pos, *radius);

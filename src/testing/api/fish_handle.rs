@@ -150,6 +150,16 @@ impl UserData for FoodHandle {
             let world = this.world.borrow();
             Ok(world.sim.world().was_eaten(this.id))
         });
+        fields.add_field_method_get("settled", |_, this| {
+            let world = this.world.borrow();
+            Ok(world.sim.world().food(this.id).is_some_and(|f| f.settled))
+        });
+        fields.add_field_method_get("dissolved", |_, this| {
+            let world = this.world.borrow();
+            let w = world.sim.world();
+            let in_water = w.food(this.id).is_some_and(|f| !f.eaten);
+            Ok(!in_water && !w.was_eaten(this.id))
+        });
         fields.add_field_method_get("eaten_at", |_, this| {
             let world = this.world.borrow();
             Ok(world.sim.world().food(this.id).and_then(|f| f.eaten_at))

@@ -333,7 +333,8 @@ fn located(lua: &Lua, message: impl std::fmt::Display) -> mlua::Error {
 }
 
 /// The keys each option table of the test API takes.
-const WORLD_KEYS: &[&str] = &["seed", "scene", "tank", "scratch", "allow_errors"];
+const WORLD_KEYS: &[&str] = &["seed", "scene", "tank", "food", "scratch", "allow_errors"];
+const FOOD_PHYSICS_KEYS: &[&str] = &["sink_speed", "lifetime"];
 const TANK_KEYS: &[&str] = &["min", "max"];
 const SPAWN_KEYS: &[&str] = &["species", "pos", "heading", "pitch", "speed", "behavior"];
 const FOOD_KEYS: &[&str] = &["pos"];

@@ -2,8 +2,8 @@
 
 use super::TestRecording;
 use super::{
-    Cell, TANK_KEYS, TestHandle, WORLD_KEYS, WorldHandle, WorldState, caller_line, check_keys,
-    located, make_scratch, vec3_from,
+    Cell, FOOD_PHYSICS_KEYS, TANK_KEYS, TestHandle, WORLD_KEYS, WorldHandle, WorldState,
+    caller_line, check_keys, located, make_scratch, vec3_from,
 };
 use crate::script::Simulation;
 use crate::testing::Failure;
@@ -82,6 +82,37 @@ fn describe(value: &Value) -> String {
     }
 }
 
+/// The numbers a comparison (`t:near`, `t:less`, `t:greater`) was given; a value that is not a
+/// number (a field that is still nil, say) fails the check, naming which argument it was,
+/// instead of raising a conversion error.
+fn numbers<const N: usize>(
+    lua: &Lua,
+    this: &TestHandle,
+    call: &str,
+    what: &str,
+    values: [&Value; N],
+) -> Option<[f64; N]> {
+    const ORDINALS: [&str; 3] = ["first", "second", "third"];
+    let mut out = [0.0; N];
+    for (i, v) in values.into_iter().enumerate() {
+        match v {
+            Value::Integer(n) => out[i] = *n as f64,
+            Value::Number(n) => out[i] = *n,
+            other => {
+                this.check(lua, false, || {
+                    format!(
+                        "{what}: {call}'s {} value must be a number, got {}",
+                        ORDINALS[i],
+                        describe(other)
+                    )
+                });
+                return None;
+            }
+        }
+    }
+    Some(out)
+}
+
 impl UserData for TestHandle {
     fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
         methods.add_method("world", |lua, this, opts: Option<Table>| {
@@ -134,6 +165,31 @@ impl UserData for TestHandle {
                     .input(Input::Tank { min, max })
                     .map_err(|e| located(lua, format!("t:world: {e}")))?;
             }
+            if let Some(food) = opts.get::<Option<Table>>("food")? {
+                check_keys(lua, &food, "t:world food", FOOD_PHYSICS_KEYS)?;
+                let sink_speed: f32 = food.get::<Option<f32>>("sink_speed")?.unwrap_or(0.0);
+                if !(sink_speed.is_finite() && sink_speed >= 0.0) {
+                    return Err(located(
+                        lua,
+                        format!("t:world food.sink_speed must be ≥ 0 (units/s), got {sink_speed}"),
+                    ));
+                }
+                let lifetime: Option<f32> = food.get("lifetime")?;
+                if let Some(l) = lifetime
+                    && !(l.is_finite() && l > 0.0)
+                {
+                    return Err(located(
+                        lua,
+                        format!("t:world food.lifetime must be > 0 (seconds), got {l}"),
+                    ));
+                }
+                state
+                    .input(Input::FoodPhysics {
+                        sink_speed,
+                        lifetime,
+                    })
+                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            }
             let world = Cell::new(state);
             this.0.borrow_mut().worlds.push(world.clone());
             Ok(WorldHandle {
@@ -156,12 +212,17 @@ impl UserData for TestHandle {
         );
         methods.add_method(
             "near",
-            |lua, this, (actual, expected, tol, msg): (f64, f64, f64, Option<String>)| {
+            |lua, this, (actual, expected, tol, msg): (Value, Value, Value, Option<String>)| {
+                let what = msg.unwrap_or_else(|| "values differ".into());
+                let Some([actual, expected, tol]) =
+                    numbers(lua, this, "t:near", &what, [&actual, &expected, &tol])
+                else {
+                    return Ok(false);
+                };
                 let ok = (actual - expected).abs() <= tol;
                 Ok(this.check(lua, ok, || {
                     format!(
-                        "{}: expected {expected:.4} ± {tol:.4}, actual {actual:.4} (off by {:.4})",
-                        msg.unwrap_or_else(|| "values differ".into()),
+                        "{what}: expected {expected:.4} ± {tol:.4}, actual {actual:.4} (off by {:.4})",
                         (actual - expected).abs()
                     )
                 }))
@@ -169,24 +230,22 @@ impl UserData for TestHandle {
         );
         methods.add_method(
             "less",
-            |lua, this, (a, b, msg): (f64, f64, Option<String>)| {
-                Ok(this.check(lua, a < b, || {
-                    format!(
-                        "{}: expected {a:.4} < {b:.4}",
-                        msg.unwrap_or_else(|| "comparison failed".into())
-                    )
-                }))
+            |lua, this, (a, b, msg): (Value, Value, Option<String>)| {
+                let what = msg.unwrap_or_else(|| "comparison failed".into());
+                let Some([a, b]) = numbers(lua, this, "t:less", &what, [&a, &b]) else {
+                    return Ok(false);
+                };
+                Ok(this.check(lua, a < b, || format!("{what}: expected {a:.4} < {b:.4}")))
             },
         );
         methods.add_method(
             "greater",
-            |lua, this, (a, b, msg): (f64, f64, Option<String>)| {
-                Ok(this.check(lua, a > b, || {
-                    format!(
-                        "{}: expected {a:.4} > {b:.4}",
-                        msg.unwrap_or_else(|| "comparison failed".into())
-                    )
-                }))
+            |lua, this, (a, b, msg): (Value, Value, Option<String>)| {
+                let what = msg.unwrap_or_else(|| "comparison failed".into());
+                let Some([a, b]) = numbers(lua, this, "t:greater", &what, [&a, &b]) else {
+                    return Ok(false);
+                };
+                Ok(this.check(lua, a > b, || format!("{what}: expected {a:.4} > {b:.4}")))
             },
         );
     }
