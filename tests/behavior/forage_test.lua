@@ -62,3 +62,24 @@ test("intention and percepts can be read", function(t)
   t:expect(fish.percepts ~= nil and fish.percepts.food_id ~= nil, "its percepts hold the food")
   t:near(assert(fish.percepts).food_x, 150, 1e-3, "the food it perceived is the one there is")
 end)
+
+test("a hungry porgy catches a pellet sinking past it", function(t)
+  local w = t:world{ seed = 11, food = { sink_speed = 10 } }
+  local fish = w:spawn{ species = "black_porgy", pos = {-150, 150, 0}, heading = 0, behavior = "forage" }
+  -- Ahead and 150 units up: the porgy arrives under the pellet before it has sunk to its depth,
+  -- and must rise to it rather than turn circles under it.
+  local pellet = w:food{ pos = {0, 300, 0} }
+  t:expect(w:run_until(function() return pellet.eaten end, 20), "the sinking pellet is eaten")
+  t:greater(pellet.pos[2], 100, "caught in mid-water, not on the floor")
+  t:expect(assert(fish.memory).meals == 1, "the porgy counts the meal")
+end)
+
+test("a pellet nobody eats settles and dissolves", function(t)
+  local w = t:world{ seed = 12, food = { sink_speed = 40, lifetime = 15 } }
+  local pellet = w:food{ pos = {0, 300, 0} }
+  w:run(10)
+  t:expect(pellet.settled, "on the floor after 10 s")
+  t:near(pellet.pos[2], w:tank().min[2], 1e-3, "resting on the floor")
+  w:run(6)
+  t:expect(pellet.dissolved and not pellet.eaten, "dissolved uneaten after 15 s")
+end)

@@ -221,9 +221,15 @@ function C.feed(fish, p)
     end
   end
   if not ate then
-    local b = p.food_bearing
-    if cur.body.motion == "quick_turn" then
+    local b, body = p.food_bearing, cur.body
+    local dx, dy, dz = p.food_x - body.x, p.food_y - body.y, p.food_z - body.z
+    if body.motion == "quick_turn" then
       -- let the turn finish
+    elseif dy * dy > dx * dx + dz * dz then
+      -- More above or below than ahead (a pellet sinking past): its bearing says little, and
+      -- turning towards it would only circle under it; rise or sink to it, heading held.
+      local _, depth, speed = shoal.arrive(p.food_x, p.food_y, p.food_z)
+      shoal.steer(body.heading, depth, speed)
     elseif math.abs(b) > C.SHARP_FOOD_TURN and p.food_distance < C.NEAR_FOOD * cur.me.length then
       -- Close and off to the side: a serial turn would circle it; turn on the spot.
       shoal.quick_turn(math.abs(b), b > 0 and "left" or "right", true)
