@@ -307,3 +307,58 @@ fn despawning_the_selected_fish_clears_the_selection() {
         "the panel shows no fish"
     );
 }
+
+#[test]
+fn food_drops_from_the_panel_ahead_of_the_fish_and_by_shift_click_where_clicked() {
+    let scripts = scripts_with(&[]);
+    let aq = aquarium(scripts.path(), None, Some(1));
+    let mut h = harness(aq);
+    h.run();
+    assert_eq!(h.state().scene.world().foods().count(), 0);
+    let root = *h.state().scene.world().root(fish(h.state(), 1)).unwrap();
+    h.get_by_label("drop food").click();
+    h.run();
+    let w = h.state().scene.world();
+    let pellets: Vec<_> = w.foods().map(|(_, f)| f.pos).collect();
+    assert_eq!(pellets.len(), 1, "one pellet dropped");
+    // Two body lengths (2 × 50) ahead of the selected fish, just under the surface (y 300).
+    let ahead = root.pos + glam::Vec3::new(root.heading.cos(), 0.0, -root.heading.sin()) * 100.0;
+    assert!(
+        (pellets[0].x - ahead.x).abs() < 1e-3 && (pellets[0].z - ahead.z).abs() < 1e-3,
+        "above the point ahead of the fish: {} vs {ahead}",
+        pellets[0]
+    );
+    assert!(
+        (pellets[0].y - 291.0).abs() < 1e-3,
+        "under the surface: {}",
+        pellets[0]
+    );
+    assert!(
+        h.state()
+            .console()
+            .any(|l| l.starts_with("food #0 dropped at") && l.contains("does not sink")),
+        "the console says where, and that this scene's food floats: {:?}",
+        h.state().console().collect::<Vec<_>>()
+    );
+
+    // Shift+click on the floor: the pellet starts above the clicked spot; no fish is picked.
+    let mut aq = h.into_state();
+    let selected = aq.selected();
+    let floor = glam::Vec3::new(150.0, 0.0, 60.0);
+    let ndc = aq.camera().view_proj(VIEW.x / VIEW.y).project_point3(floor);
+    let at = Vec2::new((ndc.x + 1.0) * 0.5 * VIEW.x, (1.0 - ndc.y) * 0.5 * VIEW.y);
+    aq.set_shift(true);
+    aq.click(at, VIEW, false);
+    assert_eq!(aq.selected(), selected, "a shift+click does not select");
+    let last = aq.scene.world().foods().last().map(|(_, f)| f.pos).unwrap();
+    assert_eq!(aq.scene.world().foods().count(), 2);
+    assert!(
+        (last.x - floor.x).abs() < 0.5 && (last.z - floor.z).abs() < 0.5,
+        "above the clicked floor point: {last}"
+    );
+    // A plain click still selects (the top-left corner is open water: deselects).
+    aq.set_shift(false);
+    aq.click(Vec2::new(2.0, 2.0), VIEW, false);
+    assert_eq!(aq.selected(), None);
+    assert_eq!(aq.scene.world().foods().count(), 2);
+}

@@ -288,6 +288,54 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
     );
 }
 
+/// Feeding from the window: the panel's "drop food" button drops a pellet, and a shift+click in
+/// the view drops one there instead of picking a fish (the window follows shift through winit's
+/// modifier events, which X delivers to the focused window).
+#[test]
+fn xdotool_drop_food_button_and_shift_click_in_the_view() {
+    let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
+    w.click_button("drop food");
+    w.wait_for(
+        &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
+        Duration::from_secs(60),
+    )
+    .unwrap_or_else(|| panic!("the button dropped no food:\n{:#?}", w.seen));
+    let window = Command::new(XDOTOOL)
+        .args(["search", "--name", "shoal"])
+        .env("DISPLAY", &w.display)
+        .output()
+        .expect("xdotool runs");
+    let id = String::from_utf8_lossy(&window.stdout)
+        .lines()
+        .next()
+        .expect("the window is found by its title")
+        .to_owned();
+    w.xdotool(&["windowfocus", &id]);
+    // Onto the floor in front of the camera, then a click with shift held.
+    w.xdotool(&["mousemove", "300", "600"]);
+    std::thread::sleep(Duration::from_millis(700));
+    let before = w.seen.len();
+    w.xdotool(&["keydown", "shift"]);
+    std::thread::sleep(Duration::from_millis(500));
+    w.xdotool(&["click", "1"]);
+    std::thread::sleep(Duration::from_millis(300));
+    w.xdotool(&["keyup", "shift"]);
+    let dropped = w.wait_for(
+        &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
+        Duration::from_secs(60),
+    );
+    assert!(
+        dropped.is_some(),
+        "the shift+click dropped no food:\n{:#?}",
+        &w.seen[before..]
+    );
+    assert!(
+        !w.seen[before..].iter().any(|l| l.starts_with("selected: ")),
+        "the shift+click also picked:\n{:#?}",
+        &w.seen[before..]
+    );
+}
+
 /// The 3D view is drawn left of the panel, not under it: the window says how wide it draws the
 /// view, and that is where the panel begins (so the camera looks at the middle of what is seen,
 /// and a followed fish is there). A click in the middle of that view reaches the picker.

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 use std::time::Instant;
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use winit::event::MouseButton;
 
 use super::pointer::Pointer;
@@ -16,7 +16,7 @@ use super::timeline::{Divergence, Timeline};
 use super::window::AppOptions;
 use crate::render::shaders::ShaderWatcher;
 use crate::render::{Camera, OverlayLine, RenderTimings};
-use crate::world::FishId;
+use crate::world::{FishId, Tank};
 
 /// The scene the window shows: any [`SimView`] behind the adapter.
 pub type DynScene = WorldScene<Box<dyn SimView>>;
@@ -99,8 +99,23 @@ impl Aquarium {
         self.ui.pointer.moved(at);
         self.ui.pointer.pressed(MouseButton::Left, over_ui);
         if let Some(at) = self.ui.pointer.released(MouseButton::Left) {
+            self.view_click(at, size);
+        }
+    }
+
+    /// A click that ended in the view at `at` (a `size` view): selects the fish there, or,
+    /// with shift held, drops food where the click shows (see [`food_drop_point`]).
+    pub(super) fn view_click(&mut self, at: Vec2, size: Vec2) {
+        if self.ui.shift {
+            drop_food_at(&mut self.scene, &mut self.ui, at, size);
+        } else {
             select_at(&mut self.scene, &mut self.ui, at, size);
         }
+    }
+
+    /// Whether shift is held (the window follows the keyboard's modifiers).
+    pub fn set_shift(&mut self, held: bool) {
+        self.ui.shift = held;
     }
 
     /// The split tank's version B (its scene), when this is a split tank.
@@ -238,6 +253,8 @@ pub(super) struct UiState {
     pub panel_rect_px: Option<egui::Rect>,
     /// The Scripts section: module profile, console, watches.
     pub scripts: super::scripts_panel::ScriptsPanel,
+    /// Shift is held: a click in the view drops food instead of selecting.
+    pub shift: bool,
 }
 
 impl UiState {
@@ -269,6 +286,7 @@ impl UiState {
             watcher: None,
             shader_error: None,
             scripts: Default::default(),
+            shift: false,
             scratch_log: Vec::new(),
             scratch_notes: Vec::new(),
             trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
@@ -553,6 +571,79 @@ pub(super) fn select_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: 
         }
     };
     ui.select(scene, picked);
+}
+
+/// How far under the surface a pellet dropped from the window starts, as a fraction of the
+/// tank's height (a scene's default drops start 3–5 % under it).
+const DROP_BELOW_SURFACE: f32 = 0.03;
+
+/// Where a pellet dropped at `(x, z)` starts: just under the surface, inside the tank.
+pub(super) fn surface_above(tank: &Tank, x: f32, z: f32) -> Vec3 {
+    let y = tank.max.y - DROP_BELOW_SURFACE * (tank.max.y - tank.min.y);
+    Vec3::new(x, y, z).clamp(tank.min, tank.max)
+}
+
+/// Where a pellet dropped by a shift+click at `cursor` (physical pixels of a `size` view)
+/// starts: under the surface above the point of the tank the click shows — where the ray
+/// through the pixel leaves the tank, on its floor or a wall — so it sinks onto what was
+/// clicked. `None` when the ray misses the tank.
+pub fn food_drop_point(camera: &Camera, cursor: Vec2, size: Vec2, tank: &Tank) -> Option<Vec3> {
+    let ray = camera.ray_through_pixel(cursor, size);
+    let t = ray.exit_box(tank.min, tank.max)?;
+    let hit = ray.origin + ray.dir * t;
+    Some(surface_above(tank, hit.x, hit.z))
+}
+
+/// Where the panel's "drop food" puts a pellet: above a point two body lengths ahead of the
+/// selected fish, else above the middle of the view (the camera's target).
+pub(super) fn food_drop_for_panel(scene: &DynScene, ui: &UiState) -> Vec3 {
+    let w = scene.world();
+    let ahead = ui.selected.and_then(|id| {
+        let root = w.root(id)?;
+        let l = w
+            .species_of(id)
+            .map_or(50.0, |s| w.species(s).body_length());
+        let (sin, cos) = root.heading.sin_cos();
+        Some(root.pos + Vec3::new(cos, 0.0, -sin) * 2.0 * l)
+    });
+    let at = ahead.unwrap_or(ui.camera.target);
+    surface_above(w.tank(), at.x, at.z)
+}
+
+/// Drops a pellet at `pos` into the aquarium (and into the split tank's B, so the two stay
+/// comparable) and says so in the console. Like the panel's motion requests it is not kept in
+/// the history: a scrub back over it re-runs the ticks without it.
+pub(super) fn drop_food(scene: &mut DynScene, ui: &mut UiState, pos: Vec3) {
+    let id = scene.drop_food(pos);
+    if let Some(split) = &mut ui.split {
+        split.scene.drop_food(pos);
+    }
+    let sink = scene.world().food_physics().sink_speed;
+    let how = if sink > 0.0 {
+        format!("it sinks at {sink} units/s")
+    } else {
+        "this scene's food does not sink (food_sink_speed)".to_owned()
+    };
+    ui.log(format!(
+        "food #{} dropped at ({:.0}, {:.0}, {:.0}); {how}",
+        id.0, pos.x, pos.y, pos.z
+    ));
+}
+
+/// A shift+click in the view at `at` (a `size` view; in the split tank, either half) drops a
+/// pellet where [`food_drop_point`] says.
+fn drop_food_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: Vec2) {
+    let (at, size) = match &ui.split {
+        None => (at, size),
+        Some(_) => {
+            let half = Vec2::new((size.x * 0.5).max(1.0), size.y);
+            (Vec2::new(at.x % half.x, at.y), half)
+        }
+    };
+    match food_drop_point(&ui.camera, at, size, scene.world().tank()) {
+        Some(pos) => drop_food(scene, ui, pos),
+        None => ui.log("no food dropped: the click is outside the tank"),
+    }
 }
 
 #[cfg(test)]

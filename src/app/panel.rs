@@ -3,7 +3,9 @@
 
 use std::collections::VecDeque;
 
-use super::aquarium::{DynScene, FrameTimes, MAX_FRAME_DT_S, UiState, pace_ratio};
+use super::aquarium::{
+    DynScene, FrameTimes, MAX_FRAME_DT_S, UiState, drop_food, food_drop_for_panel, pace_ratio,
+};
 use super::timeline::{Divergence, clock};
 use crate::motion::{MotionParams, MotionRequest, Side, TurnKind};
 use crate::world::FishId;
@@ -15,7 +17,7 @@ const ERROR: egui::Color32 = egui::Color32::from_rgb(255, 110, 90);
 pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     ui.heading("shoal");
     notices(ui, scene, st);
-    section(ui, "Time", |ui| time_controls(ui, st));
+    section(ui, "Time", |ui| time_controls(ui, scene, st));
     section(ui, "Timeline", |ui| timeline(ui, scene, st));
     if st.split.is_some() {
         section(ui, "Split tank", |ui| split_tank(ui, scene, st));
@@ -63,8 +65,8 @@ fn notices(ui: &mut egui::Ui, scene: &DynScene, st: &mut UiState) {
     }
 }
 
-/// Pause/play, one step, the speed slider and the "behind real time" warning.
-fn time_controls(ui: &mut egui::Ui, st: &mut UiState) {
+/// Pause/play, one step, "drop food", the speed slider and the "behind real time" warning.
+fn time_controls(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     ui.horizontal(|ui| {
         let label = if st.paused { "play" } else { "pause" };
         let toggle = ui.button(label);
@@ -77,6 +79,14 @@ fn time_controls(ui: &mut egui::Ui, st: &mut UiState) {
         if step.clicked() {
             st.paused = true;
             st.step_once = true;
+        }
+        let feed = ui
+            .button("drop food")
+            .on_hover_text("a pellet at the surface, ahead of the selected fish or above the middle of the view; shift+click in the view drops one where you click");
+        st.trace_widget(ui, "drop food", &feed);
+        if feed.clicked() {
+            let pos = food_drop_for_panel(scene, st);
+            drop_food(scene, st, pos);
         }
     });
     ui.add(

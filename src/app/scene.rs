@@ -25,7 +25,7 @@ use crate::render::{
     TankBounds,
 };
 use crate::world::pose::remap_joints;
-use crate::world::{FishId, FishModel, PoseMode, Species, SpeciesId, TICK_HZ, World};
+use crate::world::{FishId, FishModel, FoodId, PoseMode, Species, SpeciesId, TICK_HZ, World};
 
 /// Where a fish is, for picking and the follow camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -512,6 +512,12 @@ impl<S: SimView> WorldScene<S> {
             return Err(SimError::NoFish(id));
         }
         Ok(w.request(id, request, true)?)
+    }
+
+    /// Drops a food pellet at `pos` (as a scene's drops do: it then sinks and dissolves as the
+    /// scene says).
+    pub fn drop_food(&mut self, pos: Vec3) -> FoodId {
+        self.sim.world_mut().add_food(pos)
     }
 
     /// Writes the fish's body wave as `(position along body 0..1, lateral displacement in

@@ -13,7 +13,7 @@ use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
-use super::aquarium::{Aquarium, FrameTimes, advance, refresh_views, select_at};
+use super::aquarium::{Aquarium, FrameTimes, advance, refresh_views};
 use super::scene::OverlayToggles;
 use super::sim::SimView;
 use crate::render::shaders::{ShaderSources, ShaderWatcher};
@@ -265,10 +265,11 @@ impl App {
         Ok(())
     }
 
-    fn pick(&mut self, at: Vec2) {
+    /// A click in the view at `at`: selects the fish there, or with shift held drops food.
+    fn click(&mut self, at: Vec2) {
         let Some(ws) = &self.window else { return };
         let size = Vec2::new(views_width(ws, &self.aq) as f32, ws.config.height as f32);
-        select_at(&mut self.aq.scene, &mut self.aq.ui, at, size);
+        self.aq.view_click(at, size);
     }
 
     /// Mouse input for the 3D view. `over_ui`: egui has the pointer (over the panel, or a panel
@@ -298,10 +299,11 @@ impl App {
                 ElementState::Pressed => self.aq.ui.pointer.pressed(*button, over_ui),
                 ElementState::Released => {
                     if let Some(at) = self.aq.ui.pointer.released(*button) {
-                        self.pick(at);
+                        self.click(at);
                     }
                 }
             },
+            WindowEvent::ModifiersChanged(m) => self.aq.set_shift(m.state().shift_key()),
             WindowEvent::MouseWheel { .. } if over_ui => {}
             WindowEvent::MouseWheel { delta, .. } => {
                 let lines = match delta {

@@ -45,6 +45,25 @@ impl Ray {
             None
         }
     }
+
+    /// Distance along the ray to where it leaves the box `min`–`max` (the far side of a tank
+    /// seen through its water: its floor or a wall), if the ray meets the box ahead of its origin.
+    pub fn exit_box(&self, min: Vec3, max: Vec3) -> Option<f32> {
+        let (mut enter, mut exit) = (0.0f32, f32::INFINITY);
+        for axis in 0..3 {
+            let (o, d) = (self.origin[axis], self.dir[axis]);
+            if d == 0.0 {
+                if o < min[axis] || o > max[axis] {
+                    return None;
+                }
+                continue;
+            }
+            let (a, b) = ((min[axis] - o) / d, (max[axis] - o) / d);
+            enter = enter.max(a.min(b));
+            exit = exit.min(a.max(b));
+        }
+        (enter <= exit && exit.is_finite()).then_some(exit)
+    }
 }
 
 impl Default for Camera {
@@ -161,5 +180,34 @@ mod tests {
         assert!((t - 8.0).abs() < 1e-5);
         assert!(ray.hit_sphere(Vec3::new(-10.0, 0.0, 0.0), 2.0).is_none());
         assert!(ray.hit_sphere(Vec3::new(10.0, 3.0, 0.0), 2.0).is_none());
+    }
+
+    #[test]
+    fn ray_leaves_a_box_at_its_far_side() {
+        let (min, max) = (Vec3::new(-10.0, 0.0, -5.0), Vec3::new(10.0, 8.0, 5.0));
+        // From outside, through the box: out of its far wall.
+        let through = Ray {
+            origin: Vec3::new(-20.0, 4.0, 0.0),
+            dir: Vec3::X,
+        };
+        assert_eq!(through.exit_box(min, max), Some(30.0));
+        // From inside, looking down at an angle: out through the floor.
+        let down = Ray {
+            origin: Vec3::new(0.0, 4.0, 0.0),
+            dir: Vec3::new(1.0, -1.0, 0.0).normalize(),
+        };
+        let t = down.exit_box(min, max).unwrap();
+        assert!((down.origin + down.dir * t - Vec3::new(4.0, 0.0, 0.0)).length() < 1e-4);
+        // Away from the box, or beside it parallel to an axis: no exit.
+        let away = Ray {
+            origin: Vec3::new(-20.0, 4.0, 0.0),
+            dir: Vec3::NEG_X,
+        };
+        assert_eq!(away.exit_box(min, max), None);
+        let beside = Ray {
+            origin: Vec3::new(-20.0, 9.0, 0.0),
+            dir: Vec3::X,
+        };
+        assert_eq!(beside.exit_box(min, max), None);
     }
 }
