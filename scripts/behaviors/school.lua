@@ -1,6 +1,7 @@
 -- Crowding (paper section 3.1): keep a body length from neighbours (separation), swim the way
 -- they swim (alignment) and stay with the group (cohesion). Hungry fish break off for food in
--- sight; a predator scatters the school; rocks (then walls) are avoided first.
+-- sight; a predator scatters the school (a wall ahead of a fleeing fish comes first); rocks are
+-- avoided before anything else.
 local shoal = shoal
 local common = require("behaviors.lib.common")
 
@@ -24,7 +25,11 @@ function M.intend(fish, p)
   local hunger = common.hunger(fish, dt)
   local fear = common.fear(fish, p, dt)
   if common.avoiding(fish, p, "rock") then return "avoid" end
-  if fear > common.AFRAID then return "flee" end
+  if fear > common.AFRAID then
+    -- Fleeing straight from a predator runs a fish into the glass: a wall ahead comes first.
+    if common.avoiding(fish, p, "wall") then return "avoid" end
+    return "flee"
+  end
   if hunger > 0.7 and p.food_id then return "eat" end
   if common.avoiding(fish, p, "wall") then return "avoid" end
   return "school"

@@ -40,3 +40,22 @@ test("schooling fish keep about a body length apart", function(t)
   t:less(mean, 2.5 * l, "mean nearest-neighbour distance at most 2.5 body lengths")
   t:greater(w:min_distance(fishes), 0.25 * l, "no two fish overlap")
 end)
+
+test("a schooling porgy chased towards the glass turns along it instead of ramming it", function(t)
+  local w = t:world{ seed = 23 }
+  local tank = w:tank()
+  -- Near the +x wall, a barracuda behind and to one side: fleeing straight from it is fleeing
+  -- into the glass.
+  local prey = w:spawn{ species = "black_porgy", pos = {tank.max[1] - 220, 200, 0}, heading = 0,
+                        behavior = "school" }
+  local shark = w:spawn{ species = "barracuda", pos = {tank.max[1] - 350, 200, -100}, heading = 0.6 }
+  shark:swim(40)
+  local closest, fear = math.huge, 0
+  w:run_until(function()
+    closest = math.min(closest, tank.max[1] - prey.pos[1])
+    fear = math.max(fear, prey.memory and prey.memory.fear or 0)
+    return false
+  end, 8)
+  t:greater(fear, 0.5, "the prey was frightened")
+  t:greater(closest, 0.25 * prey.params.l, "kept a quarter body length from the glass")
+end)
