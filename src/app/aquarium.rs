@@ -559,18 +559,26 @@ pub(super) fn pace_ratio(pace: &VecDeque<(f32, f32)>) -> f32 {
 /// In a split tank `size` is both views side by side (A left, B right, each half as wide): a
 /// click in B's half picks among B's fish, and the fish (by [`FishId`]) is selected in both.
 pub(super) fn select_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: Vec2) {
+    let (at, size, in_b) = view_under(ui, at, size);
     let picked = match &ui.split {
-        None => pick_fish(&ui.camera, at, size, scene),
-        Some(split) => {
-            let half = Vec2::new((size.x * 0.5).max(1.0), size.y);
-            if at.x < half.x {
-                pick_fish(&ui.camera, at, half, scene)
-            } else {
-                pick_fish(&ui.camera, at - Vec2::new(half.x, 0.0), half, &split.scene)
-            }
-        }
+        Some(split) if in_b => pick_fish(&ui.camera, at, size, &split.scene),
+        _ => pick_fish(&ui.camera, at, size, scene),
     };
     ui.select(scene, picked);
+}
+
+/// The view a click at `at` (a `size` window area) landed in: the pixel within that view, the
+/// view's size, and whether it is the split tank's B (its right half).
+fn view_under(ui: &UiState, at: Vec2, size: Vec2) -> (Vec2, Vec2, bool) {
+    if ui.split.is_none() {
+        return (at, size, false);
+    }
+    let half = Vec2::new((size.x * 0.5).max(1.0), size.y);
+    if at.x < half.x {
+        (at, half, false)
+    } else {
+        (at - Vec2::new(half.x, 0.0), half, true)
+    }
 }
 
 /// How far under the surface a pellet dropped from the window starts, as a fraction of the
@@ -633,13 +641,7 @@ pub(super) fn drop_food(scene: &mut DynScene, ui: &mut UiState, pos: Vec3) {
 /// A shift+click in the view at `at` (a `size` view; in the split tank, either half) drops a
 /// pellet where [`food_drop_point`] says.
 fn drop_food_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, size: Vec2) {
-    let (at, size) = match &ui.split {
-        None => (at, size),
-        Some(_) => {
-            let half = Vec2::new((size.x * 0.5).max(1.0), size.y);
-            (Vec2::new(at.x % half.x, at.y), half)
-        }
-    };
+    let (at, size, _) = view_under(ui, at, size);
     match food_drop_point(&ui.camera, at, size, scene.world().tank()) {
         Some(pos) => drop_food(scene, ui, pos),
         None => ui.log("no food dropped: the click is outside the tank"),
