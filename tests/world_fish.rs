@@ -136,10 +136,13 @@ fn requests_and_steering_refuse_non_finite_values() {
     assert!(r.pos.is_finite() && r.heading.is_finite());
 }
 
+/// Every live fish within `radius` of `pos`, by the same inclusive test the grid makes
+/// (d² ≤ r²): comparing `distance(..) <= radius` instead disagrees with it for a fish whose
+/// squared distance rounds just above r² but whose square root rounds to r exactly.
 fn brute_force(w: &shoal::world::World, pos: Vec3, radius: f32) -> Vec<FishId> {
     let mut v: Vec<FishId> = w
         .fish_ids()
-        .filter(|&id| w.root(id).unwrap().pos.distance(pos) <= radius)
+        .filter(|&id| w.root(id).unwrap().pos.distance_squared(pos) <= radius * radius)
         .collect();
     v.sort();
     v
