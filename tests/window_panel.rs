@@ -362,3 +362,69 @@ fn food_drops_from_the_panel_ahead_of_the_fish_and_by_shift_click_where_clicked(
     assert_eq!(aq.selected(), None);
     assert_eq!(aq.scene.world().foods().count(), 2);
 }
+
+/// One frame of the window's side panel, as `shoal run` draws it (egui's root `Ui` of a
+/// 1000×700-point window; egui_kittest's harness lays its `Ui` out inside a frame of its own),
+/// after `events`. Returns the panel's rectangle.
+fn window_frame(ctx: &egui::Context, aq: &mut Aquarium, events: Vec<egui::Event>) -> egui::Rect {
+    let input = egui::RawInput {
+        screen_rect: Some(egui::Rect::from_min_size(
+            egui::Pos2::ZERO,
+            egui::vec2(1000.0, 700.0),
+        )),
+        events,
+        ..Default::default()
+    };
+    let mut panel = egui::Rect::NOTHING;
+    let mut output = ctx.run_ui(input, |ui| panel = aq.side_panel(ui));
+    output.textures_delta.clear(); // no renderer to hand the font atlas to
+    panel
+}
+
+/// A designer on a small screen drags the panel's left edge to the right to give the view more
+/// room. The scripts profile table and the watch, pause-when and logpoint fields held the
+/// panel at ~450 points whatever the drag; the table now scrolls sideways and the fields
+/// shrink, so the panel follows the drag.
+#[test]
+fn the_panel_can_be_dragged_narrower() {
+    let scripts = scripts_with(&[]);
+    let mut aq = aquarium(scripts.path(), Some("school"), None);
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    let ctx = egui::Context::default();
+    let mut before = window_frame(&ctx, &mut aq, vec![]);
+    for _ in 0..3 {
+        before = window_frame(&ctx, &mut aq, vec![]);
+    }
+    assert!(
+        before.width() >= 440.0 && (before.right() - 1000.0).abs() <= 1.0,
+        "the panel opens on the right, wide enough for the scripts table: {before:?}"
+    );
+    let y = 300.0;
+    let at = |dx: f32| egui::pos2(before.left() + dx, y);
+    let moved = |dx: f32| egui::Event::PointerMoved(at(dx));
+    let button = |dx: f32, pressed: bool| egui::Event::PointerButton {
+        pos: at(dx),
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    };
+    window_frame(&ctx, &mut aq, vec![moved(1.0)]);
+    window_frame(&ctx, &mut aq, vec![button(1.0, true)]);
+    for dx in [20.0, 60.0, 100.0] {
+        window_frame(&ctx, &mut aq, vec![moved(dx)]);
+    }
+    window_frame(&ctx, &mut aq, vec![button(100.0, false)]);
+    let after = window_frame(&ctx, &mut aq, vec![]);
+    assert!(
+        after.width() <= before.width() - 95.0,
+        "dragged 100 points to the right, the panel went from {} to {} points wide",
+        before.width(),
+        after.width()
+    );
+    assert!(
+        (after.right() - 1000.0).abs() <= 1.0,
+        "the panel stays on the right: {after:?}"
+    );
+}

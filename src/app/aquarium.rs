@@ -86,6 +86,24 @@ impl Aquarium {
         super::panel::panel(ui, &mut self.scene, &mut self.ui);
     }
 
+    /// The window's side panel: [`Aquarium::panel`] in a resizable panel on the right,
+    /// scrolling vertically. Returns the panel's rectangle (points) and remembers it in
+    /// physical pixels, where the window decides which clicks are the panel's.
+    pub fn side_panel(&mut self, ui: &mut egui::Ui) -> egui::Rect {
+        // Wide enough for the scripts profile table, or under half a small window; the user
+        // can drag it narrower (the table then scrolls sideways) or wider.
+        let default = (0.45 * ui.max_rect().width()).min(450.0);
+        let shown = egui::Panel::right("tuning")
+            .resizable(true)
+            .default_size(default)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.panel(ui));
+            });
+        let rect = shown.response.rect;
+        self.ui.panel_rect_px = Some(rect * ui.ctx().pixels_per_point());
+        rect
+    }
+
     /// One frame's simulation: `frame_dt_s` of real time at the panel's speed (or one tick
     /// after "step", or nothing while paused), then the console, inspector, plot and overlays.
     pub fn advance(&mut self, frame_dt_s: f32) {

@@ -50,7 +50,7 @@ fn section(ui: &mut egui::Ui, title: &str, body: impl FnOnce(&mut egui::Ui)) {
 /// The scene file changed (offer a restart); a shader failed to compile.
 fn notices(ui: &mut egui::Ui, scene: &DynScene, st: &mut UiState) {
     if scene.scene_changed() {
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             ui.colored_label(WARNING, "the scene file changed");
             if ui.button("restart scene").clicked() {
                 st.restart_requested = true;
@@ -67,7 +67,7 @@ fn notices(ui: &mut egui::Ui, scene: &DynScene, st: &mut UiState) {
 
 /// Pause/play, one step, "drop food", the speed slider and the "behind real time" warning.
 fn time_controls(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         let label = if st.paused { "play" } else { "pause" };
         let toggle = ui.button(label);
         st.trace_widget(ui, label, &toggle);
@@ -144,7 +144,7 @@ fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
         st.seek_to = Some(st.scrub_s);
     }
     let last_error = st.timeline.last_error_s();
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         let back = ui.add_enabled(now > from, egui::Button::new("step back"));
         st.trace_widget(ui, "step back", &back);
         if back.clicked() {
@@ -236,7 +236,7 @@ fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
         ui.label("click a fish to select it");
         return;
     };
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.label(format!("fish #{}", fish.index));
         let follow = ui.checkbox(&mut st.follow, "follow");
         st.trace_widget(ui, "follow", &follow);
@@ -380,6 +380,13 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
         return;
     };
     let before = p;
+    // The sliders shorten (to 40 points) before their labels would hold the panel wide.
+    let widest = LABELS
+        .iter()
+        .map(|t| text_width(ui, t, egui::TextStyle::Body))
+        .fold(0.0, f32::max);
+    let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
+    ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
     ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
     ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
     ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
@@ -475,4 +482,19 @@ fn console(ui: &mut egui::Ui, st: &mut UiState) {
                 ui.monospace(line);
             }
         });
+}
+
+/// The motion parameter sliders' labels, longest first (see `motion_parameters`).
+const LABELS: [&str; 3] = [
+    "snout amplitude (body fraction)",
+    "p (pivot, body fraction)",
+    "s (speed, units/s)",
+];
+
+/// How wide `text` is, unwrapped, in `style`.
+pub(super) fn text_width(ui: &egui::Ui, text: &str, style: egui::TextStyle) -> f32 {
+    egui::WidgetText::from(text)
+        .into_galley(ui, Some(egui::TextWrapMode::Extend), f32::INFINITY, style)
+        .size()
+        .x
 }

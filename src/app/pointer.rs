@@ -56,7 +56,7 @@ impl Pointer {
 /// "over the panel". Trusting them ate the first click in the view after the pointer left
 /// the panel — for a whole frame, which on a software renderer is a quarter of a second. A
 /// drag egui is carrying out (a slider, the panel's resize edge) stays egui's wherever the
-/// pointer is.
+/// pointer is, and so does a press on the panel's resize edge, which reaches just outside it.
 pub fn pointer_over_ui(
     ctx: &egui::Context,
     pos: Vec2,
@@ -64,7 +64,10 @@ pub fn pointer_over_ui(
     pixels_per_point: f32,
 ) -> bool {
     let px = egui::pos2(pos.x, pos.y);
-    if panel.is_some_and(|r| r.contains(px)) || ctx.egui_is_using_pointer() {
+    // The panel's resize edge reaches a few points outside it: a press there resizes the
+    // panel and must not also turn the camera.
+    let grab = ctx.global_style().interaction.resize_grab_radius_side * pixels_per_point;
+    if panel.is_some_and(|r| r.expand(grab).contains(px)) || ctx.egui_is_using_pointer() {
         return true;
     }
     // Windows, pop-ups and other interactable areas over the view, where they were last drawn.
@@ -133,6 +136,23 @@ mod tests {
             Some(panel_px),
             2.0
         ));
+    }
+
+    /// The resize edge is grabbed up to `resize_grab_radius_side` points outside the panel: a
+    /// press there resizes the panel, so the view must not take it as the start of an orbit.
+    #[test]
+    fn a_press_on_the_panel_s_resize_edge_is_not_the_view_s() {
+        let ctx = egui::Context::default();
+        let mut value = 0.5;
+        let panel = frame(&ctx, vec![], &mut value);
+        let y = panel.center().y;
+        let grab = ctx.global_style().interaction.resize_grab_radius_side;
+        assert!(grab >= 2.0, "egui grabs the edge {grab} points out");
+        let on_edge = Vec2::new(panel.left() - 0.5 * grab, y);
+        assert!(pointer_over_ui(&ctx, on_edge, Some(panel), 1.0));
+        assert!(pointer_over_ui(&ctx, on_edge * 2.0, Some(panel * 2.0), 2.0));
+        let beyond = Vec2::new(panel.left() - grab - 2.0, y);
+        assert!(!pointer_over_ui(&ctx, beyond, Some(panel), 1.0));
     }
 
     #[test]

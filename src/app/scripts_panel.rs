@@ -373,7 +373,7 @@ fn logpoints(
             .add(
                 egui::TextEdit::singleline(&mut st.logpoint_input)
                     .hint_text("behaviors/forage.lua:34 hunger {fish.memory.hunger}")
-                    .desired_width(260.0),
+                    .desired_width(field_width(ui, 260.0, "add logpoint")),
             )
             .labelled_by(label.id);
         let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
@@ -424,7 +424,7 @@ fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
             .add(
                 egui::TextEdit::singleline(&mut st.pause_input)
                     .hint_text("memory.hunger > 0.9")
-                    .desired_width(200.0),
+                    .desired_width(field_width(ui, 200.0, "set")),
             )
             .labelled_by(label.id);
         let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
@@ -434,7 +434,7 @@ fn pause_when(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
         }
     });
     if let Some(cond) = st.pause_when.clone() {
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             ui.label(format!("pauses when a fish starts to meet `{cond}`"));
             if ui.small_button("clear").clicked() {
                 st.set_pause_when(None);
@@ -451,7 +451,7 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
         ui.label("no behaviour has decided yet");
         return;
     }
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.label("sort by");
         for (label, by) in [
             ("cost", SortBy::Cost),
@@ -467,51 +467,56 @@ fn module_table(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut ScriptsPanel) 
         }
     });
     let total: f64 = st.profile.iter().map(|p| p.ms_per_sim_s).sum();
-    egui::Grid::new("script profile")
-        .striped(true)
-        .num_columns(6)
+    // Scrolls sideways in a narrow panel instead of holding the panel at the table's width.
+    egui::ScrollArea::horizontal()
+        .id_salt("script profile scroll")
         .show(ui, |ui| {
-            for h in [
-                "module",
-                "CPU ms / sim s",
-                "calls",
-                "µs / call",
-                "KiB alloc / sim s",
-                "errors",
-            ] {
-                ui.strong(h);
-            }
-            ui.end_row();
-            for p in &st.profile {
-                ui.label(&p.module);
-                let share = if total > 0.0 {
-                    (p.ms_per_sim_s / total) as f32
-                } else {
-                    0.0
-                };
-                ui.add(
-                    egui::ProgressBar::new(share)
-                        .desired_width(110.0)
-                        .text(format!("{:.2}", p.ms_per_sim_s)),
-                );
-                ui.label(p.calls.to_string());
-                ui.label(format!("{:.1}", p.us_per_call));
-                ui.label(format!("{:.1}", p.alloc_kib_per_sim_s))
-                    .on_hover_text(format!(
-                        "{:.0} bytes allocated per decision: garbage the collector sweeps",
-                        p.alloc_bytes_per_call
-                    ));
-                let bad = p.errors + p.limit_stops;
-                if bad > 0 {
-                    ui.colored_label(
-                        egui::Color32::from_rgb(255, 110, 90),
-                        format!("{} + {} limits", p.errors, p.limit_stops),
-                    );
-                } else {
-                    ui.label("0");
-                }
-                ui.end_row();
-            }
+            egui::Grid::new("script profile")
+                .striped(true)
+                .num_columns(6)
+                .show(ui, |ui| {
+                    for h in [
+                        "module",
+                        "CPU ms / sim s",
+                        "calls",
+                        "µs / call",
+                        "KiB alloc / sim s",
+                        "errors",
+                    ] {
+                        ui.strong(h);
+                    }
+                    ui.end_row();
+                    for p in &st.profile {
+                        ui.label(&p.module);
+                        let share = if total > 0.0 {
+                            (p.ms_per_sim_s / total) as f32
+                        } else {
+                            0.0
+                        };
+                        ui.add(
+                            egui::ProgressBar::new(share)
+                                .desired_width(110.0)
+                                .text(format!("{:.2}", p.ms_per_sim_s)),
+                        );
+                        ui.label(p.calls.to_string());
+                        ui.label(format!("{:.1}", p.us_per_call));
+                        ui.label(format!("{:.1}", p.alloc_kib_per_sim_s))
+                            .on_hover_text(format!(
+                                "{:.0} bytes allocated per decision: garbage the collector sweeps",
+                                p.alloc_bytes_per_call
+                            ));
+                        let bad = p.errors + p.limit_stops;
+                        if bad > 0 {
+                            ui.colored_label(
+                                egui::Color32::from_rgb(255, 110, 90),
+                                format!("{} + {} limits", p.errors, p.limit_stops),
+                            );
+                        } else {
+                            ui.label("0");
+                        }
+                        ui.end_row();
+                    }
+                });
         });
     if ui.button("reset profile").clicked() {
         scene.sim_mut().reset_profile();
@@ -634,7 +639,7 @@ fn flame_view(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
 
 /// The top functions of every module by the stack samples, with file:line.
 fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.checkbox(&mut st.sample_functions, "sample functions")
             .on_hover_text(
                 "samples the Lua stack about once a millisecond of a decision (no per-instruction \
@@ -666,40 +671,45 @@ fn top_functions(ui: &mut egui::Ui, st: &mut ScriptsPanel) {
             }
         }
     });
-    egui::Grid::new("top functions")
-        .striped(true)
-        .num_columns(5)
+    // Scrolls sideways in a narrow panel instead of holding the panel at the table's width.
+    egui::ScrollArea::horizontal()
+        .id_salt("top functions scroll")
         .show(ui, |ui| {
-            for h in ["function", "file:line", "share", "ms / sim s", "samples"] {
-                ui.strong(h);
-            }
-            ui.end_row();
-            for t in &st.top_functions {
-                let f = &t.function;
-                ui.label(&f.frame.name)
-                    .on_hover_text(format!("in behaviour {}", t.module));
-                // As the logpoint field takes it: relative to the scripts directory.
-                let file = f
-                    .frame
-                    .file
-                    .strip_prefix("scripts/")
-                    .unwrap_or(&f.frame.file);
-                ui.label(format!("{file}:{}", f.frame.line))
-                    .on_hover_text(&f.frame.file);
-                ui.add(
-                    egui::ProgressBar::new(f.self_share as f32)
-                        .desired_width(48.0)
-                        .text(format!("{:.0} %", 100.0 * f.self_share)),
-                )
-                .on_hover_text(format!("of the samples of behaviour {}", t.module));
-                ui.label(format!("{:.2}", f.self_ms_per_sim_s))
-                    .on_hover_text(format!(
-                        "its own code; {:.2} ms / sim s with what it calls",
-                        f.total_ms_per_sim_s
-                    ));
-                ui.label(f.self_samples.to_string());
-                ui.end_row();
-            }
+            egui::Grid::new("top functions")
+                .striped(true)
+                .num_columns(5)
+                .show(ui, |ui| {
+                    for h in ["function", "file:line", "share", "ms / sim s", "samples"] {
+                        ui.strong(h);
+                    }
+                    ui.end_row();
+                    for t in &st.top_functions {
+                        let f = &t.function;
+                        ui.label(&f.frame.name)
+                            .on_hover_text(format!("in behaviour {}", t.module));
+                        // As the logpoint field takes it: relative to the scripts directory.
+                        let file = f
+                            .frame
+                            .file
+                            .strip_prefix("scripts/")
+                            .unwrap_or(&f.frame.file);
+                        ui.label(format!("{file}:{}", f.frame.line))
+                            .on_hover_text(&f.frame.file);
+                        ui.add(
+                            egui::ProgressBar::new(f.self_share as f32)
+                                .desired_width(48.0)
+                                .text(format!("{:.0} %", 100.0 * f.self_share)),
+                        )
+                        .on_hover_text(format!("of the samples of behaviour {}", t.module));
+                        ui.label(format!("{:.2}", f.self_ms_per_sim_s))
+                            .on_hover_text(format!(
+                                "its own code; {:.2} ms / sim s with what it calls",
+                                f.total_ms_per_sim_s
+                            ));
+                        ui.label(f.self_samples.to_string());
+                        ui.end_row();
+                    }
+                });
         });
 }
 
@@ -725,7 +735,7 @@ fn repl(
             .add(
                 egui::TextEdit::singleline(&mut st.repl_input)
                     .hint_text("fish.memory.hunger")
-                    .desired_width(200.0),
+                    .desired_width(field_width(ui, 200.0, "eval")),
             )
             .labelled_by(label.id);
         run |= edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
@@ -749,7 +759,7 @@ fn watches(ui: &mut egui::Ui, st: &mut ScriptsPanel, selected: Option<FishId>) {
             .add(
                 egui::TextEdit::singleline(&mut st.watch_input)
                     .hint_text("memory.hunger")
-                    .desired_width(200.0),
+                    .desired_width(field_width(ui, 200.0, "add watch")),
             )
             .labelled_by(label.id);
         let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
@@ -799,4 +809,15 @@ fn watches(ui: &mut egui::Ui, st: &mut ScriptsPanel, selected: Option<FishId>) {
                 }
             });
     }
+}
+
+/// The width of a one-line text field that shares its row with a button labelled `button`:
+/// `wanted`, or what the row has left beside the button when the panel is narrower, so the
+/// field shrinks with the panel instead of holding it wide.
+fn field_width(ui: &egui::Ui, wanted: f32, button: &str) -> f32 {
+    let spacing = &ui.style().spacing;
+    let label = super::panel::text_width(ui, button, egui::TextStyle::Button);
+    // The button's text and padding, the gap before it, and the field's own inner margin.
+    let beside = label + 2.0 * spacing.button_padding.x + 2.0 * spacing.item_spacing.x + 8.0;
+    (ui.available_width() - beside).clamp(60.0, wanted)
 }

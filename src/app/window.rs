@@ -623,14 +623,11 @@ fn draw_panel(
 ) -> Vec<wgpu::CommandBuffer> {
     let raw_input = ws.egui_state.take_egui_input(&ws.window);
     let full = ws.egui_ctx.run_ui(raw_input, |ui| {
-        let shown = egui::Panel::right("tuning").resizable(true).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| aq.panel(ui));
-        });
-        // Where the panel is, in physical pixels: a press there is the panel's even when
-        // it comes before egui has seen the pointer arrive (a fast click).
-        aq.ui.panel_rect_px = Some(shown.response.rect * ui.ctx().pixels_per_point());
+        // It also keeps where the panel is, in physical pixels: a press there is the panel's
+        // even when it comes before egui has seen the pointer arrive (a fast click).
+        let panel = aq.side_panel(ui);
         if let Some(split) = &aq.ui.split {
-            split_labels(ui.ctx(), split, shown.response.rect.left());
+            split_labels(ui.ctx(), split, panel.left());
         }
     });
     ws.egui_state
