@@ -119,12 +119,17 @@ const XDOTOOL: &str = "/usr/bin/xdotool";
 
 impl TracedWindow {
     fn start(args: &[&str]) -> Self {
+        Self::start_on(args, (1600, 1000))
+    }
+
+    /// [`TracedWindow::start`] on a screen of `screen` pixels.
+    fn start_on(args: &[&str], screen: (u32, u32)) -> Self {
         use std::io::{BufRead, BufReader};
         assert!(
             Path::new(XDOTOOL).exists(),
             "{XDOTOOL} is missing: install it (Debian: apt install xdotool) — CI installs it in .ci/run"
         );
-        let xvfb = xvfb_common::start(90..400);
+        let xvfb = xvfb_common::start_sized(90..400, screen.0, screen.1);
         let display = format!(":{}", xvfb.display);
         let mut child = Command::new(env!("CARGO_BIN_EXE_shoal"))
             .args(args)
@@ -383,5 +388,52 @@ fn the_3d_view_ends_where_the_panel_begins() {
             .is_some(),
         "the click in the middle of the view did not reach the picker:\n{:#?}",
         &w.seen[before_click..]
+    );
+}
+
+/// On a screen smaller than the window's preferred 1280×760 (here 1024×640) the window opens
+/// inside it, so the panel on the right and the bottom of the view can be reached. It used to
+/// open at 1280×760 whatever the screen, with half the panel off it.
+#[test]
+fn the_window_fits_a_small_screen() {
+    let mut w = TracedWindow::start_on(&["run", "--frames", "100000"], (1024, 640));
+    w.button("pause");
+    let line = w
+        .seen
+        .iter()
+        .rev()
+        .find(|l| l.starts_with("ui: 3D view "))
+        .cloned()
+        .unwrap_or_else(|| panic!("the window never said how big its view is:\n{:#?}", w.seen));
+    let window = Command::new(XDOTOOL)
+        .args(["search", "--name", "shoal", "getwindowgeometry"])
+        .env("DISPLAY", &w.display)
+        .output()
+        .expect("xdotool runs");
+    let geometry = String::from_utf8_lossy(&window.stdout).into_owned();
+    // "  Geometry: WxH"
+    let (width, height) = geometry
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("Geometry: "))
+        .and_then(|g| g.split_once('x'))
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .unwrap_or_else(|| panic!("no geometry in {geometry:?}"));
+    assert!(
+        width <= 1024 && height <= 640 && width >= 900 && height >= 500,
+        "a {width}×{height} window on a 1024×640 screen ({line})"
+    );
+    // The view ends where the panel begins, and the panel ends inside the screen.
+    let view_height: u32 = line["ui: 3D view ".len()..]
+        .split(',')
+        .next()
+        .and_then(|s| s.split_once('x'))
+        .and_then(|(_, h)| h.parse().ok())
+        .unwrap_or_else(|| panic!("no view size in {line:?}"));
+    assert_eq!(view_height, height, "{line}");
+    let (x, y) = w.button("pause");
+    let (x, y): (f32, f32) = (x.parse().expect("x"), y.parse().expect("y"));
+    assert!(
+        x < width as f32 && y < height as f32,
+        "the pause button at {x},{y}"
     );
 }

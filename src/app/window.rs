@@ -125,11 +125,21 @@ struct App {
 
 impl App {
     fn init(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
+        // The monitor's size in logical pixels, where the platform tells it (X11 does; Wayland
+        // gives no primary monitor, and there any monitor's size is only a hint).
+        let monitor = event_loop
+            .primary_monitor()
+            .or_else(|| event_loop.available_monitors().next())
+            .map(|m| {
+                let size = m.size().to_logical::<f64>(m.scale_factor());
+                (size.width, size.height)
+            });
+        let (width, height) = initial_window_size(monitor);
         let window = event_loop
             .create_window(
                 Window::default_attributes()
                     .with_title("shoal — aquarium")
-                    .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 760.0)),
+                    .with_inner_size(winit::dpi::LogicalSize::new(width, height)),
             )
             .map_err(|e| AppError::NoDisplay(e.to_string()))?;
         let window = Arc::new(window);
@@ -613,6 +623,22 @@ fn reload_shaders(ws: &mut WindowState, aq: &mut Aquarium) {
     aq.ui.log(msg);
 }
 
+/// The window's first inner size, logical pixels: 1280×760, or less on a monitor too small
+/// for that (`monitor`: its logical size, when known), leaving room for the title bar, the
+/// window's borders and a task bar, so that the panel on the right and the bottom of the view
+/// are on screen. Never below 480×360.
+fn initial_window_size(monitor: Option<(f64, f64)>) -> (f64, f64) {
+    const PREFERRED: (f64, f64) = (1280.0, 760.0);
+    const MIN: (f64, f64) = (480.0, 360.0);
+    let Some((w, h)) = monitor.filter(|(w, h)| w.is_finite() && h.is_finite()) else {
+        return PREFERRED;
+    };
+    (
+        PREFERRED.0.min(w - 32.0).max(MIN.0),
+        PREFERRED.1.min(h - 96.0).max(MIN.1),
+    )
+}
+
 /// Runs the panel and encodes it over the aquarium in `view`. Returns the command buffers
 /// egui's renderer needs submitted before `encoder`.
 fn draw_panel(
@@ -755,5 +781,28 @@ impl ApplicationHandler for App {
         if let Some(ws) = &self.window {
             ws.window.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::initial_window_size;
+
+    #[test]
+    fn the_first_window_fits_the_monitor() {
+        // Large monitors, or none known: the preferred size.
+        assert_eq!(initial_window_size(None), (1280.0, 760.0));
+        assert_eq!(initial_window_size(Some((2560.0, 1440.0))), (1280.0, 760.0));
+        // A 1366×768 laptop: the full width, the height less the title and task bars.
+        assert_eq!(initial_window_size(Some((1366.0, 768.0))), (1280.0, 672.0));
+        // A 1024×640 display: inside it on both axes.
+        let (w, h) = initial_window_size(Some((1024.0, 640.0)));
+        assert!(w <= 1024.0 - 32.0 && h <= 640.0 - 96.0, "{w}×{h}");
+        // Tiny or nonsense sizes: never below the smallest usable window.
+        assert_eq!(initial_window_size(Some((320.0, 240.0))), (480.0, 360.0));
+        assert_eq!(
+            initial_window_size(Some((f64::NAN, 900.0))),
+            (1280.0, 760.0)
+        );
     }
 }

@@ -21,10 +21,16 @@ impl Drop for Xvfb {
     }
 }
 
-/// Starts Xvfb (1280×800) on a display number no other server holds, searched in `displays`
-/// (offset by the process id; each test binary searches its own range, so parallel runs do not
-/// pick the same free number at once), and waits for its socket.
+/// Starts Xvfb (1600×1000: room for shoal's window at its preferred 1280×760) on a display
+/// number no other server holds, searched in `displays` (offset by the process id; each test
+/// binary searches its own range, so parallel runs do not pick the same free number at once),
+/// and waits for its socket.
 pub fn start(displays: std::ops::Range<u32>) -> Xvfb {
+    start_sized(displays, 1600, 1000)
+}
+
+/// [`start`] with a screen of `width`×`height` pixels.
+pub fn start_sized(displays: std::ops::Range<u32>, width: u32, height: u32) -> Xvfb {
     assert!(
         Path::new(XVFB).exists(),
         "{XVFB} is missing: install it (Debian: apt install xvfb) — CI installs it in .ci/run"
@@ -38,7 +44,13 @@ pub fn start(displays: std::ops::Range<u32>) -> Xvfb {
         .expect("a free X display number");
     let child = Command::new(XVFB)
         .arg(format!(":{display}"))
-        .args(["-screen", "0", "1280x800x24", "-nolisten", "tcp"])
+        .args([
+            "-screen",
+            "0",
+            &format!("{width}x{height}x24"),
+            "-nolisten",
+            "tcp",
+        ])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
