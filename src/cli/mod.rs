@@ -121,9 +121,18 @@ pub struct ScriptSource {
 }
 
 impl std::fmt::Display for ScriptSource {
-    /// `scripts: /path/to/scripts (from --scripts or SHOAL_SCRIPTS)`.
+    /// `scripts: /path/to/scripts (from --scripts or SHOAL_SCRIPTS)`, and where the assets come
+    /// from when that is not beside the scripts.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "scripts: {} ({})", self.scripts.display(), self.why)
+        write!(f, "scripts: {} ({})", self.scripts.display(), self.why)?;
+        if self.scripts.parent() != Some(self.root.as_path()) {
+            write!(
+                f,
+                "\nassets: {} (none beside the scripts)",
+                self.root.join("assets").display()
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -133,6 +142,16 @@ impl ScriptsArg {
     pub fn resolve(&self) -> anyhow::Result<ScriptSource> {
         let built = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
         let cwd = std::env::current_dir().unwrap_or_else(|_| ".".into());
+        self.resolve_in(&cwd, &built)
+    }
+
+    /// [`ScriptsArg::resolve`] from working directory `cwd`, with the source tree at `built`.
+    fn resolve_in(
+        &self,
+        cwd: &std::path::Path,
+        built: &std::path::Path,
+    ) -> anyhow::Result<ScriptSource> {
+        let (cwd, built) = (cwd.to_path_buf(), built.to_path_buf());
         if let Some(dir) = &self.scripts {
             if !dir.is_dir() {
                 anyhow::bail!(
@@ -159,9 +178,16 @@ impl ScriptsArg {
             });
         }
         if cwd.join("scripts").is_dir() {
+            // A designer's own folder holding a copy of the scripts and no assets/ of its
+            // own gets the source tree's fish.
+            let root = if cwd.join("assets").is_dir() {
+                cwd.clone()
+            } else {
+                built
+            };
             return Ok(ScriptSource {
                 scripts: cwd.join("scripts"),
-                root: cwd,
+                root,
                 why: "the working directory's scripts/",
             });
         }
@@ -223,6 +249,35 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A working directory with `scripts/` and no `assets/` (a designer's copy of the scripts)
+    /// takes its assets from the source tree, and says so; with `assets/` it uses its own.
+    #[test]
+    fn working_directory_scripts_without_assets_use_the_source_tree_s() {
+        let built = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(built.path().join("assets")).unwrap();
+        let cwd = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(cwd.path().join("scripts")).unwrap();
+        let source = ScriptsArg::default()
+            .resolve_in(cwd.path(), built.path())
+            .unwrap();
+        assert_eq!(source.scripts, cwd.path().join("scripts"));
+        assert_eq!(source.root, built.path());
+        let shown = source.to_string();
+        assert!(
+            shown.contains(&format!(
+                "assets: {} (none beside the scripts)",
+                built.path().join("assets").display()
+            )),
+            "{shown}"
+        );
+        std::fs::create_dir_all(cwd.path().join("assets")).unwrap();
+        let source = ScriptsArg::default()
+            .resolve_in(cwd.path(), built.path())
+            .unwrap();
+        assert_eq!(source.root, cwd.path());
+        assert!(!source.to_string().contains("assets:"), "{source}");
+    }
 
     #[test]
     fn error_chain_names_each_cause_once() {
