@@ -108,6 +108,51 @@ fn test_type_error_and_undefined_global_name_file_and_line() {
     );
 }
 
+/// Copies `from` into `to`, recursively.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+/// A designer's own folder holding a copy of `scripts/` (no config of its own) is checked with
+/// shoal's config as if it sat beside them: the copy alone, clean, and a mistake added to it is
+/// still found with the API's types. shoal's config used to bring the source tree's `scripts/`
+/// in too, so every class the copy declares was reported twice (13 warnings on a clean copy).
+#[test]
+fn test_a_copy_of_the_scripts_elsewhere_is_checked_on_its_own() {
+    require_checker();
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(&root().join("scripts"), &dir.path().join("scripts"));
+    assert!(!dir.path().join(".emmyrc.json").exists());
+    let out = shoal_check(dir.path(), &[], None);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(stdout.contains("check: no diagnostics"), "{stdout}");
+
+    std::fs::write(dir.path().join("scripts/behaviors/typo.lua"), BAD).unwrap();
+    let out = shoal_check(dir.path(), &[], None);
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("scripts/behaviors/typo.lua:4:") && l.contains("number")),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("check: 2 diagnostics in 1 file ("),
+        "only the two mistakes: {stdout}"
+    );
+}
+
 #[test]
 fn test_without_the_checker_says_how_to_install_it() {
     let empty = tempfile::tempdir().unwrap();

@@ -63,6 +63,14 @@ pub enum CheckError {
          --locked {CHECKER}@{CHECKER_VERSION}\nand make sure ~/.cargo/bin is on your PATH."
     )]
     NotInstalled,
+    /// The workspace config cannot be read or is not JSON.
+    #[error("{path}: {why}")]
+    Config {
+        /// The config file.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
     /// Neither the scripts' repository nor shoal's source tree has the workspace config.
     #[error("no {CONFIG_FILE} beside {0} or in shoal's source tree")]
     NoConfig(PathBuf),
@@ -199,6 +207,9 @@ pub struct CheckPlan {
     pub workspaces: Vec<PathBuf>,
     /// Files and directories whose diagnostics are reported (canonical paths).
     pub targets: Vec<PathBuf>,
+    /// The directory holding the scripts directory: the config's relative workspace paths
+    /// (`scripts/types`, `scripts`) are meant from there.
+    pub root: PathBuf,
 }
 
 /// Finds `program` in the directories of `path` (a `PATH` value).
@@ -282,6 +293,7 @@ pub fn plan(
     let scripts = scripts
         .canonicalize()
         .unwrap_or_else(|_| scripts.to_path_buf());
+    let root = scripts.parent().map(Path::to_path_buf).unwrap_or_default();
     if !workspaces.contains(&scripts) {
         workspaces.push(scripts);
     }
@@ -290,7 +302,43 @@ pub fn plan(
         config,
         workspaces,
         targets,
+        root,
     })
+}
+
+/// `config` for scripts under `root`: None when the config sits there (its relative paths
+/// are then meant from where the checker reads them); else the config's JSON with the relative
+/// paths of `workspace.library` and `workspace.workspaceRoots` made absolute under `root`.
+/// Without this, a copy of the scripts checked with shoal's own config also loads the source
+/// tree's `scripts/`, and every class the copy declares is reported as a duplicate.
+pub fn config_for_root(config: &Path, root: &Path) -> Result<Option<String>, CheckError> {
+    let canonical = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_path_buf());
+    if config.parent().map(canonical) == Some(canonical(root)) {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(config).map_err(|source| CheckError::Config {
+        path: config.to_path_buf(),
+        why: source.to_string(),
+    })?;
+    let mut json: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| CheckError::Config {
+            path: config.to_path_buf(),
+            why: e.to_string(),
+        })?;
+    for key in ["library", "workspaceRoots"] {
+        let Some(list) = json
+            .pointer_mut(&format!("/workspace/{key}"))
+            .and_then(serde_json::Value::as_array_mut)
+        else {
+            continue;
+        };
+        for entry in list {
+            if let Some(rel) = entry.as_str().filter(|p| Path::new(p).is_relative()) {
+                *entry = root.join(rel).to_string_lossy().into_owned().into();
+            }
+        }
+    }
+    Ok(Some(json.to_string()))
 }
 
 /// Runs the checker and returns the diagnostics in the plan's targets, sorted by file and
@@ -301,9 +349,22 @@ pub fn check(plan: &CheckPlan, cwd: &Path) -> Result<Vec<Diagnostic>, CheckError
         .suffix(".json")
         .tempfile()
         .map_err(CheckError::Temp)?;
+    let derived = match config_for_root(&plan.config, &plan.root)? {
+        Some(json) => {
+            let mut file = tempfile::Builder::new()
+                .prefix("shoal-check-config-")
+                .suffix(".json")
+                .tempfile()
+                .map_err(CheckError::Temp)?;
+            std::io::Write::write_all(&mut file, json.as_bytes()).map_err(CheckError::Temp)?;
+            Some(file)
+        }
+        None => None,
+    };
+    let config = derived.as_ref().map_or(plan.config.as_path(), |f| f.path());
     let out = Command::new(&plan.checker)
         .arg("--config")
-        .arg(&plan.config)
+        .arg(config)
         .args(["--output-format", "json", "--output"])
         .arg(report.path())
         .args(&plan.workspaces)
