@@ -8,6 +8,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -108,20 +110,6 @@ fn test_type_error_and_undefined_global_name_file_and_line() {
     );
 }
 
-/// Copies `from` into `to`, recursively.
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), target).unwrap();
-        }
-    }
-}
-
 /// A designer's own folder holding a copy of `scripts/` (no config of its own) is checked with
 /// shoal's config as if it sat beside them: the copy alone, clean, and a mistake added to it is
 /// still found with the API's types. shoal's config used to bring the source tree's `scripts/`
@@ -130,7 +118,7 @@ fn copy_dir(from: &Path, to: &Path) {
 fn test_a_copy_of_the_scripts_elsewhere_is_checked_on_its_own() {
     require_checker();
     let dir = tempfile::tempdir().unwrap();
-    copy_dir(&root().join("scripts"), &dir.path().join("scripts"));
+    common::copy_dir(&root().join("scripts"), &dir.path().join("scripts"));
     assert!(!dir.path().join(".emmyrc.json").exists());
     let out = shoal_check(dir.path(), &[], None);
     let (stdout, stderr) = text(&out);

@@ -204,6 +204,21 @@ impl TracedWindow {
         (x.to_owned(), y.to_owned())
     }
 
+    /// The window's latest `ui: 3D view WxH, panel from x=Some(L)` line.
+    fn view_line(&self) -> String {
+        self.seen
+            .iter()
+            .rev()
+            .find(|l| l.starts_with("ui: 3D view "))
+            .cloned()
+            .unwrap_or_else(|| {
+                panic!(
+                    "the window never said how big its view is:\n{:#?}",
+                    self.seen
+                )
+            })
+    }
+
     fn xdotool(&self, args: &[&str]) {
         let status = Command::new(XDOTOOL)
             .args(args)
@@ -357,13 +372,7 @@ fn the_3d_view_ends_where_the_panel_begins() {
         "the window did not draw with the MSAA asked for:\n{:#?}",
         w.seen
     );
-    let line = w
-        .seen
-        .iter()
-        .rev()
-        .find(|l| l.starts_with("ui: 3D view "))
-        .cloned()
-        .unwrap_or_else(|| panic!("the window never said how wide its view is:\n{:#?}", w.seen));
+    let line = w.view_line();
     // "ui: 3D view WxH, panel from x=Some(L)"
     let size = line["ui: 3D view ".len()..].split(',').next().unwrap();
     let (width, height) = size.split_once('x').expect("WxH");
@@ -398,13 +407,7 @@ fn the_3d_view_ends_where_the_panel_begins() {
 fn the_window_fits_a_small_screen() {
     let mut w = TracedWindow::start_on(&["run", "--frames", "100000"], (1024, 640));
     w.button("pause");
-    let line = w
-        .seen
-        .iter()
-        .rev()
-        .find(|l| l.starts_with("ui: 3D view "))
-        .cloned()
-        .unwrap_or_else(|| panic!("the window never said how big its view is:\n{:#?}", w.seen));
+    let line = w.view_line();
     let window = Command::new(XDOTOOL)
         .args(["search", "--name", "shoal", "getwindowgeometry"])
         .env("DISPLAY", &w.display)
