@@ -428,3 +428,37 @@ fn the_panel_can_be_dragged_narrower() {
         "the panel stays on the right: {after:?}"
     );
 }
+
+/// A script error on the selected fish shows in the inspector without widening the panel: the
+/// message wraps at the panel's edge (it used to stretch the panel by its whole length the
+/// moment the error appeared, pushing the view aside).
+#[test]
+fn a_long_script_error_in_the_inspector_wraps_inside_the_panel() {
+    let broken = r#"local M = {}
+function M.tick(fish)
+  error("this behaviour fails on purpose with a message long enough to be wider than any panel a designer would keep open")
+end
+return M
+"#;
+    let scripts = scripts_with(&[("behaviors/broken.lua", broken)]);
+    let mut aq = aquarium(scripts.path(), Some("broken"), Some(3));
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    let ctx = egui::Context::default();
+    let mut panel = egui::Rect::NOTHING;
+    for _ in 0..4 {
+        panel = window_frame(&ctx, &mut aq, vec![]);
+    }
+    assert!(
+        aq.scene
+            .inspect(fish(&aq, 3))
+            .iter()
+            .any(|(k, v)| k == "error" && v.contains("fails on purpose")),
+        "the inspector has the error line"
+    );
+    assert!(
+        panel.width() <= 451.0,
+        "the panel stays at its 450 points: {panel:?}"
+    );
+}

@@ -252,13 +252,18 @@ fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     motion_buttons(ui, scene, st, fish);
     body_wave_plot(ui, st);
     let Some(split) = &st.split else {
-        egui::Grid::new("inspector").striped(true).show(ui, |ui| {
-            for (k, v) in &st.inspect {
-                ui.label(k);
-                ui.label(v);
-                ui.end_row();
-            }
-        });
+        // Values wrap at the panel's edge: a long one (a script error's message) would
+        // otherwise widen the panel the moment it appears.
+        egui::Grid::new("inspector")
+            .striped(true)
+            .num_columns(2)
+            .show(ui, |ui| {
+                for (k, v) in &st.inspect {
+                    ui.label(k);
+                    ui.add(egui::Label::new(v).wrap());
+                    ui.end_row();
+                }
+            });
         return;
     };
     // Split tank: A's and B's lines side by side, by key (A's order, then B's own keys).
