@@ -385,24 +385,33 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
         return;
     };
     let before = p;
+    let mut deg = p.turn_angle.to_degrees();
+    let sliders: [(&mut f32, std::ops::RangeInclusive<f32>, &str); 10] = [
+        (&mut p.p, 0.0..=0.9, "p (pivot, body fraction)"),
+        (&mut p.s, 0.0..=200.0, "s (speed, units/s)"),
+        (&mut p.l, 5.0..=200.0, "l (body length)"),
+        (&mut p.max_amp, 0.0..=30.0, "maxAmp"),
+        (&mut p.lambda, 5.0..=200.0, "λ (wavelength)"),
+        (&mut p.omega, 0.0..=40.0, "ω (frequency)"),
+        (
+            &mut p.front_amp,
+            0.0..=0.1,
+            "snout amplitude (body fraction)",
+        ),
+        (&mut p.tt, 0.05..=5.0, "Tt (turn time, s)"),
+        (&mut p.f, 1.0..=2.0, "f (turn weight)"),
+        (&mut deg, 0.0..=180.0, "turn angle (°)"),
+    ];
     // The sliders shorten (to 40 points) before their labels would hold the panel wide.
-    let widest = LABELS
+    let widest = sliders
         .iter()
-        .map(|t| text_width(ui, t, egui::TextStyle::Body))
+        .map(|(_, _, label)| text_width(ui, label, egui::TextStyle::Body))
         .fold(0.0, f32::max);
     let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
     ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
-    ui.add(egui::Slider::new(&mut p.p, 0.0..=0.9).text("p (pivot, body fraction)"));
-    ui.add(egui::Slider::new(&mut p.s, 0.0..=200.0).text("s (speed, units/s)"));
-    ui.add(egui::Slider::new(&mut p.l, 5.0..=200.0).text("l (body length)"));
-    ui.add(egui::Slider::new(&mut p.max_amp, 0.0..=30.0).text("maxAmp"));
-    ui.add(egui::Slider::new(&mut p.lambda, 5.0..=200.0).text("λ (wavelength)"));
-    ui.add(egui::Slider::new(&mut p.omega, 0.0..=40.0).text("ω (frequency)"));
-    ui.add(egui::Slider::new(&mut p.front_amp, 0.0..=0.1).text("snout amplitude (body fraction)"));
-    ui.add(egui::Slider::new(&mut p.tt, 0.05..=5.0).text("Tt (turn time, s)"));
-    ui.add(egui::Slider::new(&mut p.f, 1.0..=2.0).text("f (turn weight)"));
-    let mut deg = p.turn_angle.to_degrees();
-    ui.add(egui::Slider::new(&mut deg, 0.0..=180.0).text("turn angle (°)"));
+    for (value, range, label) in sliders {
+        ui.add(egui::Slider::new(value, range).text(label));
+    }
     p.turn_angle = deg.to_radians();
     if p != before {
         if let Err(e) = scene.set_motion_params(st.species, p) {
@@ -488,13 +497,6 @@ fn console(ui: &mut egui::Ui, st: &mut UiState) {
             }
         });
 }
-
-/// The motion parameter sliders' labels, longest first (see `motion_parameters`).
-const LABELS: [&str; 3] = [
-    "snout amplitude (body fraction)",
-    "p (pivot, body fraction)",
-    "s (speed, units/s)",
-];
 
 /// How wide `text` is, unwrapped, in `style`.
 pub(super) fn text_width(ui: &egui::Ui, text: &str, style: egui::TextStyle) -> f32 {

@@ -161,33 +161,17 @@ impl ScriptsArg {
                 );
             }
             let dir = dir.canonicalize().unwrap_or_else(|_| dir.clone());
-            // Assets beside the scripts when there are some, else the working directory's, else
-            // the source tree's.
-            let root = [
-                dir.parent().map(std::path::Path::to_path_buf),
-                Some(cwd.clone()),
-            ]
-            .into_iter()
-            .flatten()
-            .find(|r| r.join("assets").is_dir())
-            .unwrap_or(built);
             return Ok(ScriptSource {
-                root,
+                root: assets_root(&dir, &cwd, built),
                 scripts: dir,
                 why: "from --scripts or SHOAL_SCRIPTS",
             });
         }
         if cwd.join("scripts").is_dir() {
-            // A designer's own folder holding a copy of the scripts and no assets/ of its
-            // own gets the source tree's fish.
-            let root = if cwd.join("assets").is_dir() {
-                cwd.clone()
-            } else {
-                built
-            };
+            let scripts = cwd.join("scripts");
             return Ok(ScriptSource {
-                scripts: cwd.join("scripts"),
-                root,
+                root: assets_root(&scripts, &cwd, built),
+                scripts,
                 why: "the working directory's scripts/",
             });
         }
@@ -197,6 +181,22 @@ impl ScriptsArg {
             why: "the source tree shoal was built from; choose with --scripts DIR or SHOAL_SCRIPTS",
         })
     }
+}
+
+/// The root whose `assets/` the fish models come from, for the scripts directory `scripts`:
+/// beside the scripts when there is one, else the working directory's, else the source tree's
+/// (`built`). So a designer's own folder holding a copy of the scripts and no `assets/` gets
+/// the source tree's fish.
+fn assets_root(
+    scripts: &std::path::Path,
+    cwd: &std::path::Path,
+    built: std::path::PathBuf,
+) -> std::path::PathBuf {
+    [scripts.parent(), Some(cwd)]
+        .into_iter()
+        .flatten()
+        .find(|r| r.join("assets").is_dir())
+        .map_or(built, std::path::Path::to_path_buf)
 }
 
 /// An error and its causes on one line, `context: cause: cause`, leaving out a cause whose text
