@@ -5,7 +5,7 @@
 //   @binding(0) globals: Globals (uniform, from common.wgsl)
 //   @binding(1) palette: array<mat4x4<f32>> (storage, read) — all fish's joint palettes
 // Bindings (group 1, one per material of a species: its glTF material, see
-// src/render/material.rs); every texture has a 1×1 stand-in that leaves the factors as they are:
+// crates/render/src/material.rs); every texture has a 1×1 stand-in that leaves the factors as they are:
 //   @binding(0) base_color_tex: texture_2d<f32> — Rgba8UnormSrgb with mips (white if none)
 //   @binding(1) base_color_sampler: sampler — the glTF sampler's wrap and filters
 //   @binding(2) material: MaterialParams (uniform) — alpha mode, cutoff, flags, factors

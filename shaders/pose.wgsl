@@ -1,9 +1,9 @@
-// pose.wgsl — the pose stage on the GPU (src/world/pose/gpu.rs): one invocation per fish
-// samples its body shape from the motion player's terms (src/motion/player/shape.rs: the paper's
+// pose.wgsl — the pose stage on the GPU (crates/core/src/world/pose/gpu.rs): one invocation per fish
+// samples its body shape from the motion player's terms (crates/core/src/motion/player/shape.rs: the paper's
 // equations (3)-(7) at the head and each joints_x sample, cross-faded between two motions),
-// turns it into the driven joints' yaws (src/motion/body.rs, curve_to_yaw), then runs its
+// turns it into the driven joints' yaws (crates/core/src/motion/body.rs, curve_to_yaw), then runs its
 // species' program — the model steps, then the palette slots — into the palette buffer the fish
-// draws read, in the layout the CPU stage writes. src/skin/pose_program.rs (shape_yaws,
+// draws read, in the layout the CPU stage writes. crates/core/src/skin/pose_program.rs (shape_yaws,
 // run_program) is this file's arithmetic on the CPU.
 //
 // Bindings (group 0):
@@ -16,7 +16,7 @@
 //   @binding(6) samples: array<ShapeSample> (storage, read) — every program's, in order
 // Standalone: nothing is prepended or appended.
 
-// One motion's turn terms (MotionTerms in src/motion/player/shape.rs).
+// One motion's turn terms (MotionTerms in crates/core/src/motion/player/shape.rs).
 struct MotionShape {
     // 0: no turn term; 1: normal turn, eq. (5); 2: quick or serial turn, eq. (6).
     kind: u32,
@@ -95,10 +95,10 @@ struct PoseParams {
     _pad2: u32,
 };
 
-// GPU_POSE_MAX_MODELS in src/world/pose/gpu.rs: a larger species is posed on the CPU.
+// GPU_POSE_MAX_MODELS in crates/core/src/world/pose/gpu.rs: a larger species is posed on the CPU.
 const MAX_MODELS: u32 = 32u;
 const NOT_DRIVEN: u32 = 0xffffffffu;
-// GPU_POSE_MAX_YAWS and GPU_POSE_MAX_SAMPLES in src/skin/pose_program.rs.
+// GPU_POSE_MAX_YAWS and GPU_POSE_MAX_SAMPLES in crates/core/src/skin/pose_program.rs.
 const MAX_YAWS: u32 = 16u;
 const MAX_SAMPLES: u32 = 18u;
 const TAU: f32 = 6.2831853;
@@ -117,7 +117,7 @@ fn finite(x: f32) -> bool {
 }
 
 // The paper's F (positive to the fish's right) of motion m at sample s, travelling being the
-// sample's sin(2*pi*x'/lambda - phase): shape() in src/motion/player/shape.rs.
+// sample's sin(2*pi*x'/lambda - phase): shape() in crates/core/src/motion/player/shape.rs.
 fn motion_shape(m: MotionShape, f: f32, gain: f32, s: ShapeSample, travelling: f32) -> f32 {
     let swim = s.amp * gain * travelling;
     if (m.kind == 0u || m.ip == 0.0 || s.xp <= 0.0) {

@@ -2,17 +2,19 @@
 
 use clap::Parser;
 
+mod cli;
+
 fn main() -> std::process::ExitCode {
-    let cli = shoal::cli::Cli::parse();
+    let cli = crate::cli::Cli::parse();
     env_logger::Builder::from_env(
         env_logger::Env::default().default_filter_or(cli.default_log_filter()),
     )
     .format_timestamp(None)
     .init();
-    match shoal::cli::run(cli) {
+    match crate::cli::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {}", shoal::cli::error_chain(&err));
+            eprintln!("error: {}", crate::cli::error_chain(&err));
             std::process::ExitCode::FAILURE
         }
     }

@@ -104,24 +104,24 @@ fn write(out: &PathBuf, bytes: &[u8]) -> anyhow::Result<()> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.what {
         What::Porgy { out } => {
-            let bytes = crate::asset::black_porgy_glb();
+            let bytes = shoal_core::asset::black_porgy_glb();
             write(&out, &bytes)?;
             println!("wrote {} ({} bytes)", out.display(), bytes.len());
         }
         What::Eel { out } => {
-            let bytes = crate::asset::eel_glb();
+            let bytes = shoal_core::asset::eel_glb();
             write(&out, &bytes)?;
             println!("wrote {} ({} bytes)", out.display(), bytes.len());
         }
         What::Rig(rig) => {
-            let axis = crate::asset::rig::Axis::parse(&rig.axis)?;
-            let head = crate::asset::rig::HeadEnd::parse(&rig.head)?;
-            let opts = crate::asset::rig::RigOptions {
+            let axis = shoal_core::asset::rig::Axis::parse(&rig.axis)?;
+            let head = shoal_core::asset::rig::HeadEnd::parse(&rig.head)?;
+            let opts = shoal_core::asset::rig::RigOptions {
                 num_joints: rig.joints,
                 axis,
                 head,
             };
-            let rigged = crate::asset::rig::rig_file(&rig.input, &opts)?;
+            let rigged = shoal_core::asset::rig::rig_file(&rig.input, &opts)?;
             for w in &rigged.warnings {
                 eprintln!("warning: {w}");
             }
@@ -162,7 +162,7 @@ pub const SWIM_PREVIEW_YAW: f32 = 0.25;
 
 /// `shoal asset species`: writes the species script and prints what to add to a scene.
 pub fn species(args: &SpeciesArgs) -> anyhow::Result<()> {
-    use crate::asset::species_file::{relative_path, suggest};
+    use shoal_core::asset::species_file::{relative_path, suggest};
     let name = &args.name;
     anyhow::ensure!(
         !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
@@ -185,7 +185,7 @@ pub fn species(args: &SpeciesArgs) -> anyhow::Result<()> {
         "{} already exists; pass --force to overwrite it",
         out.display()
     );
-    let fish = crate::skin::FishModel::load(&args.model)?;
+    let fish = shoal_core::skin::FishModel::load(&args.model)?;
     for w in &fish.warnings {
         eprintln!("warning: {w}");
     }
@@ -210,14 +210,14 @@ pub fn species(args: &SpeciesArgs) -> anyhow::Result<()> {
 
 /// Skins `model` with every `spine_*` joint yawed by `yaw` and draws side and top views.
 pub fn preview(model: &std::path::Path, yaw: f32, size: u32) -> anyhow::Result<image::RgbImage> {
-    let fish = crate::skin::FishModel::load(model)?;
+    let fish = shoal_core::skin::FishModel::load(model)?;
     for w in &fish.warnings {
         eprintln!("warning: {w}");
     }
     let (rig, _) = preview_rig(model, &fish)?;
     let yaws = vec![yaw; rig.num_driven()];
     let (positions, f, u) = posed(&fish, &rig, &yaws)?;
-    use crate::asset::preview::{View, render_views_mesh};
+    use shoal_core::asset::preview::{View, render_views_mesh};
     let right = f.cross(u);
     let views = [
         View { right: -f, up: u },
@@ -236,8 +236,8 @@ pub fn swim_sheet(
     amplitude: f32,
     size: u32,
 ) -> anyhow::Result<image::RgbImage> {
-    use crate::asset::preview::{View, render_views_mesh};
-    let fish = crate::skin::FishModel::load(model)?;
+    use shoal_core::asset::preview::{View, render_views_mesh};
+    let fish = shoal_core::skin::FishModel::load(model)?;
     for w in &fish.warnings {
         eprintln!("warning: {w}");
     }
@@ -267,23 +267,23 @@ pub fn swim_sheet(
 
 fn preview_rig(
     model: &std::path::Path,
-    fish: &crate::skin::FishModel,
-) -> anyhow::Result<(crate::species::SpeciesRig, ())> {
-    let spines = crate::asset::species_file::spine_joints(fish);
+    fish: &shoal_core::skin::FishModel,
+) -> anyhow::Result<(shoal_core::species::SpeciesRig, ())> {
+    let spines = shoal_core::asset::species_file::spine_joints(fish);
     anyhow::ensure!(
         !spines.is_empty(),
         "{}: no joints named spine_1, spine_2, …; rig it with `shoal asset rig`",
         model.display()
     );
-    let mut desc = crate::species::SpeciesDesc::black_porgy();
+    let mut desc = shoal_core::species::SpeciesDesc::black_porgy();
     desc.vertebral_joints = spines;
-    Ok((crate::species::SpeciesRig::bind(&desc, fish)?, ()))
+    Ok((shoal_core::species::SpeciesRig::bind(&desc, fish)?, ()))
 }
 
 /// Skins `fish` with the given driven-joint yaws; returns positions, forward and up.
 fn posed(
-    fish: &crate::skin::FishModel,
-    rig: &crate::species::SpeciesRig,
+    fish: &shoal_core::skin::FishModel,
+    rig: &shoal_core::species::SpeciesRig,
     yaws: &[f32],
 ) -> anyhow::Result<(Vec<glam::Vec3>, glam::Vec3, glam::Vec3)> {
     use glam::{Mat4, Vec3};
@@ -295,9 +295,9 @@ fn posed(
         .local_to_model(Mat4::IDENTITY, &locals, &mut models)
         .run()?;
     let mut palette = vec![Mat4::IDENTITY; n];
-    crate::skin::palette(&models, &fish.inverse_bind_poses, &mut palette)?;
+    shoal_core::skin::palette(&models, &fish.inverse_bind_poses, &mut palette)?;
     let mut positions = vec![Vec3::ZERO; fish.mesh.num_vertices()];
-    crate::skin::LinearBlendSkinningJob {
+    shoal_core::skin::LinearBlendSkinningJob {
         palette: &palette,
         positions_in: &fish.mesh.positions,
         normals_in: &[],

@@ -1,7 +1,7 @@
 //! `shoal bench`: measured speed of the simulation (issue 7) and of rendering.
 //!
 //! `shoal bench sim --fish 1000,10000 [--seconds 5] [--json] [--driver lua|rust]` builds a scene
-//! per fish count (constant density, [`crate::world::bench::bench_tank`]), warms it up for a
+//! per fish count (constant density, [`shoal_core::world::bench::bench_tank`]), warms it up for a
 //! second, then times each 60 Hz tick and reports the median and p99 milliseconds, fish-ticks per
 //! second and the split by stage. `--driver lua` (default) runs the shipped behaviour scripts
 //! through `script::Simulation`; `--driver rust` runs the built-in Rust wander/school driver, to
@@ -12,8 +12,8 @@
 //! ratios (see [`super::bench_peer`]).
 //!
 //! `shoal bench render --fish 1,100,1000,10000 [--size 1920x1080] [--frames 30]` renders the
-//! real world (black porgies in [`crate::world::bench::bench_world`], the built-in Rust driver,
-//! through the window's adapter [`crate::app::WorldScene`]) offscreen per fish count, with the
+//! real world (black porgies in [`shoal_core::world::bench::bench_world`], the built-in Rust driver,
+//! through the window's adapter [`shoal_app::WorldScene`]) offscreen per fish count, with the
 //! whole tank in view, waits for the GPU every frame, and reports the median
 //! and p99 frame time, the CPU upload time (culling and level-of-detail choice included), the
 //! draw calls (which do not grow with fish), the fish drawn and culled, the fish at each level of
@@ -24,18 +24,15 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg32;
 
-use crate::app::WorldScene;
-use crate::render::{Camera, Gpu, OffscreenTarget, Renderer};
-use crate::script::Simulation;
-use crate::script::sim::SAMPLE_EVERY;
-use crate::world::bench::{
-    RustSim, SimBenchResult, bench_positions, bench_tank, bench_world, measure,
-};
-use crate::world::driver::WanderDriver;
-use crate::world::{Species, SpeciesDesc, SpeciesId, TICK_HZ};
+use super::PoseArg;
+use shoal_app::WorldScene;
+use shoal_core::world::bench::{RustSim, SimBenchResult, bench_world, measure};
+use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::{Species, SpeciesDesc, SpeciesId, TICK_HZ};
+use shoal_render::{Camera, Gpu, OffscreenTarget, Renderer};
+use shoal_script::Simulation;
+use shoal_script::sim::SAMPLE_EVERY;
 
 /// Arguments of `shoal bench`.
 #[derive(Debug, Default, clap::Args)]
@@ -110,41 +107,6 @@ pub struct SimArgs {
     pub pose: PoseArg,
 }
 
-/// Where `shoal bench sim` and `shoal bench peer` pose the fish.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum PoseArg {
-    /// The CPU pose stage: skeletons and every palette (tests, CPU skinning).
-    Cpu,
-    /// The window's: one record per fish for the GPU pose pass.
-    Gpu,
-}
-
-impl PoseArg {
-    /// The world's mode for it.
-    pub fn mode(self) -> crate::world::PoseMode {
-        match self {
-            PoseArg::Cpu => crate::world::PoseMode::Cpu,
-            PoseArg::Gpu => crate::world::PoseMode::Gpu,
-        }
-    }
-
-    /// Its name on the command line (and in the JSON reports).
-    pub fn name(self) -> &'static str {
-        match self {
-            PoseArg::Cpu => "cpu",
-            PoseArg::Gpu => "gpu",
-        }
-    }
-
-    /// How the table's header names it.
-    pub fn describe(self) -> &'static str {
-        match self {
-            PoseArg::Cpu => "pose: CPU (skeletons and palettes)",
-            PoseArg::Gpu => "pose: GPU pass (the CPU writes its records)",
-        }
-    }
-}
-
 /// Who decides what the fish do in `shoal bench sim`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Driver {
@@ -153,43 +115,6 @@ pub enum Driver {
     Lua,
     /// `world::driver::WanderDriver`: wander, school and avoid in Rust, no Lua.
     Rust,
-}
-
-/// The constant-density bench tank populated through the Lua simulation with the shipped
-/// behaviours (see [`Driver::Lua`]).
-pub(super) fn lua_sim(
-    root: &Path,
-    fish: usize,
-    seed: u64,
-    lanes: Option<usize>,
-) -> anyhow::Result<Simulation> {
-    let mut sim = Simulation::empty(root, seed)
-        .with_context(|| format!("loading the scripts under {}", root.display()))?;
-    if let Some(n) = lanes {
-        if n == 0 {
-            anyhow::bail!("--lanes must be at least 1");
-        }
-        sim.set_lanes(n)?;
-    }
-    let porgy = sim.species_id("black_porgy")?;
-    let l = sim.world().species(porgy).body_length();
-    let tank = bench_tank(l, fish);
-    sim.set_tank(tank.min, tank.max)?;
-    let mut rng = Pcg32::seed_from_u64(seed ^ 1);
-    for (i, pos) in bench_positions(&tank, l, fish, seed)
-        .into_iter()
-        .enumerate()
-    {
-        let (species, behavior) = match i % 100 {
-            0 => ("barracuda", "predator"),
-            1..=10 => ("black_porgy", "forage"),
-            _ => ("black_porgy", "school"),
-        };
-        let heading = rng.random_range(-std::f32::consts::PI..std::f32::consts::PI);
-        sim.spawn(species, pos, heading, 0.0, None, Some(behavior))?;
-    }
-    sim.world_mut().rebuild_grid();
-    Ok(sim)
 }
 
 /// Runs `shoal bench`.
@@ -234,7 +159,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
-                let mut sim = lua_sim(&args.root, fish, args.seed, args.lanes)?;
+                let mut sim = super::lua_sim(&args.root, fish, args.seed, args.lanes)?;
                 sim.world_mut().set_pose_mode(args.pose.mode());
                 let sampling = args.sample_functions.unwrap_or(false);
                 sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
@@ -447,7 +372,7 @@ pub struct RenderArgs {
     pub frames: usize,
     /// Largest projected error of a coarser level of detail, pixels; 0 draws every fish at full
     /// detail.
-    #[arg(long, default_value_t = crate::render::DEFAULT_LOD_TOLERANCE_PX)]
+    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX)]
     pub lod_tolerance_px: f32,
     /// Draw this rigged model (joints spine_1 …, e.g. from `shoal asset rig`) instead of the
     /// black porgy, with its material and textures.
@@ -460,22 +385,6 @@ pub struct RenderArgs {
     /// palette on the CPU, uploaded each frame).
     #[arg(long, value_enum, default_value_t = PoseArg::Gpu)]
     pub pose: PoseArg,
-}
-
-/// Median and nearest-rank p99 of `samples` (sorted in place). Empty input gives zeros.
-pub fn median_p99(samples: &mut [f64]) -> (f64, f64) {
-    if samples.is_empty() {
-        return (0.0, 0.0);
-    }
-    samples.sort_by(f64::total_cmp);
-    let n = samples.len();
-    let median = if n % 2 == 1 {
-        samples[n / 2]
-    } else {
-        0.5 * (samples[n / 2 - 1] + samples[n / 2])
-    };
-    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n);
-    (median, samples[rank - 1])
 }
 
 fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
@@ -574,8 +483,8 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
                 upload += f64::from(renderer.timings().upload_ms);
             }
         }
-        let (median, p99) = median_p99(&mut times);
-        let (pose, _) = median_p99(&mut pose_ms);
+        let (median, p99) = shoal_core::world::bench::median_p99(&mut times);
+        let (pose, _) = shoal_core::world::bench::median_p99(&mut pose_ms);
         let t = renderer.timings();
         let [l0, l1, l2] = t.num_fish_per_lod;
         println!(
@@ -598,7 +507,7 @@ fn porgy_asset_path() -> PathBuf {
     if local.is_file() {
         local
     } else {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/black_porgy.glb")
+        shoal_core::source_root().join("assets/black_porgy.glb")
     }
 }
 
@@ -612,12 +521,12 @@ fn porgy_species() -> anyhow::Result<Species> {
 /// A species for a rigged model file (joints spine_1 …), as `shoal asset species` would
 /// suggest it.
 fn model_species(path: &Path) -> anyhow::Result<Species> {
-    let model = crate::skin::FishModel::load(path)?;
+    let model = shoal_core::skin::FishModel::load(path)?;
     let file = path
         .file_name()
         .map(|f| f.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let desc = crate::asset::species_file::suggest("bench", &file, &model)
+    let desc = shoal_core::asset::species_file::suggest("bench", &file, &model)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .desc;
     let dir = path.parent().unwrap_or(Path::new("."));
@@ -627,7 +536,7 @@ fn model_species(path: &Path) -> anyhow::Result<Species> {
 /// `base` moved back along its view direction until the tank's bounding sphere fits the view of
 /// a `size` image, so every fish is drawn (none culled) and the counts compare across fish
 /// counts.
-fn whole_tank_camera(base: Camera, tank: &crate::world::Tank, size: (u32, u32)) -> Camera {
+fn whole_tank_camera(base: Camera, tank: &shoal_core::world::Tank, size: (u32, u32)) -> Camera {
     let radius = tank.extent().length() * 0.5;
     let aspect = size.0 as f32 / size.1.max(1) as f32;
     let half_v = base.fov_y_rad * 0.5;
@@ -712,7 +621,7 @@ fn plot_sim(path: &Path, results: &[SimBenchResult], title: &str) -> anyhow::Res
 
 /// The per-module table of `shoal bench sim --scene`: what each behaviour costs, the most
 /// expensive first, with what it allocates; `memory` is what the Lua states hold at the end.
-fn print_profile(modules: &[crate::script::sim::ModuleProfile], memory: usize) {
+fn print_profile(modules: &[shoal_script::sim::ModuleProfile], memory: usize) {
     if modules.is_empty() {
         return;
     }
@@ -755,7 +664,7 @@ fn print_profile(modules: &[crate::script::sim::ModuleProfile], memory: usize) {
 const TOP_FUNCTIONS: usize = 15;
 
 /// The top functions of every module by the stack samples, most estimated self time first.
-fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
+fn print_functions(modules: &[shoal_script::sim::ModuleProfile]) {
     let samples: u64 = modules.iter().map(|m| m.samples).sum();
     println!(
         "\ntop functions ({samples} stack samples; time estimated as the share of its module's samples):"
@@ -769,7 +678,7 @@ fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
             "  (few samples, so the shares are rough: a longer --seconds gives about one per ms of Lua)"
         );
     }
-    let mut rows: Vec<(&str, &crate::script::profiler::FunctionProfile)> = modules
+    let mut rows: Vec<(&str, &shoal_script::profiler::FunctionProfile)> = modules
         .iter()
         .flat_map(|m| m.functions.iter().map(move |f| (m.module.as_str(), f)))
         .collect();
@@ -797,19 +706,5 @@ fn print_functions(modules: &[crate::script::sim::ModuleProfile]) {
             f.total_ms_per_sim_s,
             f.self_samples
         );
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::median_p99;
-
-    #[test]
-    fn median_and_p99_by_hand() {
-        let mut v: Vec<f64> = (1..=100).map(f64::from).rev().collect();
-        assert_eq!(median_p99(&mut v), (50.5, 99.0));
-        let mut odd = vec![3.0, 1.0, 2.0];
-        assert_eq!(median_p99(&mut odd), (2.0, 3.0));
-        assert_eq!(median_p99(&mut []), (0.0, 0.0));
     }
 }

@@ -14,9 +14,9 @@ use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use crate::app::{AppOptions, Aquarium, Timeline};
-use crate::script::Simulation;
-use crate::world::TICK_HZ;
+use shoal_app::{AppOptions, Aquarium, Timeline};
+use shoal_core::world::TICK_HZ;
+use shoal_script::Simulation;
 
 /// Arguments of `shoal bench history`.
 #[derive(Debug, clap::Args)]
@@ -127,8 +127,8 @@ pub fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<CostRow> {
-    let mut sim = super::bench::lua_sim(root, fish, 1, None)?;
-    let mut timeline = Timeline::new(crate::app::DEFAULT_SPAN_S);
+    let mut sim = super::lua_sim(root, fish, 1, None)?;
+    let mut timeline = Timeline::new(shoal_app::DEFAULT_SPAN_S);
     let second = TICK_HZ as usize;
     for _ in 0..second {
         sim.step();
@@ -153,7 +153,7 @@ fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<Cost
     let snaps: Vec<f64> = (0..5)
         .map(|_| {
             let start = Instant::now();
-            let _ = crate::app::SimView::snapshot(&sim);
+            let _ = shoal_app::SimView::snapshot(&sim);
             start.elapsed().as_secs_f64() * 1e3
         })
         .collect();

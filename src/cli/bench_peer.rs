@@ -22,8 +22,8 @@ use std::sync::{Arc, Mutex};
 use anyhow::Context;
 use regex::Regex;
 
-use crate::world::TICK_HZ;
-use crate::world::bench::{SimBenchResult, measure};
+use shoal_core::world::TICK_HZ;
+use shoal_core::world::bench::{SimBenchResult, measure};
 
 /// The peer beside the repository when `--peer` and `SHOAL_PEER` are not given.
 pub const DEFAULT_PEER: &str = "../shared/bench/peer_school.lua";
@@ -72,8 +72,8 @@ pub struct PeerArgs {
     pub repeat: usize,
     /// Where shoal's side poses the fish (see `shoal bench sim --pose`): `gpu` counts what the
     /// window's CPU does, the records for the GPU pose pass.
-    #[arg(long, value_enum, default_value_t = super::bench::PoseArg::Cpu)]
-    pub pose: super::bench::PoseArg,
+    #[arg(long, value_enum, default_value_t = super::PoseArg::Cpu)]
+    pub pose: super::PoseArg,
 }
 
 /// An interpreter the peer runs under.
@@ -410,7 +410,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     }
     for &fish in &args.fish {
         for round in 1..=args.repeat {
-            let mut sim = super::bench::lua_sim(&args.root, fish, args.seed, args.lanes)?;
+            let mut sim = super::lua_sim(&args.root, fish, args.seed, args.lanes)?;
             sim.world_mut().set_pose_mode(args.pose.mode());
             let lanes = sim.num_lanes();
             let shoal = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
@@ -551,7 +551,7 @@ impl Spread {
         }
         let mut v = values.to_vec();
         // Sorts `v` too.
-        let (median, _) = super::bench::median_p99(&mut v);
+        let (median, _) = shoal_core::world::bench::median_p99(&mut v);
         Some(Self {
             median,
             min: v[0],

@@ -1,5 +1,5 @@
 //! `shoal compare`: an A/B experiment between two versions of the scripts over many seeds (see
-//! [`crate::timeline::compare`]).
+//! [`shoal_script::timeline::compare`]).
 //!
 //! ```text
 //! shoal compare --a DIR --b DIR [--scene S] --seeds N --seconds T [--shard i/n] [--json] [--plot PNG]
@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::timeline::compare::{self, CompareSpec, Comparison, Estimate};
+use shoal_script::timeline::compare::{self, CompareSpec, Comparison, Estimate};
 
 /// Arguments of `shoal compare`.
 #[derive(Debug, clap::Args)]
@@ -67,7 +67,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         merge(&args.merge)?
     };
     if let Some(plot) = &args.plot {
-        compare::write_plot(&c, plot).map_err(anyhow::Error::msg)?;
+        shoal_script::timeline::compare_plot::write(&c, plot)?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&c)?);

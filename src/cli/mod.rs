@@ -71,7 +71,7 @@ pub struct DapArg {
     /// and wait for a client (VS Code: see scripts/README.md) before simulating. Scripts then
     /// run in one lane; a breakpoint pauses the whole simulation.
     #[arg(long, value_name = "ADDR", num_args = 0..=1,
-          default_missing_value = crate::script::debug::DEFAULT_ADDR)]
+          default_missing_value = shoal_script::debug::DEFAULT_ADDR)]
     pub dap: Option<String>,
     /// Let --dap listen on an address that is not loopback (whoever connects can run Lua).
     #[arg(long, requires = "dap")]
@@ -81,8 +81,8 @@ pub struct DapArg {
 impl DapArg {
     /// With `--dap`: listens, says where, waits for the client's `configurationDone`, and
     /// attaches the debugger to every simulation made from then on.
-    pub fn start(&self) -> anyhow::Result<Option<std::sync::Arc<crate::script::debug::Debugger>>> {
-        use crate::script::debug;
+    pub fn start(&self) -> anyhow::Result<Option<std::sync::Arc<shoal_script::debug::Debugger>>> {
+        use shoal_script::debug;
         let Some(spec) = &self.dap else {
             return Ok(None);
         };
@@ -140,7 +140,7 @@ impl ScriptsArg {
     /// Resolves the scripts directory: `--scripts`/`SHOAL_SCRIPTS`, else `./scripts`, else the
     /// source tree's. An explicit directory that does not exist is an error.
     pub fn resolve(&self) -> anyhow::Result<ScriptSource> {
-        let built = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        let built = shoal_core::source_root().to_path_buf();
         let cwd = std::env::current_dir().unwrap_or_else(|_| ".".into());
         self.resolve_in(&cwd, &built)
     }
@@ -282,7 +282,7 @@ mod tests {
     #[test]
     fn error_chain_names_each_cause_once() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "scene file not found");
-        let err = anyhow::Error::new(crate::script::ScriptError::Io {
+        let err = anyhow::Error::new(shoal_script::ScriptError::Io {
             path: "x.lua".into(),
             source: io,
         })
@@ -292,4 +292,56 @@ mod tests {
             "loading scene `x.lua`: cannot read x.lua: scene file not found"
         );
     }
+}
+
+/// Where `shoal bench sim` and `shoal bench peer` pose the fish.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PoseArg {
+    /// The CPU pose stage: skeletons and every palette (tests, CPU skinning).
+    Cpu,
+    /// The window's: one record per fish for the GPU pose pass.
+    Gpu,
+}
+
+impl PoseArg {
+    /// The world's mode for it.
+    pub fn mode(self) -> shoal_core::world::PoseMode {
+        match self {
+            PoseArg::Cpu => shoal_core::world::PoseMode::Cpu,
+            PoseArg::Gpu => shoal_core::world::PoseMode::Gpu,
+        }
+    }
+
+    /// Its name on the command line (and in the JSON reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            PoseArg::Cpu => "cpu",
+            PoseArg::Gpu => "gpu",
+        }
+    }
+
+    /// How the table's header names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PoseArg::Cpu => "pose: CPU (skeletons and palettes)",
+            PoseArg::Gpu => "pose: GPU pass (the CPU writes its records)",
+        }
+    }
+}
+
+/// The constant-density bench school through the Lua simulation with the shipped behaviours
+/// ([`shoal_script::sim::bench_school`]); `--lanes` checked.
+pub(crate) fn lua_sim(
+    root: &std::path::Path,
+    fish: usize,
+    seed: u64,
+    lanes: Option<usize>,
+) -> anyhow::Result<shoal_script::Simulation> {
+    if lanes == Some(0) {
+        anyhow::bail!("--lanes must be at least 1");
+    }
+    anyhow::Context::with_context(
+        shoal_script::sim::bench_school(root, fish, seed, lanes),
+        || format!("loading the scripts under {}", root.display()),
+    )
 }

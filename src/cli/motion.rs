@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 
-use crate::motion::{Body, Preset, Recording, TurnKind, record_preset};
+use shoal_core::motion::{Body, Preset, Recording, TurnKind, record_preset};
 
 /// Output format of `shoal motion`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]

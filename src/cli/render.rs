@@ -6,12 +6,12 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::app::{DynScene, OverlayToggles, SimView, WorldScene};
-use crate::render::{Gpu, OffscreenTarget, Renderer};
-use crate::script::Simulation;
-use crate::world::bench::{RustSim, bench_world};
-use crate::world::driver::WanderDriver;
-use crate::world::{Species, SpeciesDesc};
+use shoal_app::{DynScene, OverlayToggles, SimView, WorldScene};
+use shoal_core::world::bench::{RustSim, bench_world};
+use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::{Species, SpeciesDesc};
+use shoal_render::{Gpu, OffscreenTarget, Renderer};
+use shoal_script::Simulation;
 
 /// Arguments of `shoal render`.
 #[derive(Debug, clap::Args)]
@@ -114,27 +114,27 @@ pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
 pub fn camera_for<S: SimView>(
     spec: CameraSpec,
     scene: &WorldScene<S>,
-    select: Option<crate::world::FishId>,
+    select: Option<shoal_core::world::FishId>,
     frame: u64,
     num_frames: u64,
-) -> crate::render::Camera {
+) -> shoal_render::Camera {
     let base = scene.default_camera();
     let tank = scene.frame_input().tank;
     match spec {
         CameraSpec::Default => base,
-        CameraSpec::Top => crate::render::Camera {
+        CameraSpec::Top => shoal_render::Camera {
             target: tank.center(),
             pitch_rad: 1.5,
             yaw_rad: 0.0,
             distance: tank.size().x.max(tank.size().z) * 1.05 + tank.size().y * 0.5,
             ..base
         },
-        CameraSpec::Orbit => crate::render::Camera {
+        CameraSpec::Orbit => shoal_render::Camera {
             yaw_rad: base.yaw_rad + std::f32::consts::TAU * frame as f32 / num_frames.max(1) as f32,
             ..base
         },
         CameraSpec::Follow => match select.and_then(|i| scene.fish_info(i)) {
-            Some(info) => crate::render::Camera {
+            Some(info) => shoal_render::Camera {
                 target: info.center,
                 distance: info.radius * 5.0,
                 pitch_rad: 0.35,
@@ -145,7 +145,7 @@ pub fn camera_for<S: SimView>(
         CameraSpec::Fixed { eye, target } => {
             let d = eye - target;
             let distance = d.length();
-            crate::render::Camera {
+            shoal_render::Camera {
                 target,
                 distance,
                 pitch_rad: (d.y / distance).clamp(-1.0, 1.0).asin(),
@@ -308,8 +308,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 /// The fish `--select N` names (0-based, in the world's order), or an error naming the range.
 pub fn check_select(
     select: Option<usize>,
-    world: &crate::world::World,
-) -> anyhow::Result<Option<crate::world::FishId>> {
+    world: &shoal_core::world::World,
+) -> anyhow::Result<Option<shoal_core::world::FishId>> {
     let Some(i) = select else { return Ok(None) };
     if let Some(&id) = world.fish_id_slice().get(i) {
         return Ok(Some(id));
@@ -349,7 +349,7 @@ fn render_frames(
     gpu: &Gpu,
     renderer: &mut Renderer,
     scene: &mut DynScene,
-    select: Option<crate::world::FishId>,
+    select: Option<shoal_core::world::FishId>,
     args: &Args,
     output: &Output,
 ) -> anyhow::Result<()> {

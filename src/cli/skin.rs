@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use glam::Quat;
 
-use crate::skin::{GltfScene, PoseRotations, PosedPrimitive};
+use shoal_core::skin::{GltfScene, PoseRotations, PosedPrimitive};
 
 /// Arguments of `shoal skin`.
 #[derive(Debug, clap::Args)]

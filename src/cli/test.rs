@@ -10,7 +10,7 @@ use anyhow::Context;
 use notify::EventKind;
 use notify::event::ModifyKind;
 
-use crate::testing::{self, RunOptions, Summary};
+use shoal_script::testing::{self, RunOptions, Summary};
 
 /// Arguments of `shoal test`.
 #[derive(Debug, Default, clap::Args)]
@@ -98,7 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 /// Runs the tests once, printing each outcome as it finishes and the summary line.
 fn run_once(paths: &[PathBuf], options: &RunOptions) -> anyhow::Result<Summary> {
     let files = testing::discover(paths)?;
-    let debugger = crate::script::debug::global();
+    let debugger = shoal_script::debug::global();
     let outcomes = testing::run_files(&files, options, |outcome| {
         let line = testing::format_outcome(outcome);
         println!("{line}");

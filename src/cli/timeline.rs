@@ -1,4 +1,4 @@
-//! `shoal record`, `shoal replay`, `shoal diff`: time travel, headless (see [`crate::timeline`]).
+//! `shoal record`, `shoal replay`, `shoal diff`: time travel, headless (see [`shoal_script::timeline`]).
 //!
 //! ```text
 //! shoal record [--scene S] [--seed N] [--lanes N] [--scripts DIR] --seconds T --out RUN.shoalrun
@@ -11,8 +11,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::timeline::run_file::Run;
-use crate::timeline::{self, RecordSpec, ReplaySpec};
+use shoal_script::timeline::run_file::Run;
+use shoal_script::timeline::{self, RecordSpec, ReplaySpec};
 
 /// Arguments of `shoal record`.
 #[derive(Debug, clap::Args)]
@@ -125,7 +125,7 @@ pub fn record(args: RecordArgs) -> anyhow::Result<ExitCode> {
     let scene = scene_in(&source.scripts, args.scene.as_deref())?;
     let lanes = args
         .lanes
-        .unwrap_or_else(crate::script::sim::default_lanes)
+        .unwrap_or_else(shoal_script::sim::default_lanes)
         .max(1);
     let run = timeline::record(&RecordSpec {
         root: &source.root,

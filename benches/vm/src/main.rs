@@ -4,7 +4,7 @@
 //! switched on, then probes of those guarantees.
 //!
 //! The `shoal` API the behaviour calls is a small mock in Rust over plain arrays (this file): the
-//! same functions and return shapes as `src/script/api/` (see `scripts/types/shoal.lua`), with a
+//! same functions and return shapes as `crates/script/src/api/` (see `scripts/types/shoal.lua`), with a
 //! uniform grid for the neighbour queries and a point-mass motion. The Rust side is the same in
 //! every build, so the differences between builds are the VM's: interpreter or compiler, the
 //! cost of crossing into Rust, the cost of the time bound.

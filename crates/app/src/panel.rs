@@ -1,0 +1,501 @@
+//! The tuning panel: one function per section (time, selected fish, motion parameters,
+//! overlays, timings, console), drawn top to bottom by [`panel`].
+
+use std::collections::VecDeque;
+
+use super::scene::DynScene;
+use super::timeline::{Divergence, clock};
+use super::ui_state::{
+    FrameTimes, MAX_FRAME_DT_S, UiState, drop_food, food_drop_for_panel, pace_ratio,
+};
+use super::widgets::text_width;
+use shoal_core::motion::{MotionParams, MotionRequest, Side, TurnKind};
+use shoal_core::world::FishId;
+
+const WARNING: egui::Color32 = egui::Color32::from_rgb(255, 210, 90);
+const ERROR: egui::Color32 = egui::Color32::from_rgb(255, 110, 90);
+
+/// The tuning panel.
+pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    ui.heading("shoal");
+    notices(ui, scene, st);
+    section(ui, "Time", |ui| time_controls(ui, scene, st));
+    section(ui, "Timeline", |ui| timeline(ui, scene, st));
+    if st.split.is_some() {
+        section(ui, "Split tank", |ui| split_tank(ui, scene, st));
+    }
+    section(ui, "Selected fish", |ui| selected_fish(ui, scene, st));
+    section(ui, "Scripts", |ui| {
+        let mut lines = Vec::new();
+        super::scripts_panel::show(ui, scene, &mut st.scripts, st.selected, &mut lines);
+        for line in lines {
+            st.log(line);
+        }
+    });
+    section(ui, "Motion parameters", |ui| {
+        motion_parameters(ui, scene, st)
+    });
+    section(ui, "Overlays", |ui| overlays(ui, st));
+    section(ui, "Timings (last 120 frames, ms)", |ui| {
+        timings(ui, scene, st);
+    });
+    section(ui, "Console", |ui| console(ui, st));
+}
+
+/// A collapsing section, open at start.
+fn section(ui: &mut egui::Ui, title: &str, body: impl FnOnce(&mut egui::Ui)) {
+    egui::CollapsingHeader::new(title)
+        .default_open(true)
+        .show(ui, body);
+}
+
+/// The scene file changed (offer a restart); a shader failed to compile.
+fn notices(ui: &mut egui::Ui, scene: &DynScene, st: &mut UiState) {
+    if scene.scene_changed() {
+        ui.horizontal_wrapped(|ui| {
+            ui.colored_label(WARNING, "the scene file changed");
+            if ui.button("restart scene").clicked() {
+                st.restart_requested = true;
+            }
+        });
+    }
+    if let Some(err) = &st.shader_error {
+        ui.colored_label(
+            ERROR,
+            format!("shader error (previous pipelines still drawing):\n{err}"),
+        );
+    }
+}
+
+/// Pause/play, one step, "drop food", the speed slider and the "behind real time" warning.
+fn time_controls(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    ui.horizontal_wrapped(|ui| {
+        let label = if st.paused { "play" } else { "pause" };
+        let toggle = ui.button(label);
+        st.trace_widget(ui, label, &toggle);
+        if toggle.clicked() {
+            st.paused = !st.paused;
+        }
+        let step = ui.button("step");
+        st.trace_widget(ui, "step", &step);
+        if step.clicked() {
+            st.paused = true;
+            st.step_once = true;
+        }
+        let feed = ui
+            .button("drop food")
+            .on_hover_text("a pellet at the surface, ahead of the selected fish or above the middle of the view; shift+click in the view drops one where you click");
+        st.trace_widget(ui, "drop food", &feed);
+        if feed.clicked() {
+            let pos = food_drop_for_panel(scene, st);
+            drop_food(scene, st, pos);
+        }
+    });
+    ui.add(
+        egui::Slider::new(&mut st.speed, 0.1..=4.0)
+            .logarithmic(true)
+            .text("speed ×"),
+    );
+    let pace = pace_ratio(&st.pace);
+    if !st.paused && pace < 0.95 {
+        ui.colored_label(
+            WARNING,
+            format!(
+                "behind real time: simulating {:.0} % of the requested speed \
+                 (frames are slower than {:.0} ms)",
+                pace * 100.0,
+                MAX_FRAME_DT_S * 1e3
+            ),
+        );
+    }
+}
+
+/// The history: its span and size, a slider to scrub to any moment of it, step back one tick,
+/// jump to the last script error, the ghosts and the fish that left them.
+fn timeline(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let tl = &st.timeline;
+    let Some((from, to)) = tl.span_s() else {
+        ui.label("history: nothing kept yet");
+        return;
+    };
+    let mb = |b: usize| b as f64 / 1e6;
+    ui.label(format!(
+        "history: {}–{}, {:.1} MB ({} states {:.1} MB, one every {:.0} s; paths {:.1} MB)",
+        clock(from),
+        clock(to),
+        mb(tl.states_bytes() + tl.track_bytes()),
+        tl.num_states(),
+        mb(tl.states_bytes()),
+        tl.keep_every_s(),
+        mb(tl.track_bytes()),
+    ));
+    let now = scene.world().time();
+    if !st.scrub_dragging {
+        st.scrub_s = now;
+    }
+    let slider = ui.add_enabled(
+        to > from,
+        egui::Slider::new(&mut st.scrub_s, from..=to)
+            .text("time (s)")
+            .fixed_decimals(2),
+    );
+    st.trace_widget(ui, "time (s)", &slider);
+    st.scrub_dragging = slider.dragged();
+    // A change of less than half a tick is the slider rounding the clock, not a scrub.
+    if slider.changed() && (st.scrub_s - now).abs() > 0.5 / shoal_core::world::TICK_HZ {
+        st.seek_to = Some(st.scrub_s);
+    }
+    let last_error = st.timeline.last_error_s();
+    ui.horizontal_wrapped(|ui| {
+        let back = ui.add_enabled(now > from, egui::Button::new("step back"));
+        st.trace_widget(ui, "step back", &back);
+        if back.clicked() {
+            st.seek_to = Some(now - 1.0 / shoal_core::world::TICK_HZ);
+        }
+        let jump = ui.add_enabled(
+            last_error.is_some(),
+            egui::Button::new("jump to last error"),
+        );
+        st.trace_widget(ui, "jump to last error", &jump);
+        if jump.clicked() {
+            st.seek_to = last_error;
+        }
+        let ghosts = ui.checkbox(&mut st.show_ghosts, "ghosts");
+        st.trace_widget(ui, "ghosts", &ghosts);
+    });
+    if now < to - 1e-9 {
+        ui.colored_label(
+            WARNING,
+            format!(
+                "rewound {:.2} s: play or step to run on from here with the scripts loaded now",
+                to - now
+            ),
+        );
+    }
+    let Some((g0, g1)) = st.timeline.ghost_span_s() else {
+        return;
+    };
+    let divergences = st.timeline.divergences().to_vec();
+    ui.label(format!(
+        "ghost: {}, {g0:.2}–{g1:.2} s; {} fish left it",
+        st.timeline.ghost_source(),
+        divergences.len()
+    ));
+    divergence_list(ui, scene, st, "divergences", &divergences);
+}
+
+/// Fish that parted from another run (the ghost, or the split tank's other version), by when
+/// they first differed and how far apart they got; a click selects the fish.
+fn divergence_list(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut UiState,
+    id_salt: &str,
+    divergences: &[Divergence],
+) {
+    egui::ScrollArea::vertical()
+        .id_salt(id_salt)
+        .max_height(140.0)
+        .show(ui, |ui| {
+            for d in divergences {
+                let label = format!(
+                    "fish #{} at {:.2} s, up to {:.1} apart",
+                    d.fish.index, d.first_s, d.max_distance
+                );
+                let row = ui.selectable_label(st.selected == Some(d.fish), &label);
+                st.trace_widget(ui, &label, &row);
+                if row.clicked() && scene.world().is_alive(d.fish) {
+                    st.select(scene, Some(d.fish));
+                }
+            }
+        });
+}
+
+/// The split tank: which version is where, the script files that differ, and the fish whose
+/// positions differ between A and B.
+fn split_tank(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let Some(split) = &st.split else { return };
+    ui.label(format!("A (left): {}", split.versions.a));
+    ui.label(format!("B (right): {}", split.versions.b));
+    if split.versions.dirs.is_some() {
+        if split.changed.is_empty() {
+            ui.label("no script file differs");
+        } else {
+            ui.label(format!("files that differ: {}", split.changed.join(", ")));
+        }
+    }
+    let divergences = split.divergences.clone();
+    ui.label(format!(
+        "{} fish differ between A and B (first tick they differed, largest distance)",
+        divergences.len()
+    ));
+    divergence_list(ui, scene, st, "split divergences", &divergences);
+}
+
+/// The selected fish: follow/deselect, motion buttons, body wave plot and inspector.
+fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let Some(fish) = st.selected else {
+        ui.label("click a fish to select it");
+        return;
+    };
+    ui.horizontal_wrapped(|ui| {
+        ui.label(format!("fish #{}", fish.index));
+        let follow = ui.checkbox(&mut st.follow, "follow");
+        st.trace_widget(ui, "follow", &follow);
+        let deselect = ui.button("deselect");
+        st.trace_widget(ui, "deselect", &deselect);
+        if deselect.clicked() {
+            st.select(scene, None);
+        }
+    });
+    if st.selected.is_none() {
+        return;
+    }
+    motion_buttons(ui, scene, st, fish);
+    body_wave_plot(ui, st);
+    let Some(split) = &st.split else {
+        // Values wrap at the panel's edge: a long one (a script error's message) would
+        // otherwise widen the panel the moment it appears.
+        egui::Grid::new("inspector")
+            .striped(true)
+            .num_columns(2)
+            .show(ui, |ui| {
+                for (k, v) in &st.inspect {
+                    ui.label(k);
+                    ui.add(egui::Label::new(v).wrap());
+                    ui.end_row();
+                }
+            });
+        return;
+    };
+    // Split tank: A's and B's lines side by side, by key (A's order, then B's own keys).
+    egui::Grid::new("inspector").striped(true).show(ui, |ui| {
+        ui.label("");
+        ui.strong("A");
+        ui.strong("B");
+        ui.end_row();
+        let b_only = split
+            .inspect
+            .iter()
+            .filter(|(k, _)| st.inspect.iter().all(|(ka, _)| ka != k));
+        for (k, _) in st.inspect.iter().chain(b_only) {
+            let find = |lines: &[(String, String)]| {
+                lines
+                    .iter()
+                    .find(|(kk, _)| kk == k)
+                    .map_or("—".to_owned(), |(_, v)| v.clone())
+            };
+            let (a, b) = (find(&st.inspect), find(&split.inspect));
+            ui.label(k);
+            ui.label(&a);
+            if a == b {
+                ui.label(b);
+            } else {
+                ui.colored_label(WARNING, b);
+            }
+            ui.end_row();
+        }
+    });
+}
+
+/// The motion layer's requests, sized from the fish's species (speed, turn angle, length).
+fn motion_requests(params: Option<MotionParams>) -> [(&'static str, MotionRequest); 11] {
+    let (s, angle, l) = params.map_or((40.0, std::f32::consts::FRAC_PI_2, 50.0), |p| {
+        (p.s, p.turn_angle, p.l)
+    });
+    let turn = |kind, side| MotionRequest::Turn { kind, angle, side };
+    [
+        ("swim", MotionRequest::Swim { speed: s }),
+        (
+            "accelerate",
+            MotionRequest::Accelerate {
+                speed: 2.0 * s,
+                duration: 1.0,
+            },
+        ),
+        ("stop", MotionRequest::Stop { duration: 1.0 }),
+        ("normal turn left", turn(TurnKind::Normal, Side::Left)),
+        ("normal turn right", turn(TurnKind::Normal, Side::Right)),
+        ("quick turn left", turn(TurnKind::Quick, Side::Left)),
+        ("quick turn right", turn(TurnKind::Quick, Side::Right)),
+        ("serial turn left", turn(TurnKind::Serial, Side::Left)),
+        ("serial turn right", turn(TurnKind::Serial, Side::Right)),
+        ("ascend", MotionRequest::Ascend { height: l }),
+        ("descend", MotionRequest::Descend { depth: l }),
+    ]
+}
+
+/// One button per motion request; a click starts it on `fish` now and says so in the console.
+fn motion_buttons(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState, fish: FishId) {
+    let params = scene.species_of(fish).and_then(|s| scene.motion_params(s));
+    ui.horizontal_wrapped(|ui| {
+        for (label, request) in motion_requests(params) {
+            let button = ui.button(label);
+            st.trace_widget(ui, label, &button);
+            if button.clicked() {
+                let n = fish.index;
+                match scene.request_motion(fish, request) {
+                    Ok(()) => st.log(format!("fish #{n}: {label} requested")),
+                    Err(e) => st.log(format!("fish #{n}: {label}: {e}")),
+                }
+                // The split tank's B gets the same request, so the two stay comparable.
+                if let Some(split) = &mut st.split
+                    && let Err(e) = split.scene.request_motion(fish, request)
+                {
+                    st.log(format!("B: fish #{n}: {label}: {e}"));
+                }
+            }
+        }
+    });
+}
+
+/// The selected fish's lateral displacement along its body.
+fn body_wave_plot(ui: &mut egui::Ui, st: &UiState) {
+    ui.label("body wave (lateral displacement vs position along body)");
+    egui_plot::Plot::new("body wave")
+        .height(140.0)
+        .include_x(0.0)
+        .include_x(1.0)
+        .include_y(-10.0)
+        .include_y(10.0)
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .show(ui, |plot| {
+            plot.line(egui_plot::Line::new(
+                "lateral",
+                egui_plot::PlotPoints::from(st.wave.clone()),
+            ));
+        });
+}
+
+/// The species picker and one slider per motion parameter (eq. 2–7, Table 1); an edit applies
+/// to the live species at once.
+fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let species = scene.species_names();
+    if !species.is_empty() {
+        egui::ComboBox::from_label("species")
+            .selected_text(species.get(st.species).cloned().unwrap_or_default())
+            .show_ui(ui, |ui| {
+                for (i, name) in species.iter().enumerate() {
+                    ui.selectable_value(&mut st.species, i, name);
+                }
+            });
+    }
+    let Some(mut p) = scene.motion_params(st.species) else {
+        ui.label("(this scene has no tunable motion)");
+        return;
+    };
+    let before = p;
+    let mut deg = p.turn_angle.to_degrees();
+    let sliders: [(&mut f32, std::ops::RangeInclusive<f32>, &str); 10] = [
+        (&mut p.p, 0.0..=0.9, "p (pivot, body fraction)"),
+        (&mut p.s, 0.0..=200.0, "s (speed, units/s)"),
+        (&mut p.l, 5.0..=200.0, "l (body length)"),
+        (&mut p.max_amp, 0.0..=30.0, "maxAmp"),
+        (&mut p.lambda, 5.0..=200.0, "λ (wavelength)"),
+        (&mut p.omega, 0.0..=40.0, "ω (frequency)"),
+        (
+            &mut p.front_amp,
+            0.0..=0.1,
+            "snout amplitude (body fraction)",
+        ),
+        (&mut p.tt, 0.05..=5.0, "Tt (turn time, s)"),
+        (&mut p.f, 1.0..=2.0, "f (turn weight)"),
+        (&mut deg, 0.0..=180.0, "turn angle (°)"),
+    ];
+    // The sliders shorten (to 40 points) before their labels would hold the panel wide.
+    let widest = sliders
+        .iter()
+        .map(|(_, _, label)| text_width(ui, label, egui::TextStyle::Body))
+        .fold(0.0, f32::max);
+    let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
+    ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
+    for (value, range, label) in sliders {
+        ui.add(egui::Slider::new(value, range).text(label));
+    }
+    p.turn_angle = deg.to_radians();
+    if p != before {
+        if let Err(e) = scene.set_motion_params(st.species, p) {
+            st.log(e.to_string());
+        }
+        // The split tank's B gets the same parameters (a live tweak, not a script version).
+        if let Some(split) = &mut st.split
+            && let Err(e) = split.scene.set_motion_params(st.species, p)
+        {
+            st.log(format!("B: {e}"));
+        }
+    }
+}
+
+/// The debug overlay checkboxes.
+fn overlays(ui: &mut egui::Ui, st: &mut UiState) {
+    ui.checkbox(&mut st.toggles.skeleton, "skeleton and joints");
+    ui.checkbox(&mut st.toggles.midline, "body midline");
+    ui.checkbox(&mut st.toggles.velocity, "velocity and heading");
+    ui.checkbox(&mut st.toggles.sensors, "sensor ranges");
+}
+
+/// Picks one stage's time out of a frame's timings.
+type StageOf = fn(&FrameTimes) -> f32;
+
+fn mean_max(times: &VecDeque<FrameTimes>, f: impl Fn(&FrameTimes) -> f32) -> (f32, f32) {
+    if times.is_empty() {
+        return (0.0, 0.0);
+    }
+    let sum: f32 = times.iter().map(&f).sum();
+    let max = times.iter().map(&f).fold(0.0, f32::max);
+    (sum / times.len() as f32, max)
+}
+
+/// Frame stage times (mean and max), the simulation's own stages, and the renderer's counts.
+fn timings(ui: &mut egui::Ui, scene: &DynScene, st: &UiState) {
+    egui::Grid::new("timings").striped(true).show(ui, |ui| {
+        ui.label("stage");
+        ui.label("mean");
+        ui.label("max");
+        ui.end_row();
+        let rows: [(&str, StageOf); 4] = [
+            ("simulation", |t| t.sim_ms),
+            ("skinning upload", |t| t.upload_ms),
+            ("draw (encode+submit)", |t| t.draw_ms),
+            ("frame", |t| t.frame_ms),
+        ];
+        for (name, f) in rows {
+            let (mean, max) = mean_max(&st.times, f);
+            ui.label(name);
+            ui.label(format!("{mean:.2}"));
+            ui.label(format!("{max:.2}"));
+            ui.end_row();
+        }
+        for (name, ms) in scene.stage_timings_ms() {
+            ui.label(format!("  sim: {name}"));
+            ui.label(format!("{ms:.2}"));
+            ui.end_row();
+        }
+    });
+    let c = &st.render_counts;
+    ui.label(format!(
+        "fish drawn {} (per level of detail, full first: {:?}), culled {}; shadows {}",
+        c.num_fish_drawn, c.num_fish_per_lod, c.num_fish_culled, c.num_shadows_drawn
+    ));
+    ui.label(format!(
+        "{} triangles, {} draw calls",
+        c.num_triangles, c.num_draw_calls
+    ));
+}
+
+/// The console: script errors, reloads, requests; newest at the bottom.
+fn console(ui: &mut egui::Ui, st: &mut UiState) {
+    if ui.button("clear").clicked() {
+        st.log.clear();
+    }
+    egui::ScrollArea::vertical()
+        .max_height(180.0)
+        .stick_to_bottom(true)
+        .show(ui, |ui| {
+            for line in &st.log {
+                ui.monospace(line);
+            }
+        });
+}

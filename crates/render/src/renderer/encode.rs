@@ -1,0 +1,463 @@
+//! One frame: check it, upload it (globals, palettes, culled and bucketed instances, lines),
+//! and record the scene pass (background, floor, shadows, fish by level of detail, lines).
+
+use std::time::Instant;
+
+use bytemuck::Zeroable;
+use glam::{Mat4, Vec3};
+
+use super::pose::fish_palette_len;
+use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
+use crate::lod::{Frustum, LodSelector, ShadowProjection};
+use crate::{FrameInput, Gpu, RenderError};
+
+/// What the frame's camera and light work out to, shared by the upload steps.
+struct View {
+    view_proj: Mat4,
+    eye: Vec3,
+    light: Vec3,
+}
+
+/// Vertex counts of the line buffer: tank edges first, then overlays up to `all`.
+struct LineCounts {
+    tank: u32,
+    all: u32,
+}
+
+impl Renderer {
+    /// Checks a frame against the uploaded meshes.
+    fn validate(&self, input: &FrameInput<'_>) -> Result<(), RenderError> {
+        for (i, inst) in input.instances.iter().enumerate() {
+            let Some(mesh) = self.meshes.get(inst.mesh.0 as usize) else {
+                return Err(RenderError::InvalidFrame(format!(
+                    "fish {i} uses mesh {} but only {} meshes are uploaded",
+                    inst.mesh.0,
+                    self.meshes.len()
+                )));
+            };
+            let end = inst.palette_offset as usize + mesh.num_joints as usize;
+            if end > fish_palette_len(input) {
+                return Err(RenderError::InvalidFrame(format!(
+                    "fish {i} needs palette entries {}..{end} but the palette has {}",
+                    inst.palette_offset,
+                    fish_palette_len(input)
+                )));
+            }
+        }
+        if let Some(pose) = &input.gpu_pose {
+            super::pose::validate(pose, input.instances.len())?;
+        }
+        for (i, prop) in input.props.iter().enumerate() {
+            match self.meshes.get(prop.mesh.0 as usize) {
+                None => {
+                    return Err(RenderError::InvalidFrame(format!(
+                        "prop {i} uses mesh {} but only {} meshes are uploaded",
+                        prop.mesh.0,
+                        self.meshes.len()
+                    )));
+                }
+                Some(m) if m.num_joints != 1 => {
+                    return Err(RenderError::InvalidFrame(format!(
+                        "prop {i} uses mesh {} with {} joints; props need one-joint meshes",
+                        prop.mesh.0, m.num_joints
+                    )));
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Uploads the frame and records its scene pass into `encoder`, drawing into `view` (of
+    /// [`Renderer::color_format`], `size` pixels). Clears the view.
+    pub fn encode(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        size: (u32, u32),
+        input: &FrameInput<'_>,
+    ) -> Result<(), RenderError> {
+        self.validate(input)?;
+        let t0 = Instant::now();
+        self.ensure_attachments(&gpu.device, size);
+        let frame = self.write_globals(gpu, input, size);
+        self.write_palettes(gpu, input);
+        self.record_frame_pose(gpu, encoder, input);
+        let mut stats = self.assign_buckets(input, &frame, size.1);
+        self.write_instances(gpu, input);
+        let lines = self.write_lines(gpu, input);
+        let t1 = Instant::now();
+        let draws =
+            self.record_scene_pass(encoder, view, input.look.shadows, &lines, &mut stats)?;
+        let t2 = Instant::now();
+        self.timings = RenderTimings {
+            upload_ms: (t1 - t0).as_secs_f32() * 1e3,
+            draw_ms: (t2 - t1).as_secs_f32() * 1e3,
+            num_draw_calls: draws,
+            ..stats
+        };
+        Ok(())
+    }
+
+    /// The globals uniform: camera, tank, fog, caustics, light and water colours.
+    fn write_globals(&self, gpu: &Gpu, input: &FrameInput<'_>, size: (u32, u32)) -> View {
+        let aspect = size.0.max(1) as f32 / size.1.max(1) as f32;
+        let view_proj = input.camera.view_proj(aspect);
+        let eye = input.camera.eye();
+        let look = &input.look;
+        let light = look.light_dir.normalize_or(Vec3::Y);
+        let globals = Globals {
+            view_proj: view_proj.to_cols_array_2d(),
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            eye_time: [eye.x, eye.y, eye.z, input.time_s],
+            tank_min_fog: input.tank.min.extend(look.fog_density_per_unit).to_array(),
+            tank_max_caustic: input.tank.max.extend(look.caustic_strength).to_array(),
+            light_dir: light.extend(0.0).to_array(),
+            water_deep: Vec3::from(look.water_deep).extend(1.0).to_array(),
+            water_shallow: Vec3::from(look.water_shallow).extend(1.0).to_array(),
+        };
+        gpu.queue
+            .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        View {
+            view_proj,
+            eye,
+            light,
+        }
+    }
+
+    /// Palettes: one upload for every fish (or room for the GPU pose pass to write them), then
+    /// one matrix per prop behind them.
+    fn write_palettes(&mut self, gpu: &Gpu, input: &FrameInput<'_>) {
+        let (device, queue) = (&gpu.device, &gpu.queue);
+        let palette_bytes: &[u8] = if input.gpu_pose.is_some() {
+            &[]
+        } else {
+            bytemuck::cast_slice(input.palettes)
+        };
+        let fish_bytes = (fish_palette_len(input) * std::mem::size_of::<Mat4>()) as u64;
+        self.scratch_props.clear();
+        self.scratch_props
+            .extend(input.props.iter().map(|p| p.transform));
+        let prop_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_props);
+        let total = fish_bytes + prop_bytes.len() as u64;
+        if self.palettes.ensure(device, total) {
+            self.bind_group = super::make_scene_bind_group(
+                device,
+                &self.scene_layout,
+                &self.globals,
+                &self.palettes.buffer,
+            );
+        }
+        if !palette_bytes.is_empty() {
+            queue.write_buffer(&self.palettes.buffer, 0, palette_bytes);
+        }
+        if !prop_bytes.is_empty() {
+            queue.write_buffer(&self.palettes.buffer, fish_bytes, prop_bytes);
+        }
+    }
+
+    /// Culling and levels of detail: each fish (then each prop) gets a bucket for its draw, one
+    /// per (mesh, level), and one for its shadow, one per mesh; culled ones get none. Counts the
+    /// instances per bucket and returns the frame's fish counts.
+    fn assign_buckets(
+        &mut self,
+        input: &FrameInput<'_>,
+        frame: &View,
+        height_px: u32,
+    ) -> RenderTimings {
+        let frustum = Frustum::from_view_proj(&frame.view_proj);
+        let selector = LodSelector::new(
+            frame.eye,
+            input.camera.fov_y_rad,
+            height_px.max(1),
+            self.lod_tolerance_px,
+        );
+        let shadow = input
+            .look
+            .shadows
+            .then(|| ShadowProjection::new(input.tank.min.y, frame.light));
+        let num_buckets = self.num_lod_buckets as usize + self.meshes.len();
+        self.scratch_ranges.clear();
+        self.scratch_ranges.resize(num_buckets, (0, 0));
+        self.scratch_buckets.clear();
+        let mut stats = RenderTimings::default();
+        let fish = input.instances.iter().enumerate().map(|(i, inst)| {
+            let joint0 = match &input.gpu_pose {
+                Some(pose) => &pose.anchors[i],
+                None => &input.palettes[inst.palette_offset as usize],
+            };
+            (inst.mesh, joint0, true)
+        });
+        let props = input.props.iter().map(|p| (p.mesh, &p.transform, false));
+        for (mesh_id, joint0, is_fish) in fish.chain(props) {
+            let mesh = &self.meshes[mesh_id.0 as usize];
+            let (sphere, scale) = mesh.bounds.world_sphere(joint0);
+            let draw = if frustum.intersects(sphere) {
+                let lod = selector.select(&mesh.levels, sphere, scale);
+                if is_fish {
+                    stats.num_fish_drawn += 1;
+                    stats.num_fish_per_lod[lod] += 1;
+                }
+                mesh.first_bucket + lod as u32
+            } else {
+                if is_fish {
+                    stats.num_fish_culled += 1;
+                }
+                CULLED
+            };
+            let shade = match shadow {
+                Some(projection) if frustum.intersects(projection.project(sphere)) => {
+                    if is_fish {
+                        stats.num_shadows_drawn += 1;
+                    }
+                    self.num_lod_buckets + mesh_id.0
+                }
+                _ => CULLED,
+            };
+            for bucket in [draw, shade] {
+                if bucket != CULLED {
+                    self.scratch_ranges[bucket as usize].1 += 1;
+                }
+            }
+            self.scratch_buckets.push([draw, shade]);
+        }
+        stats
+    }
+
+    /// Instances grouped by bucket (a counting sort into reused scratch), then uploaded. Turns
+    /// each bucket's count into its `(begin, end)` range.
+    fn write_instances(&mut self, gpu: &Gpu, input: &FrameInput<'_>) {
+        let mut start = 0;
+        for r in &mut self.scratch_ranges {
+            r.0 = start;
+            start += r.1;
+            r.1 = r.0; // becomes the fill cursor, then the end
+        }
+        self.scratch_instances.clear();
+        self.scratch_instances
+            .resize(start as usize, InstanceRaw::zeroed());
+        let fish = input.instances.iter().map(|inst| InstanceRaw {
+            palette_offset: inst.palette_offset,
+            flags: u32::from(inst.selected),
+            _pad: [0; 2],
+            tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
+        });
+        let first_prop = fish_palette_len(input) as u32;
+        let props = input.props.iter().enumerate().map(|(k, p)| InstanceRaw {
+            palette_offset: first_prop + k as u32,
+            flags: 0,
+            _pad: [0; 2],
+            tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
+        });
+        for (raw, buckets) in fish.chain(props).zip(&self.scratch_buckets) {
+            for &bucket in buckets {
+                if bucket != CULLED {
+                    let r = &mut self.scratch_ranges[bucket as usize];
+                    self.scratch_instances[r.1 as usize] = raw;
+                    r.1 += 1;
+                }
+            }
+        }
+        let instance_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_instances);
+        self.instances
+            .ensure(&gpu.device, instance_bytes.len() as u64);
+        if !instance_bytes.is_empty() {
+            gpu.queue
+                .write_buffer(&self.instances.buffer, 0, instance_bytes);
+        }
+    }
+
+    /// Lines: tank edges (fogged, depth tested) then overlays (on top).
+    fn write_lines(&mut self, gpu: &Gpu, input: &FrameInput<'_>) -> LineCounts {
+        self.scratch_lines.clear();
+        push_box_edges(
+            &mut self.scratch_lines,
+            input.tank.min,
+            input.tank.max,
+            [0.3, 0.5, 0.55, 0.55],
+        );
+        let tank = self.scratch_lines.len() as u32;
+        for l in input.overlay {
+            self.scratch_lines.push(LineVertex {
+                position: l.a.to_array(),
+                color: l.color,
+            });
+            self.scratch_lines.push(LineVertex {
+                position: l.b.to_array(),
+                color: l.color,
+            });
+        }
+        let all = self.scratch_lines.len() as u32;
+        let line_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_lines);
+        self.lines.ensure(&gpu.device, line_bytes.len() as u64);
+        gpu.queue.write_buffer(&self.lines.buffer, 0, line_bytes);
+        LineCounts { tank, all }
+    }
+
+    /// Records the scene pass; returns its draw calls and adds its triangles to `stats`.
+    fn record_scene_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        shadows: bool,
+        lines: &LineCounts,
+        stats: &mut RenderTimings,
+    ) -> Result<u32, RenderError> {
+        let Some(att) = self.attachments.as_ref() else {
+            return Err(RenderError::InvalidFrame("no attachments".into()));
+        };
+        let (color_view, resolve) = match &att.msaa {
+            Some(msaa) => (msaa, Some(view)),
+            None => (view, None),
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("scene pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color_view,
+                depth_slice: None,
+                resolve_target: resolve,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: if resolve.is_some() {
+                        wgpu::StoreOp::Discard
+                    } else {
+                        wgpu::StoreOp::Store
+                    },
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &att.depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&self.pipelines.background);
+        pass.draw(0..3, 0..1);
+        pass.set_pipeline(&self.pipelines.floor);
+        pass.draw(0..6, 0..1);
+        let mut draws = 2;
+
+        pass.set_vertex_buffer(1, self.instances.buffer.slice(..));
+        let mut triangles = 0u64;
+        if shadows {
+            self.draw_shadows(&mut pass, &mut draws, &mut triangles);
+        }
+        self.draw_fish(&mut pass, &mut draws, &mut triangles);
+        stats.num_triangles = triangles;
+
+        pass.set_vertex_buffer(0, self.lines.buffer.slice(..));
+        pass.set_pipeline(&self.pipelines.lines_fogged);
+        pass.draw(0..lines.tank, 0..1);
+        draws += 1;
+        if lines.all > lines.tank {
+            pass.set_pipeline(&self.pipelines.lines_overlay);
+            pass.draw(lines.tank..lines.all, 0..1);
+            draws += 1;
+        }
+        Ok(draws)
+    }
+
+    /// One shadow draw per mesh and material with shadows in view. Shadows are small and dark:
+    /// always the coarsest level.
+    fn draw_shadows(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
+        pass.set_pipeline(&self.pipelines.shadows);
+        let shadow_ranges = &self.scratch_ranges[self.num_lod_buckets as usize..];
+        for (mesh, &(begin, end)) in self.meshes.iter().zip(shadow_ranges) {
+            let (Some(level), Some(parts)) = (
+                mesh.levels.last().filter(|_| end > begin),
+                mesh.level_parts.last(),
+            ) else {
+                continue;
+            };
+            pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+            pass.set_vertex_buffer(2, mesh.surface.slice(..));
+            pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for part in parts {
+                pass.set_bind_group(
+                    1,
+                    &mesh.materials[usize::from(part.material)].bind_group,
+                    &[],
+                );
+                pass.draw_indexed(part_range(part), 0, begin..end);
+                *draws += 1;
+            }
+            *triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
+        }
+    }
+
+    /// One draw per mesh, level of detail with fish in view and material: opaque and masked
+    /// materials first, then blended ones over them.
+    fn draw_fish(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
+        for blend_pass in [false, true] {
+            pass.set_pipeline(if blend_pass {
+                &self.pipelines.fish_blend
+            } else {
+                &self.pipelines.fish
+            });
+            for mesh in &self.meshes {
+                if !mesh.materials.iter().any(|m| m.blend == blend_pass) {
+                    continue;
+                }
+                let first = mesh.first_bucket as usize;
+                let ranges = &self.scratch_ranges[first..first + mesh.levels.len()];
+                if ranges.iter().all(|&(begin, end)| end == begin) {
+                    continue;
+                }
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_vertex_buffer(2, mesh.surface.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                for (parts, &(begin, end)) in mesh.level_parts.iter().zip(ranges) {
+                    if end == begin {
+                        continue;
+                    }
+                    for part in parts {
+                        let material = &mesh.materials[usize::from(part.material)];
+                        if material.blend != blend_pass {
+                            continue;
+                        }
+                        pass.set_bind_group(1, &material.bind_group, &[]);
+                        pass.draw_indexed(part_range(part), 0, begin..end);
+                        *triangles += u64::from(part.num_indices / 3) * u64::from(end - begin);
+                        *draws += 1;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The index range of one material's part of a level.
+fn part_range(part: &shoal_core::skin::MeshPart) -> std::ops::Range<u32> {
+    part.first_index..part.first_index + part.num_indices
+}
+
+/// The twelve edges of the box `min`–`max` as line-list vertices.
+fn push_box_edges(out: &mut Vec<LineVertex>, min: Vec3, max: Vec3, color: [f32; 4]) {
+    let c = |i: usize| {
+        Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    for a in 0..8usize {
+        for bit in [1usize, 2, 4] {
+            if a & bit == 0 {
+                for p in [c(a), c(a | bit)] {
+                    out.push(LineVertex {
+                        position: p.to_array(),
+                        color,
+                    });
+                }
+            }
+        }
+    }
+}

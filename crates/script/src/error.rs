@@ -1,0 +1,112 @@
+//! Typed errors of the script host. Every variant names the file (and, for Lua errors, the line)
+//! so a designer can act on it.
+
+use std::path::PathBuf;
+
+/// An error of the script layer: loading scripts, species and scenes, or running the simulation.
+#[derive(Debug, thiserror::Error)]
+pub enum ScriptError {
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A Lua error (syntax or runtime), already formatted as `file:line: message`.
+    #[error("{0}")]
+    Lua(String),
+    /// A data file (species or scene) has a value the host rejects.
+    #[error("{file}: {why}")]
+    Data {
+        /// The file, as shown to the user (`scripts/scenes/default.lua`).
+        file: String,
+        /// What is wrong and what was expected.
+        why: String,
+    },
+    /// A data file is invalid; the message names the file.
+    #[error("{0}")]
+    Invalid(String),
+    /// The world rejected a request made while building or running a scene.
+    #[error("{context}: {source}")]
+    World {
+        /// What the host was doing (`scripts/scenes/default.lua: spawning fish 3`).
+        context: String,
+        /// The world's error.
+        source: shoal_core::world::WorldError,
+    },
+    /// The file watcher for hot reload could not start.
+    #[error("cannot watch {path} for changes: {why}")]
+    Watch {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
+}
+
+/// Formats an mlua error as one line `file:line: message`, without mlua's wrapping
+/// ("runtime error: ", "callback error", tracebacks). Errors raised inside a Rust callback carry
+/// no position of their own: the first `scripts/…:line:` frame of the traceback names it.
+pub fn describe(err: &mlua::Error) -> String {
+    match err {
+        mlua::Error::SyntaxError { message, .. } => message.clone(),
+        mlua::Error::RuntimeError(m) | mlua::Error::MemoryError(m) => {
+            // mlua appends a traceback to errors raised in Lua; the console wants one line.
+            m.split("\nstack traceback:").next().unwrap_or(m).to_owned()
+        }
+        mlua::Error::CallbackError { traceback, cause } => {
+            let inner = describe(cause);
+            if has_location(&inner) {
+                return inner;
+            }
+            match script_frame(traceback) {
+                Some(loc) => format!("{loc}: {inner}"),
+                None => inner,
+            }
+        }
+        mlua::Error::WithContext { context, cause } => format!("{context}: {}", describe(cause)),
+        mlua::Error::BadArgument { to, pos, cause, .. } => {
+            let f = to.as_deref().unwrap_or("function");
+            format!("bad argument #{pos} to '{f}': {}", describe(cause))
+        }
+        other => other.to_string(),
+    }
+}
+
+/// True when `msg` starts with `something.lua:NUMBER:`.
+pub(crate) fn has_location(msg: &str) -> bool {
+    let Some(i) = msg.find(".lua:") else {
+        return false;
+    };
+    if msg[..i].contains(' ') {
+        return false;
+    }
+    let rest = &msg[i + 5..];
+    let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
+    digits > 0 && rest[digits..].starts_with(':')
+}
+
+/// The first `file.lua:line` frame of a Lua traceback.
+fn script_frame(traceback: &str) -> Option<&str> {
+    traceback.lines().map(str::trim).find_map(|l| {
+        let end = l.find(".lua:")? + 5;
+        let digits = l[end..].bytes().take_while(u8::is_ascii_digit).count();
+        (digits > 0).then(|| &l[..end + digits])
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn location_detection() {
+        assert!(has_location("scripts/a.lua:3: boom"));
+        assert!(!has_location("bad argument #1: x.lua:3: y"));
+        assert!(!has_location("nothing here"));
+        let tb = "stack traceback:\n\t[C]: in function 'shoal.swim'\n\tscripts/behaviors/x.lua:7: in function 'behave'";
+        assert_eq!(script_frame(tb), Some("scripts/behaviors/x.lua:7"));
+    }
+}

@@ -1,0 +1,552 @@
+//! Scene and species files: Lua tables read into typed structs through mlua's serde support.
+//!
+//! A scene (`scripts/scenes/*.lua`) returns
+//!
+//! ```lua
+//! return {
+//!   tank = { min = {-400, 0, -250}, max = {400, 300, 250} },   -- world units, y up
+//!   fish = {
+//!     { species = "black_porgy", count = 24, behavior = "school",
+//!       region = { min = {-150, 100, -100}, max = {150, 200, 100} }, heading = 0, speed = 40 },
+//!     { species = "barracuda", behavior = "predator", pos = {-350, 150, 0} },
+//!   },
+//!   food = { {0, 150, 0} },                                     -- pellets at start
+//!   food_drops = { every = 6, count = 4, start = 2,              -- seconds
+//!                  region = { min = {-200, 280, -150}, max = {200, 290, 150} } },
+//!   food_sink_speed = 10, food_lifetime = 90,                   -- units/s, seconds
+//!   obstacles = { { pos = {100, 40, 0}, radius = 40 } },
+//!   currents = { { pos = {0, 150, 0}, radius = 120, velocity = {10, 0, 0} } },
+//! }
+//! ```
+//!
+//! A species file (`scripts/species/<name>.lua`) returns a table of `SpeciesDesc` fields; with
+//! `base = "black_porgy"` (or `"eel"`) it starts from that built-in description and overrides only
+//! what it names (nested tables such as `motion` merge field by field). `decision_hz` (behaviour
+//! decisions per second, default 10) is read by the script host.
+
+use mlua::{Lua, LuaSerdeExt, Table, Value};
+use serde::Deserialize;
+
+use shoal_core::species::SpeciesDesc;
+
+/// An axis-aligned box, world units.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxDesc {
+    /// Lower corner.
+    pub min: [f32; 3],
+    /// Upper corner.
+    pub max: [f32; 3],
+}
+
+/// A group of fish of one species.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FishGroup {
+    /// Species name (a file `scripts/species/<name>.lua`).
+    pub species: String,
+    /// How many (default 1).
+    #[serde(default = "one")]
+    pub count: u32,
+    /// Behaviour module they run (`scripts/behaviors/<name>.lua`); none = no script.
+    #[serde(default)]
+    pub behavior: Option<String>,
+    /// Exact start position of the first fish (the others, if any, are placed in `region`).
+    #[serde(default)]
+    pub pos: Option<[f32; 3]>,
+    /// Box the fish start in, uniformly at random (seeded). Default: the middle half of the tank.
+    #[serde(default)]
+    pub region: Option<BoxDesc>,
+    /// Start heading, radians; default random.
+    #[serde(default)]
+    pub heading: Option<f32>,
+    /// Start speed, world units per second; default the species' cruise speed.
+    #[serde(default)]
+    pub speed: Option<f32>,
+    /// Any table of plain data (waypoints, a territory centre …) handed to each fish of the group
+    /// as `fish.params`.
+    #[serde(default)]
+    pub params: Option<serde_json::Value>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// Food dropped in at regular intervals.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FoodDrops {
+    /// Seconds between drops (> 0).
+    pub every: f32,
+    /// Pellets per drop (default 1).
+    #[serde(default = "one")]
+    pub count: u32,
+    /// Time of the first drop, seconds (default `every`).
+    #[serde(default)]
+    pub start: Option<f32>,
+    /// Where pellets appear (default: a thin layer under the surface).
+    #[serde(default)]
+    pub region: Option<BoxDesc>,
+}
+
+/// A sphere obstacle.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleDesc {
+    /// Centre.
+    pub pos: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+}
+
+/// A current zone.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurrentDesc {
+    /// Centre.
+    pub pos: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+    /// Drift velocity, world units per second.
+    pub velocity: [f32; 3],
+}
+
+/// A scene file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// The tank.
+    pub tank: BoxDesc,
+    /// Directory of the species' assets, relative to the repository root (default `assets`).
+    #[serde(default)]
+    pub assets: Option<String>,
+    /// Species to load even if no fish of them starts in the scene.
+    #[serde(default)]
+    pub species: Vec<String>,
+    /// Fish groups.
+    #[serde(default)]
+    pub fish: Vec<FishGroup>,
+    /// Pellets present at the start.
+    #[serde(default)]
+    pub food: Vec<[f32; 3]>,
+    /// Periodic food drops.
+    #[serde(default)]
+    pub food_drops: Option<FoodDrops>,
+    /// How fast pellets sink, world units per second (default 0: they stay where dropped).
+    #[serde(default)]
+    pub food_sink_speed: Option<f32>,
+    /// Seconds an uneaten pellet lasts before it dissolves (default: for ever).
+    #[serde(default)]
+    pub food_lifetime: Option<f32>,
+    /// Obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleDesc>,
+    /// Current zones.
+    #[serde(default)]
+    pub currents: Vec<CurrentDesc>,
+}
+
+/// A species file, read.
+#[derive(Debug, Clone)]
+pub struct SpeciesFile {
+    /// The description for the world.
+    pub desc: SpeciesDesc,
+    /// Behaviour decisions per second (default 10).
+    pub decision_hz: f64,
+}
+
+/// Built-in descriptions a species file can start from.
+fn base_desc(name: &str) -> Option<SpeciesDesc> {
+    match name {
+        "black_porgy" => Some(SpeciesDesc::black_porgy()),
+        "eel" => Some(SpeciesDesc::eel()),
+        _ => None,
+    }
+}
+
+/// Copies `over` into `base`, merging nested tables key by key.
+fn merge(base: &Table, over: &Table) -> mlua::Result<()> {
+    for kv in over.pairs::<Value, Value>() {
+        let (k, v) = kv?;
+        match (&v, base.raw_get::<Value>(k.clone())?) {
+            (Value::Table(o), Value::Table(b)) if o.raw_len() == 0 && !is_array_like(&b) => {
+                merge(&b, o)?
+            }
+            _ => base.raw_set(k, v)?,
+        }
+    }
+    Ok(())
+}
+
+fn is_array_like(t: &Table) -> bool {
+    t.raw_len() > 0
+}
+
+/// Reads a species table (the value a species file returned) into a [`SpeciesFile`]. `file` names
+/// the file in messages.
+pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile, String> {
+    let err = |e: mlua::Error| format!("{file}: {}", super::error::describe(&e));
+    let decision_hz = match t.raw_get::<Value>("decision_hz").map_err(err)? {
+        Value::Nil => 10.0,
+        v => {
+            let hz = v
+                .as_number()
+                .or(v.as_integer().map(|i| i as f64))
+                .unwrap_or(f64::NAN);
+            if !(hz.is_finite() && hz > 0.0 && hz <= 60.0) {
+                return Err(format!(
+                    "{file}: decision_hz must be a number in (0, 60], got {}",
+                    v.to_string().unwrap_or_default()
+                ));
+            }
+            hz
+        }
+    };
+    t.raw_set("decision_hz", Value::Nil).map_err(err)?;
+    let table = match t.raw_get::<Option<String>>("base").map_err(err)? {
+        Some(base) => {
+            let desc = base_desc(&base).ok_or_else(|| {
+                format!(
+                    "{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")"
+                )
+            })?;
+            let Value::Table(b) = lua.to_value(&desc).map_err(err)? else {
+                return Err(format!("{file}: base species did not serialize to a table"));
+            };
+            t.raw_set("base", Value::Nil).map_err(err)?;
+            merge(&b, &t).map_err(err)?;
+            b
+        }
+        None => t,
+    };
+    // Keys no species has (`vertebral_joint`, `motion.lamda`): the JSON form of a full
+    // description lists every field, optional ones included.
+    if let Ok(known) = serde_json::to_value(SpeciesDesc::black_porgy())
+        && let Some(why) = unknown_species_key(&table, &known, "")
+    {
+        return Err(format!("{file}: {why}"));
+    }
+    let desc: SpeciesDesc = from_lua_value(Value::Table(table), file)?;
+    // Motion values out of range (a pivot with λ' ≤ 0, a turning axis off the body, NaN) are
+    // refused here, naming the file and the field, rather than swum.
+    desc.motion
+        .validate()
+        .map_err(|e| format!("{file}: motion: {e}"))?;
+    Ok(SpeciesFile { desc, decision_hz })
+}
+
+/// Reads a data file's value (a scene, a species) into `T`. Every error names `file`, the field
+/// path as written in Lua (`fish[2].count`, arrays counted from 1) and what was expected, in the
+/// designer's words: an unknown key comes with the closest known one ("did you mean").
+pub fn from_lua_value<T: serde::de::DeserializeOwned>(
+    value: Value,
+    file: &str,
+) -> Result<T, String> {
+    serde_path_to_error::deserialize(mlua::serde::Deserializer::new(value)).map_err(|e| {
+        let path = lua_path(e.path());
+        let why = humanize_serde(&e.inner().to_string());
+        if path.is_empty() {
+            format!("{file}: {why}")
+        } else {
+            format!("{file}: {path}: {why}")
+        }
+    })
+}
+
+/// A serde path as Lua would index it: `fish[2].region.min` (sequence indices from 1).
+fn lua_path(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for seg in path.iter() {
+        match seg {
+            Segment::Seq { index } => out.push_str(&format!("[{}]", index + 1)),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Unknown => out.push_str(".?"),
+        }
+    }
+    out
+}
+
+/// The names between backticks in a serde message, in order.
+fn backticked(msg: &str) -> Vec<&str> {
+    msg.split('`').skip(1).step_by(2).collect()
+}
+
+/// Rewrites serde's messages ("invalid value: integer `-5`, expected u32") as a designer would
+/// read them ("got -5, expected a whole number ≥ 0").
+pub fn humanize_serde(msg: &str) -> String {
+    let msg = msg.trim();
+    let msg = msg.strip_prefix("deserialize error: ").unwrap_or(msg);
+    if let Some(rest) = msg.strip_prefix("unknown field ") {
+        let names = backticked(rest);
+        if let Some((unknown, known)) = names.split_first() {
+            return unknown_name("key", unknown, known);
+        }
+    }
+    if let Some(rest) = msg.strip_prefix("missing field ") {
+        return format!("missing key \"{}\"", rest.trim_matches('`'));
+    }
+    let expected = |what: &str| -> String {
+        match what.trim() {
+            "u8" | "u16" | "u32" | "u64" | "usize" => "a whole number ≥ 0".into(),
+            "i8" | "i16" | "i32" | "i64" | "isize" => "a whole number".into(),
+            "f32" | "f64" => "a number".into(),
+            "a string" | "string" => "a string".into(),
+            "a boolean" | "bool" => "true or false".into(),
+            w if w.starts_with("an array of length") => {
+                let n = w.trim_start_matches("an array of length ");
+                format!("a list of {n} numbers, like {{0, 0, 0}}")
+            }
+            w if w.starts_with("struct ") || w == "a map" => "a table with named keys".into(),
+            w if w.starts_with("a sequence") => "a list (a table like {a, b, c})".into(),
+            w => w.to_owned(),
+        }
+    };
+    for prefix in ["invalid value: ", "invalid type: "] {
+        if let Some(rest) = msg.strip_prefix(prefix)
+            && let Some((got, want)) = rest.rsplit_once(", expected ")
+        {
+            let got = got
+                .replace("integer ", "")
+                .replace("floating point ", "")
+                .replace('`', "");
+            return format!("got {got}, expected {}", expected(want));
+        }
+    }
+    if let Some(rest) = msg.strip_prefix("invalid length ")
+        && let Some((got, want)) = rest.split_once(", expected ")
+    {
+        return format!("{got} values, expected {}", expected(want));
+    }
+    msg.to_owned()
+}
+
+/// "unknown key "behaviour"; did you mean "behavior"? (known: …)" for a name not in `known`.
+pub fn unknown_name(what: &str, name: &str, known: &[impl AsRef<str>]) -> String {
+    let mut msg = format!("unknown {what} \"{name}\"");
+    if let Some(best) = did_you_mean(name, known) {
+        msg.push_str(&format!("; did you mean \"{best}\"?"));
+    }
+    if !known.is_empty() {
+        let list: Vec<&str> = known.iter().map(AsRef::as_ref).collect();
+        msg.push_str(&format!(" (known: {})", list.join(", ")));
+    }
+    msg
+}
+
+/// The entry of `known` closest to `name`, if it is close enough to be a likely typo.
+pub fn did_you_mean<'a>(name: &str, known: &'a [impl AsRef<str>]) -> Option<&'a str> {
+    // Close: a few edits for its length (`eal` → `eel`, `lamda` → `lambda`) or a similar
+    // spelling (`behaviour` → `behavior`); the fewest edits wins.
+    known
+        .iter()
+        .map(|k| {
+            let k = k.as_ref();
+            (
+                k,
+                strsim::levenshtein(name, k),
+                strsim::jaro_winkler(name, k),
+            )
+        })
+        .filter(|&(_, edits, similar)| {
+            edits <= (name.chars().count() / 3).max(1) || similar >= 0.85
+        })
+        .min_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+        .map(|(k, _, _)| k)
+}
+
+/// Checks the numbers of a scene against their ranges; the error names the field (as
+/// [`from_lua_value`] does) and the range in world units and seconds.
+pub fn validate_scene(desc: &SceneDesc) -> Result<(), String> {
+    fn finite3(v: &[f32; 3], field: &str) -> Result<(), String> {
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(format!(
+                "{field}: {v:?} must be three finite numbers (world units)"
+            ))
+        }
+    }
+    fn boxed(b: &BoxDesc, field: &str) -> Result<(), String> {
+        finite3(&b.min, &format!("{field}.min"))?;
+        finite3(&b.max, &format!("{field}.max"))?;
+        if (0..3).any(|i| b.min[i] > b.max[i]) {
+            return Err(format!(
+                "{field}: min {:?} must not be above max {:?} on any axis",
+                b.min, b.max
+            ));
+        }
+        Ok(())
+    }
+    fn positive(v: f32, field: &str, unit: &str) -> Result<(), String> {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(format!(
+                "{field}: {v} is out of range: expected a number > 0 ({unit})"
+            ))
+        }
+    }
+    boxed(&desc.tank, "tank")?;
+    if (0..3).any(|i| desc.tank.min[i] >= desc.tank.max[i]) {
+        return Err("tank: min must be below max on every axis".into());
+    }
+    for (g, group) in desc.fish.iter().enumerate() {
+        let f = format!("fish[{}]", g + 1);
+        if group.count > MAX_FISH_PER_GROUP {
+            return Err(format!(
+                "{f}.count: {} is out of range: expected 0 to {MAX_FISH_PER_GROUP} fish",
+                group.count
+            ));
+        }
+        if let Some(p) = &group.pos {
+            finite3(p, &format!("{f}.pos"))?;
+        }
+        if let Some(r) = &group.region {
+            boxed(r, &format!("{f}.region"))?;
+        }
+        if let Some(h) = group.heading
+            && !h.is_finite()
+        {
+            return Err(format!("{f}.heading: {h} must be a finite angle (radians)"));
+        }
+        if let Some(v) = group.speed
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(format!(
+                "{f}.speed: {v} is out of range: expected a number ≥ 0 (world units per second)"
+            ));
+        }
+        if let Some(p) = &group.params
+            && !p.is_object()
+            && !p.is_array()
+        {
+            return Err(format!("{f}.params: expected a table, got {p}"));
+        }
+    }
+    for (i, p) in desc.food.iter().enumerate() {
+        finite3(p, &format!("food[{}]", i + 1))?;
+    }
+    if let Some(v) = desc.food_sink_speed
+        && !(v.is_finite() && v >= 0.0)
+    {
+        return Err(format!(
+            "food_sink_speed: {v} is out of range: expected a number ≥ 0 (world units per second)"
+        ));
+    }
+    if let Some(l) = desc.food_lifetime {
+        positive(l, "food_lifetime", "seconds")?;
+    }
+    if let Some(d) = &desc.food_drops {
+        positive(d.every, "food_drops.every", "seconds")?;
+        if let Some(start) = d.start
+            && !(start.is_finite() && start >= 0.0)
+        {
+            return Err(format!(
+                "food_drops.start: {start} is out of range: expected a number ≥ 0 (seconds)"
+            ));
+        }
+        if let Some(r) = &d.region {
+            boxed(r, "food_drops.region")?;
+        }
+    }
+    for (i, o) in desc.obstacles.iter().enumerate() {
+        finite3(&o.pos, &format!("obstacles[{}].pos", i + 1))?;
+        positive(
+            o.radius,
+            &format!("obstacles[{}].radius", i + 1),
+            "world units",
+        )?;
+    }
+    for (i, c) in desc.currents.iter().enumerate() {
+        finite3(&c.pos, &format!("currents[{}].pos", i + 1))?;
+        positive(
+            c.radius,
+            &format!("currents[{}].radius", i + 1),
+            "world units",
+        )?;
+        finite3(&c.velocity, &format!("currents[{}].velocity", i + 1))?;
+    }
+    Ok(())
+}
+
+/// Most fish one scene group may ask for.
+pub const MAX_FISH_PER_GROUP: u32 = 200_000;
+
+/// Keys of a species file that no species field has: every key of `t` (recursing into nested
+/// tables that are objects in `known`) missing from `known`, the JSON form of a full description.
+/// Returns the first as "path: unknown key …".
+fn unknown_species_key(t: &Table, known: &serde_json::Value, path: &str) -> Option<String> {
+    let serde_json::Value::Object(fields) = known else {
+        return None;
+    };
+    let mut keys: Vec<String> = t
+        .pairs::<Value, Value>()
+        .flatten()
+        .filter_map(|(k, _)| k.as_string().map(|s| s.to_string_lossy()))
+        .collect();
+    keys.sort();
+    for k in keys {
+        let here = if path.is_empty() {
+            k.clone()
+        } else {
+            format!("{path}.{k}")
+        };
+        match fields.get(&k) {
+            None => {
+                let names: Vec<&str> = fields.keys().map(String::as_str).collect();
+                return Some(format!("{here}: {}", unknown_name("key", &k, &names)));
+            }
+            Some(sub @ serde_json::Value::Object(_)) => {
+                if let Ok(Value::Table(inner)) = t.raw_get::<Value>(k.as_str())
+                    && let Some(e) = unknown_species_key(&inner, sub, &here)
+                {
+                    return Some(e);
+                }
+            }
+            Some(_) => {}
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggestions_catch_typos_and_not_strangers() {
+        let species = ["barracuda", "black_porgy", "eel"];
+        assert_eq!(did_you_mean("eal", &species), Some("eel"));
+        assert_eq!(did_you_mean("black_porgie", &species), Some("black_porgy"));
+        assert_eq!(did_you_mean("shark", &species), None);
+        let keys = ["species", "count", "behavior", "pos", "region"];
+        assert_eq!(did_you_mean("behaviour", &keys), Some("behavior"));
+        assert_eq!(did_you_mean("cuont", &keys), Some("count"));
+    }
+
+    #[test]
+    fn serde_messages_read_as_a_designer_would() {
+        assert_eq!(
+            humanize_serde("deserialize error: invalid value: integer `-5`, expected u32"),
+            "got -5, expected a whole number ≥ 0"
+        );
+        assert_eq!(
+            humanize_serde("invalid type: string \"fast\", expected f32"),
+            "got string \"fast\", expected a number"
+        );
+        assert_eq!(
+            humanize_serde("missing field `tank`"),
+            "missing key \"tank\""
+        );
+        let unknown =
+            humanize_serde("unknown field `behaviour`, expected one of `species`, `behavior`");
+        assert!(unknown.starts_with("unknown key \"behaviour\"; did you mean \"behavior\"?"));
+    }
+}

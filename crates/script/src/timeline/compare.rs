@@ -1,0 +1,651 @@
+//! `shoal compare`: an A/B experiment between two versions of the scripts over many seeds.
+//!
+//! Each version runs the same scene from the same seeds (so seed *k* of A and seed *k* of B start
+//! from the same tank), every run on its own core. Per run it measures what a designer tunes a
+//! behaviour for ([`RunMeasures`]); per version the mean and its 95 % interval over the seeds;
+//! and, because the runs are paired by seed, the difference B − A per seed, whose mean and 95 %
+//! interval say whether the versions differ (significant when the interval leaves out 0: a
+//! paired t-test at the 5 % level). Seeds can be split over machines (`--shard i/n`) and the
+//! shards' JSON merged afterwards ([`merge`]).
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use statrs::distribution::{ContinuousCDF, StudentsT};
+
+use super::TimelineError;
+use super::run_file::read_scripts;
+use crate::Simulation;
+use shoal_core::world::{FishId, TICK_HZ, World};
+
+/// How often polarization and nearest-neighbour distance are sampled, seconds.
+pub const SAMPLE_EVERY_S: f64 = 0.5;
+
+/// What one run of one version measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunMeasures {
+    /// The seed.
+    pub seed: u64,
+    /// Pellets eaten during the run.
+    pub pellets_eaten: f64,
+    /// Seconds to the first pellet eaten (`None`: nothing was eaten).
+    pub first_bite_s: Option<f64>,
+    /// Mean school polarization, |mean unit heading| of the schooling fish (behaviour `school`;
+    /// every fish when no fish schools), sampled every [`SAMPLE_EVERY_S`].
+    pub polarization: f64,
+    /// Mean distance from each of those fish to its nearest other one, in its body lengths,
+    /// sampled likewise.
+    pub nearest_neighbour_l: f64,
+    /// Times a fish touched a tank wall (the contact stage had to push it back in).
+    pub wall_contacts: f64,
+    /// Times a fish touched a rock.
+    pub rock_contacts: f64,
+    /// Catches counted by the scripts: the sum of every fish's `memory.catches` at the end.
+    pub catches: f64,
+    /// Script decisions that raised an error or were stopped by a limit.
+    pub script_errors: f64,
+    /// CPU microseconds per decision (behaviour and sensing). A timing, so it varies from run to
+    /// run and with what else the machine does; the other measures are exact.
+    pub decision_us: f64,
+}
+
+/// One measure: its JSON key, its label, and how to read it from a run.
+struct Measure {
+    key: &'static str,
+    label: &'static str,
+    get: fn(&RunMeasures) -> Option<f64>,
+}
+
+const MEASURES: [Measure; 9] = [
+    Measure {
+        key: "pellets_eaten",
+        label: "pellets eaten",
+        get: |m| Some(m.pellets_eaten),
+    },
+    Measure {
+        key: "first_bite_s",
+        label: "time to first bite, s",
+        get: |m| m.first_bite_s,
+    },
+    Measure {
+        key: "polarization",
+        label: "school polarization",
+        get: |m| Some(m.polarization),
+    },
+    Measure {
+        key: "nearest_neighbour_l",
+        label: "nearest neighbour, L",
+        get: |m| Some(m.nearest_neighbour_l),
+    },
+    Measure {
+        key: "wall_contacts",
+        label: "wall contacts",
+        get: |m| Some(m.wall_contacts),
+    },
+    Measure {
+        key: "rock_contacts",
+        label: "rock contacts",
+        get: |m| Some(m.rock_contacts),
+    },
+    Measure {
+        key: "catches",
+        label: "predator catches",
+        get: |m| Some(m.catches),
+    },
+    Measure {
+        key: "script_errors",
+        label: "script errors",
+        get: |m| Some(m.script_errors),
+    },
+    Measure {
+        key: "decision_us",
+        label: "decision cost, µs",
+        get: |m| Some(m.decision_us),
+    },
+];
+
+/// The value of the measure with JSON key `key` in run `r` (`None` for an unknown key or a
+/// measure the run does not have, such as the time to a first bite that never came).
+pub fn value(key: &str, r: &RunMeasures) -> Option<f64> {
+    MEASURES
+        .iter()
+        .find(|m| m.key == key)
+        .and_then(|m| (m.get)(r))
+}
+
+/// A mean with its 95 % interval (Student's t over `n` values; no interval below 2 values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// Values it is made of.
+    pub n: usize,
+    /// Their mean (`None` with no values).
+    pub mean: Option<f64>,
+    /// The 95 % interval's low end.
+    pub low: Option<f64>,
+    /// The 95 % interval's high end.
+    pub high: Option<f64>,
+}
+
+impl Estimate {
+    /// The mean of `values` and its 95 % interval.
+    pub fn of(values: &[f64]) -> Self {
+        let n = values.len();
+        if n == 0 {
+            return Self {
+                n,
+                mean: None,
+                low: None,
+                high: None,
+            };
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        if n < 2 {
+            return Self {
+                n,
+                mean: Some(mean),
+                low: None,
+                high: None,
+            };
+        }
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
+            .map(|d| d.inverse_cdf(0.975))
+            .unwrap_or(f64::NAN);
+        let half = t * (var / n as f64).sqrt();
+        Self {
+            n,
+            mean: Some(mean),
+            low: Some(mean - half),
+            high: Some(mean + half),
+        }
+    }
+
+    /// Whether the interval leaves out 0 (always false without an interval).
+    pub fn excludes_zero(&self) -> bool {
+        match (self.low, self.high) {
+            (Some(l), Some(h)) => l > 0.0 || h < 0.0,
+            _ => false,
+        }
+    }
+}
+
+/// One measure compared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasureSummary {
+    /// Its JSON key (`pellets_eaten`).
+    pub measure: String,
+    /// Its label (`pellets eaten`).
+    pub label: String,
+    /// Version A over its seeds.
+    pub a: Estimate,
+    /// Version B over its seeds.
+    pub b: Estimate,
+    /// B − A, seed by seed (seeds where both have a value).
+    pub b_minus_a: Estimate,
+    /// Whether B − A's 95 % interval leaves out 0.
+    pub significant: bool,
+}
+
+/// One version of the scripts in a comparison.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Version {
+    /// The scripts directory as given.
+    pub dir: String,
+    /// CRC-32 of each `.lua` file, by path inside the directory.
+    pub scripts: BTreeMap<String, u32>,
+    /// Each seed's run.
+    pub runs: Vec<RunMeasures>,
+}
+
+/// A comparison, or one shard of one (its JSON is what `--json` prints and `--merge` reads).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    /// The format of this JSON.
+    pub format: u32,
+    /// The shoal that ran it.
+    pub shoal_version: String,
+    /// The scene, relative to each scripts directory.
+    pub scene: String,
+    /// Simulated seconds per run.
+    pub seconds: f64,
+    /// The shard this is (`(i, n)`, 1-based), or `None` for all seeds.
+    pub shard: Option<(u32, u32)>,
+    /// The script files that differ between A and B.
+    pub changed: Vec<String>,
+    /// Version A.
+    pub a: Version,
+    /// Version B.
+    pub b: Version,
+    /// Per measure, A, B and B − A.
+    pub summary: Vec<MeasureSummary>,
+}
+
+/// The JSON format [`Comparison`] is written in.
+pub const FORMAT: u32 = 1;
+
+/// What to compare.
+#[derive(Debug, Clone)]
+pub struct CompareSpec<'a> {
+    /// The repository root (assets).
+    pub root: &'a Path,
+    /// Version A's scripts directory.
+    pub a: &'a Path,
+    /// Version B's scripts directory.
+    pub b: &'a Path,
+    /// The scene, relative to each scripts directory (`scenes/default.lua`).
+    pub scene: &'a str,
+    /// Seeds run: `1..=seeds`.
+    pub seeds: u64,
+    /// This shard's part of the seeds (`(i, n)`, 1-based): seeds `s` with `(s - 1) % n == i - 1`.
+    pub shard: Option<(u32, u32)>,
+    /// Simulated seconds per run.
+    pub seconds: f64,
+}
+
+/// The seeds a shard runs.
+pub fn shard_seeds(seeds: u64, shard: Option<(u32, u32)>) -> Vec<u64> {
+    (1..=seeds)
+        .filter(|s| shard.is_none_or(|(i, n)| (s - 1) % u64::from(n) == u64::from(i - 1)))
+        .collect()
+}
+
+/// Parses `i/n` (1 ≤ i ≤ n).
+pub fn parse_shard(text: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("--shard {text}: expected i/n with 1 ≤ i ≤ n, such as 2/4");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (u32, u32) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if i == 0 || n == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// Runs the experiment: every (version, seed) run on its own core.
+pub fn compare(spec: &CompareSpec<'_>) -> Result<Comparison, TimelineError> {
+    if !(spec.seconds.is_finite() && spec.seconds > 0.0) {
+        return Err(TimelineError::Invalid(format!(
+            "--seconds {}: expected a number of seconds > 0",
+            spec.seconds
+        )));
+    }
+    if spec.seeds == 0 {
+        return Err(TimelineError::Invalid(
+            "--seeds 0: an experiment needs at least one seed (2 or more for intervals)".into(),
+        ));
+    }
+    let hashes = |dir: &Path| {
+        read_scripts(dir)
+            .map(|s| s.into_iter().map(|(k, v)| (k, v.crc32)).collect())
+            .map_err(|source| TimelineError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })
+    };
+    let (ha, hb): (BTreeMap<String, u32>, BTreeMap<String, u32>) =
+        (hashes(spec.a)?, hashes(spec.b)?);
+    for (dir, h) in [(spec.a, &ha), (spec.b, &hb)] {
+        if !h.contains_key(spec.scene) {
+            return Err(TimelineError::Invalid(format!(
+                "{}: no scene {} in it (both versions run the same scene, named relative to each \
+                 scripts directory)",
+                dir.display(),
+                spec.scene
+            )));
+        }
+    }
+    let seeds = shard_seeds(spec.seeds, spec.shard);
+    let jobs: Vec<(usize, u64)> = [0, 1]
+        .iter()
+        .flat_map(|&v| seeds.iter().map(move |&s| (v, s)))
+        .collect();
+    let results: Vec<Result<(usize, RunMeasures), TimelineError>> = jobs
+        .par_iter()
+        .map(|&(v, seed)| {
+            let dir = if v == 0 { spec.a } else { spec.b };
+            measure_run(spec.root, dir, spec.scene, seed, spec.seconds).map(|m| (v, m))
+        })
+        .collect();
+    let mut runs: [Vec<RunMeasures>; 2] = [Vec::new(), Vec::new()];
+    for r in results {
+        let (v, m) = r?;
+        runs[v].push(m);
+    }
+    let [ra, rb] = runs;
+    let changed = super::run_file::changed_keys(&ha, &hb);
+    Ok(finish(Comparison {
+        format: FORMAT,
+        shoal_version: env!("CARGO_PKG_VERSION").to_owned(),
+        scene: spec.scene.to_owned(),
+        seconds: spec.seconds,
+        shard: spec.shard,
+        changed,
+        a: Version {
+            dir: spec.a.display().to_string(),
+            scripts: ha,
+            runs: ra,
+        },
+        b: Version {
+            dir: spec.b.display().to_string(),
+            scripts: hb,
+            runs: rb,
+        },
+        summary: Vec::new(),
+    }))
+}
+
+/// Sorts the runs by seed and computes the summary.
+fn finish(mut c: Comparison) -> Comparison {
+    c.a.runs.sort_by_key(|m| m.seed);
+    c.b.runs.sort_by_key(|m| m.seed);
+    c.summary = summarize(&c.a.runs, &c.b.runs);
+    c
+}
+
+/// Per measure: A, B, and B − A paired by seed.
+pub fn summarize(a: &[RunMeasures], b: &[RunMeasures]) -> Vec<MeasureSummary> {
+    let by_seed: HashMap<u64, &RunMeasures> = b.iter().map(|m| (m.seed, m)).collect();
+    MEASURES
+        .iter()
+        .map(|m| {
+            let va: Vec<f64> = a.iter().filter_map(m.get).collect();
+            let vb: Vec<f64> = b.iter().filter_map(m.get).collect();
+            let d: Vec<f64> = a
+                .iter()
+                .filter_map(|ra| {
+                    let rb = by_seed.get(&ra.seed)?;
+                    Some((m.get)(rb)? - (m.get)(ra)?)
+                })
+                .collect();
+            let diff = Estimate::of(&d);
+            MeasureSummary {
+                measure: m.key.to_owned(),
+                label: m.label.to_owned(),
+                a: Estimate::of(&va),
+                b: Estimate::of(&vb),
+                b_minus_a: diff,
+                significant: diff.excludes_zero(),
+            }
+        })
+        .collect()
+}
+
+/// Merges shards of one experiment (same scene, length and scripts; no seed twice) into one
+/// comparison with its summary recomputed over every seed.
+pub fn merge(parts: Vec<(String, Comparison)>) -> Result<Comparison, String> {
+    let mut parts = parts.into_iter();
+    let Some((first_name, mut all)) = parts.next() else {
+        return Err("--merge needs at least one shard's JSON".into());
+    };
+    if all.format != FORMAT {
+        return Err(format!(
+            "{first_name}: comparison format {} (this shoal reads {FORMAT})",
+            all.format
+        ));
+    }
+    for (name, part) in parts {
+        if part.format != FORMAT {
+            return Err(format!(
+                "{name}: comparison format {} (this shoal reads {FORMAT})",
+                part.format
+            ));
+        }
+        let same = part.scene == all.scene
+            && part.seconds == all.seconds
+            && part.a.scripts == all.a.scripts
+            && part.b.scripts == all.b.scripts;
+        if !same {
+            return Err(format!(
+                "{name} is not a shard of the same experiment as {first_name}: the scene, the \
+                 seconds or the scripts of A or B differ"
+            ));
+        }
+        for (mine, theirs) in [
+            (&mut all.a.runs, part.a.runs),
+            (&mut all.b.runs, part.b.runs),
+        ] {
+            for r in theirs {
+                if mine.iter().any(|m| m.seed == r.seed) {
+                    return Err(format!(
+                        "{name}: seed {} is already in another shard (shards must not overlap)",
+                        r.seed
+                    ));
+                }
+                mine.push(r);
+            }
+        }
+    }
+    all.shard = None;
+    Ok(finish(all))
+}
+
+/// Runs one version of the scripts for one seed and measures it.
+pub fn measure_run(
+    root: &Path,
+    scripts: &Path,
+    scene: &str,
+    seed: u64,
+    seconds: f64,
+) -> Result<RunMeasures, TimelineError> {
+    let mut sim = Simulation::from_scene_with_scripts(root, scripts, Path::new(scene), seed)
+        .map_err(|e| TimelineError::Invalid(format!("{}: {e}", scripts.display())))?;
+    // The experiment's parallelism is across runs; one lane per run keeps each on one core.
+    sim.set_lanes(1)?;
+    sim.reset_profile();
+    let ticks = (seconds * TICK_HZ).round() as u64;
+    let sample_every = ((SAMPLE_EVERY_S * TICK_HZ).round() as u64).max(1);
+    let mut contact = Contacts::default();
+    let (mut pol, mut nn) = (Vec::new(), Vec::new());
+    let start = sim.world().time();
+    let eaten_before: usize = sim.world().eaten_foods().count();
+    for tick in 1..=ticks {
+        sim.step();
+        contact.count(sim.world());
+        if tick % sample_every == 0 {
+            let (p, n) = school_sample(sim.world());
+            pol.extend(p);
+            nn.extend(n);
+        }
+    }
+    let world = sim.world();
+    let eaten: Vec<f64> = world
+        .eaten_foods()
+        .filter_map(|(_, f)| f.eaten_at)
+        .filter(|&t| t >= start)
+        .collect();
+    let catches = world
+        .fish_ids()
+        .filter_map(|id| sim.memory_json(id).get("catches")?.as_f64())
+        .fold(0.0, |sum, c| sum + c);
+    let profile = sim.profile();
+    let (calls, ms, errors) = profile.iter().fold((0u64, 0f64, 0u64), |acc, p| {
+        (
+            acc.0 + p.calls,
+            acc.1 + p.behavior_ms + p.sensing_ms,
+            acc.2 + p.errors + p.limit_stops,
+        )
+    });
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    Ok(RunMeasures {
+        seed,
+        pellets_eaten: (world.eaten_foods().count() - eaten_before) as f64,
+        first_bite_s: eaten
+            .iter()
+            .copied()
+            .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.min(t))))
+            .map(|t| t - start),
+        polarization: mean(&pol),
+        nearest_neighbour_l: mean(&nn),
+        wall_contacts: contact.wall as f64,
+        rock_contacts: contact.rock as f64,
+        catches,
+        script_errors: errors as f64,
+        decision_us: if calls == 0 {
+            0.0
+        } else {
+            ms * 1000.0 / calls as f64
+        },
+    })
+}
+
+/// Counts contact events: a fish that was clear last tick and had to be pushed back this tick.
+#[derive(Default)]
+struct Contacts {
+    touching: HashMap<FishId, bool>,
+    wall: u64,
+    rock: u64,
+}
+
+impl Contacts {
+    fn count(&mut self, world: &World) {
+        let tank = world.tank();
+        for id in world.fish_ids() {
+            let Some(f) = world.fish(id) else { continue };
+            let now = f.contact();
+            let was = self.touching.insert(id, now).unwrap_or(false);
+            if !now || was {
+                continue;
+            }
+            let p = f.root().pos;
+            let to_wall = (p - tank.min).min(tank.max - p).min_element();
+            let to_rock = world
+                .obstacles()
+                .iter()
+                .map(|o| p.distance(o.pos) - o.radius)
+                .fold(f32::INFINITY, f32::min);
+            if to_rock < to_wall {
+                self.rock += 1;
+            } else {
+                self.wall += 1;
+            }
+        }
+    }
+}
+
+/// Polarization and mean nearest-neighbour distance (body lengths) of the schooling fish now
+/// (every fish when none schools); nothing with fewer than two.
+fn school_sample(world: &World) -> (Option<f64>, Option<f64>) {
+    let schooling: Vec<FishId> = world
+        .fish_ids()
+        .filter(|&id| world.behavior_of(id) == Some("school"))
+        .collect();
+    let ids: Vec<FishId> = if schooling.is_empty() {
+        world.fish_ids().collect()
+    } else {
+        schooling
+    };
+    if ids.len() < 2 {
+        return (None, None);
+    }
+    let fish: Vec<(Vec3, f32, f32)> = ids
+        .iter()
+        .filter_map(|&id| {
+            let f = world.fish(id)?;
+            Some((f.root().pos, f.root().heading, f.species().body_length()))
+        })
+        .collect();
+    let pol = shoal_core::world::measures::polarization(fish.iter().map(|f| f.1));
+    let mut sum = 0f64;
+    for (i, (p, _, l)) in fish.iter().enumerate() {
+        let nearest = fish
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(_, q)| p.distance(q.0))
+            .fold(f32::INFINITY, f32::min);
+        sum += f64::from(nearest / l.max(f32::EPSILON));
+    }
+    (Some(pol), Some(sum / fish.len() as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_matches_students_t() {
+        // n = 5, mean 3, sample sd = sqrt(2.5); t(0.975, 4) = 2.776.
+        let e = Estimate::of(&[1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(e.mean, Some(3.0));
+        let half = 2.776_445 * (2.5f64 / 5.0).sqrt();
+        assert!((e.high.unwrap() - (3.0 + half)).abs() < 1e-4, "{e:?}");
+        assert!((e.low.unwrap() - (3.0 - half)).abs() < 1e-4, "{e:?}");
+        assert!(e.excludes_zero());
+        assert!(!Estimate::of(&[-1.0, 1.0, 0.5]).excludes_zero());
+        assert_eq!(Estimate::of(&[2.0]).low, None);
+        assert!(!Estimate::of(&[2.0]).excludes_zero());
+    }
+
+    #[test]
+    fn shards_split_the_seeds_without_overlap() {
+        let all: Vec<u64> = (1..=3)
+            .flat_map(|i| shard_seeds(10, Some((i, 3))))
+            .collect();
+        let mut sorted = all.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (1..=10).collect::<Vec<_>>());
+        assert_eq!(shard_seeds(10, Some((2, 3))), vec![2, 5, 8]);
+        assert_eq!(parse_shard("2/4"), Ok((2, 4)));
+        for bad in ["0/4", "5/4", "2", "a/b", "1/0"] {
+            assert!(parse_shard(bad).is_err(), "{bad}");
+        }
+    }
+
+    fn run(seed: u64, eaten: f64) -> RunMeasures {
+        RunMeasures {
+            seed,
+            pellets_eaten: eaten,
+            first_bite_s: (eaten > 0.0).then_some(10.0 / eaten),
+            polarization: 0.5,
+            nearest_neighbour_l: 1.0,
+            wall_contacts: 0.0,
+            rock_contacts: 0.0,
+            catches: 0.0,
+            script_errors: 0.0,
+            decision_us: 1.0,
+        }
+    }
+
+    #[test]
+    fn differences_are_paired_by_seed() {
+        // B eats exactly one more pellet than A on every seed, though seeds vary a lot: the
+        // paired difference is significant even where A's and B's intervals overlap.
+        let a: Vec<_> = [3.0, 10.0, 6.0, 1.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| run(i as u64 + 1, e))
+            .collect();
+        let b: Vec<_> = a
+            .iter()
+            .map(|r| run(r.seed, r.pellets_eaten + 1.0))
+            .collect();
+        let s = summarize(&a, &b);
+        let eaten = s.iter().find(|m| m.measure == "pellets_eaten").unwrap();
+        assert_eq!(eaten.b_minus_a.mean, Some(1.0));
+        assert!(eaten.significant);
+        assert!(eaten.a.high.unwrap() > eaten.b.low.unwrap());
+        let pol = s.iter().find(|m| m.measure == "polarization").unwrap();
+        assert!(!pol.significant);
+        // A seed where A ate nothing has no time to first bite: it is left out of that pairing.
+        let a0 = vec![run(1, 0.0), run(2, 2.0)];
+        let b0 = vec![run(1, 1.0), run(2, 4.0)];
+        let bite = summarize(&a0, &b0)
+            .into_iter()
+            .find(|m| m.measure == "first_bite_s")
+            .unwrap();
+        assert_eq!(bite.b_minus_a.n, 1);
+        assert_eq!(bite.a.n, 1);
+        assert_eq!(bite.b.n, 2);
+    }
+}

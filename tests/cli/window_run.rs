@@ -1,0 +1,442 @@
+//! `shoal run` opens its window under a virtual X server (Xvfb), draws frames and exits cleanly
+//! on request; without a display it says to use `shoal render`.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::xvfb_common;
+
+/// Waits for `child` with a limit, killing it if it runs over.
+fn wait_with_limit(mut child: Child, limit: Duration) -> std::process::Output {
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!(
+                "shoal run did not exit within {limit:?}\nstdout:\n{}\nstderr:\n{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn shoal_run_presents_30_frames_under_xvfb_and_exits_cleanly() {
+    let xvfb = xvfb_common::start(90..400);
+    let child = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["run", "--frames", "30", "--select", "0", "--overlays"])
+        .env("DISPLAY", format!(":{}", xvfb.display))
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("shoal runs");
+    let out = wait_with_limit(child, Duration::from_secs(240));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout:\n{stdout}\nstderr:\n{stderr}",
+        out.status
+    );
+    let presented: u64 = stdout
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("presented ")?
+                .strip_suffix(" frames")?
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no `presented N frames` line in stdout:\n{stdout}"));
+    assert!(presented >= 30, "presented only {presented} frames");
+    assert!(
+        stdout.contains("adapter: "),
+        "adapter not reported:\n{stdout}"
+    );
+    // MSAA by default: off on a software renderer (lavapipe, as in CI), 4× on a GPU.
+    let software = stdout
+        .lines()
+        .any(|l| l.starts_with("adapter: ") && l.contains(", Cpu,"));
+    let msaa = if software {
+        "MSAA 1× (a software renderer"
+    } else {
+        "MSAA 4×"
+    };
+    assert!(
+        stderr.contains(msaa),
+        "expected {msaa:?}\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+}
+
+/// `shoal` with `args` and no display at all.
+fn without_display(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("shoal runs")
+}
+
+#[test]
+fn shoal_run_refuses_an_msaa_count_it_does_not_draw_with() {
+    let out = without_display(&["run", "--msaa", "2"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--msaa") && stderr.contains("1 (off) or 4"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn shoal_run_without_a_display_points_to_shoal_render() {
+    let out = without_display(&["run", "--frames", "1"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("shoal render"), "stderr:\n{stderr}");
+}
+
+/// `shoal run` under its own Xvfb with `SHOAL_UI_TRACE`, driven like a user with `xdotool`:
+/// every line the window prints is kept, and the window is killed when this is dropped.
+struct TracedWindow {
+    child: Child,
+    lines: std::sync::mpsc::Receiver<String>,
+    /// Every line read so far.
+    seen: Vec<String>,
+    display: String,
+    _xvfb: xvfb_common::Xvfb,
+}
+
+const XDOTOOL: &str = "/usr/bin/xdotool";
+
+impl TracedWindow {
+    fn start(args: &[&str]) -> Self {
+        Self::start_on(args, (1600, 1000))
+    }
+
+    /// [`TracedWindow::start`] on a screen of `screen` pixels.
+    fn start_on(args: &[&str], screen: (u32, u32)) -> Self {
+        use std::io::{BufRead, BufReader};
+        assert!(
+            Path::new(XDOTOOL).exists(),
+            "{XDOTOOL} is missing: install it (Debian: apt install xdotool) — CI installs it in .ci/run"
+        );
+        let xvfb = xvfb_common::start_sized(90..400, screen.0, screen.1);
+        let display = format!(":{}", xvfb.display);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_shoal"))
+            .args(args)
+            .env("DISPLAY", &display)
+            .env("SHOAL_UI_TRACE", "1")
+            .env_remove("WAYLAND_DISPLAY")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("shoal runs");
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel::<String>();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Self {
+            child,
+            lines,
+            seen: Vec::new(),
+            display,
+            _xvfb: xvfb,
+        }
+    }
+
+    /// The first line `pred` accepts within `limit`, reading (and keeping) lines until then.
+    fn wait_for(&mut self, pred: &dyn Fn(&str) -> bool, limit: Duration) -> Option<String> {
+        let start = Instant::now();
+        while start.elapsed() < limit {
+            match self.lines.recv_timeout(Duration::from_millis(200)) {
+                Ok(line) => {
+                    let hit = pred(&line);
+                    self.seen.push(line.clone());
+                    if hit {
+                        return Some(line);
+                    }
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                Err(_) => break,
+            }
+        }
+        None
+    }
+
+    /// Where the button `label` is now (screen pixels: the window sits at the origin), once
+    /// the panel has drawn it and settled its layout.
+    fn button(&mut self, label: &str) -> (String, String) {
+        let prefix = format!("ui: button {label:?} at ");
+        if !self.seen.iter().any(|l| l.starts_with(&prefix)) {
+            self.wait_for(&|l| l.starts_with(&prefix), Duration::from_secs(180))
+                .unwrap_or_else(|| panic!("the window never drew {label:?}:\n{:#?}", self.seen));
+            // The panel settles its layout over the first frames; the window prints a button
+            // again whenever it moves.
+            let _ = self.wait_for(&|_| false, Duration::from_secs(3));
+        }
+        let line = self
+            .seen
+            .iter()
+            .rev()
+            .find(|l| l.starts_with(&prefix))
+            .cloned()
+            .expect("the button line");
+        let at = line
+            .split(" at ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .expect("x,y");
+        let (x, y) = at.split_once(',').expect("x,y");
+        (x.to_owned(), y.to_owned())
+    }
+
+    /// The window's latest `ui: 3D view WxH, panel from x=Some(L)` line.
+    fn view_line(&self) -> String {
+        self.seen
+            .iter()
+            .rev()
+            .find(|l| l.starts_with("ui: 3D view "))
+            .cloned()
+            .unwrap_or_else(|| {
+                panic!(
+                    "the window never said how big its view is:\n{:#?}",
+                    self.seen
+                )
+            })
+    }
+
+    fn xdotool(&self, args: &[&str]) {
+        let status = Command::new(XDOTOOL)
+            .args(args)
+            .env("DISPLAY", &self.display)
+            .status()
+            .expect("xdotool runs");
+        assert!(status.success(), "xdotool {args:?} failed: {status:?}");
+    }
+
+    /// Moves onto the button `label`, lets a few frames see the pointer there (as a hand
+    /// would), and clicks.
+    fn click_button(&mut self, label: &str) {
+        let (x, y) = self.button(label);
+        self.xdotool(&["mousemove", &x, &y]);
+        std::thread::sleep(Duration::from_millis(700));
+        self.xdotool(&["click", "1"]);
+    }
+}
+
+impl Drop for TracedWindow {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The real window, clicked like a user: under Xvfb, `xdotool` moves the pointer onto the
+/// panel's "quick turn left" button (the window prints where its buttons are with
+/// `SHOAL_UI_TRACE`) and clicks. The click must reach the button — the console says the quick
+/// turn was requested for the selected fish — and must not reach the fish picker (which used to
+/// take every release and deselect the fish).
+#[test]
+fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
+    let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
+    w.button("quick turn left");
+    // Let the window settle for a few frames, then click like a user.
+    std::thread::sleep(Duration::from_millis(500));
+    w.click_button("quick turn left");
+    let before_click = w.seen.len();
+    let requested = w.wait_for(
+        &|l| l.contains("fish #0: quick turn left requested"),
+        Duration::from_secs(60),
+    );
+    assert!(
+        requested.is_some(),
+        "the click did not reach the button:\n{:#?}",
+        w.seen
+    );
+    // A few more frames: the release must not have reached the picker.
+    let _ = w.wait_for(&|_| false, Duration::from_secs(2));
+    assert!(
+        !w.seen[before_click..]
+            .iter()
+            .any(|l| l.starts_with("selected: ")),
+        "the panel click changed the selection:\n{:#?}",
+        w.seen
+    );
+}
+
+/// A click in the view right after the pointer leaves the panel, before the window draws
+/// another frame, is the view's: it reaches the fish picker. The window used to ask egui
+/// whether the pointer was over the panel, and egui answered from its last frame (pointer
+/// still on the panel), so the click was dropped — on lavapipe's quarter-second frames, every
+/// quick click after using the panel. The picker prints `selected: …` for every click it gets,
+/// a hit or a miss (the camera's follow may not have settled on fish 0 under load), so the
+/// line is the evidence that the click reached it.
+#[test]
+fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
+    // Fish 0 selected: pausing and clicking change nothing else that prints `selected: `.
+    let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
+    w.click_button("pause");
+    w.wait_for(
+        &|l| l.starts_with("ui: button \"play\""),
+        Duration::from_secs(60),
+    )
+    .unwrap_or_else(|| panic!("pause did not pause:\n{:#?}", w.seen));
+    // The pointer rests on the panel for several frames, then moves into the view (x 640 is
+    // left of the panel, which begins near 830) and clicks in one go.
+    std::thread::sleep(Duration::from_millis(1500));
+    let before_click = w.seen.len();
+    w.xdotool(&["mousemove", "640", "380", "click", "1"]);
+    let picked = w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60));
+    assert!(
+        picked.is_some(),
+        "the quick click in the view did not reach the picker:\n{:#?}",
+        &w.seen[before_click..]
+    );
+}
+
+/// Feeding from the window: the panel's "drop food" button drops a pellet, and a shift+click in
+/// the view drops one there instead of picking a fish (the window follows shift through winit's
+/// modifier events, which X delivers to the focused window).
+#[test]
+fn xdotool_drop_food_button_and_shift_click_in_the_view() {
+    let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
+    w.click_button("drop food");
+    w.wait_for(
+        &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
+        Duration::from_secs(60),
+    )
+    .unwrap_or_else(|| panic!("the button dropped no food:\n{:#?}", w.seen));
+    let window = Command::new(XDOTOOL)
+        .args(["search", "--name", "shoal"])
+        .env("DISPLAY", &w.display)
+        .output()
+        .expect("xdotool runs");
+    let id = String::from_utf8_lossy(&window.stdout)
+        .lines()
+        .next()
+        .expect("the window is found by its title")
+        .to_owned();
+    w.xdotool(&["windowfocus", &id]);
+    // Onto the floor in front of the camera, then a click with shift held.
+    w.xdotool(&["mousemove", "300", "600"]);
+    std::thread::sleep(Duration::from_millis(700));
+    let before = w.seen.len();
+    w.xdotool(&["keydown", "shift"]);
+    std::thread::sleep(Duration::from_millis(500));
+    w.xdotool(&["click", "1"]);
+    std::thread::sleep(Duration::from_millis(300));
+    w.xdotool(&["keyup", "shift"]);
+    let dropped = w.wait_for(
+        &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
+        Duration::from_secs(60),
+    );
+    assert!(
+        dropped.is_some(),
+        "the shift+click dropped no food:\n{:#?}",
+        &w.seen[before..]
+    );
+    assert!(
+        !w.seen[before..].iter().any(|l| l.starts_with("selected: ")),
+        "the shift+click also picked:\n{:#?}",
+        &w.seen[before..]
+    );
+}
+
+/// The 3D view is drawn left of the panel, not under it: the window says how wide it draws the
+/// view, and that is where the panel begins (so the camera looks at the middle of what is seen,
+/// and a followed fish is there). A click in the middle of that view reaches the picker.
+#[test]
+fn the_3d_view_ends_where_the_panel_begins() {
+    // (With --msaa 4, which the window then says it uses whatever the adapter.)
+    let mut w = TracedWindow::start(&["run", "--frames", "100000", "--msaa", "4"]);
+    // The panel settles its layout over the first frames: its buttons stop moving.
+    w.button("pause");
+    assert!(
+        w.seen
+            .iter()
+            .any(|l| l.starts_with("console: ") && l.contains("MSAA 4× (--msaa)")),
+        "the window did not draw with the MSAA asked for:\n{:#?}",
+        w.seen
+    );
+    let line = w.view_line();
+    // "ui: 3D view WxH, panel from x=Some(L)"
+    let size = line["ui: 3D view ".len()..].split(',').next().unwrap();
+    let (width, height) = size.split_once('x').expect("WxH");
+    let width: u32 = width.parse().expect("width");
+    assert_eq!(height, "760", "{line}");
+    let panel_left: u32 = line
+        .split("x=Some(")
+        .nth(1)
+        .and_then(|r| r.strip_suffix(')'))
+        .and_then(|x| x.parse::<f32>().ok())
+        .unwrap_or_else(|| panic!("no panel in {line:?}")) as u32;
+    assert_eq!(width, panel_left, "{line}");
+    assert!(width < 1280 && width > 400, "{line}");
+    // A click in the middle of the view is the view's.
+    let before_click = w.seen.len();
+    let x = (width / 2).to_string();
+    w.xdotool(&["mousemove", &x, "380"]);
+    std::thread::sleep(Duration::from_millis(700));
+    w.xdotool(&["click", "1"]);
+    assert!(
+        w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60))
+            .is_some(),
+        "the click in the middle of the view did not reach the picker:\n{:#?}",
+        &w.seen[before_click..]
+    );
+}
+
+/// On a screen smaller than the window's preferred 1280×760 (here 1024×640) the window opens
+/// inside it, so the panel on the right and the bottom of the view can be reached. It used to
+/// open at 1280×760 whatever the screen, with half the panel off it.
+#[test]
+fn the_window_fits_a_small_screen() {
+    let mut w = TracedWindow::start_on(&["run", "--frames", "100000"], (1024, 640));
+    w.button("pause");
+    let line = w.view_line();
+    let window = Command::new(XDOTOOL)
+        .args(["search", "--name", "shoal", "getwindowgeometry"])
+        .env("DISPLAY", &w.display)
+        .output()
+        .expect("xdotool runs");
+    let geometry = String::from_utf8_lossy(&window.stdout).into_owned();
+    // "  Geometry: WxH"
+    let (width, height) = geometry
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("Geometry: "))
+        .and_then(|g| g.split_once('x'))
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .unwrap_or_else(|| panic!("no geometry in {geometry:?}"));
+    assert!(
+        width <= 1024 && height <= 640 && width >= 900 && height >= 500,
+        "a {width}×{height} window on a 1024×640 screen ({line})"
+    );
+    // The view ends where the panel begins, and the panel ends inside the screen.
+    let view_height: u32 = line["ui: 3D view ".len()..]
+        .split(',')
+        .next()
+        .and_then(|s| s.split_once('x'))
+        .and_then(|(_, h)| h.parse().ok())
+        .unwrap_or_else(|| panic!("no view size in {line:?}"));
+    assert_eq!(view_height, height, "{line}");
+    let (x, y) = w.button("pause");
+    let (x, y): (f32, f32) = (x.parse().expect("x"), y.parse().expect("y"));
+    assert!(
+        x < width as f32 && y < height as f32,
+        "the pause button at {x},{y}"
+    );
+}
