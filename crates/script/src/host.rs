@@ -33,10 +33,7 @@ use shoal_core::world::FishId;
 /// Registry key of the table of per-fish tables (fish index → fish table).
 pub(crate) const FISH_KEY: &str = "shoal.fish";
 
-/// Registry key of the table the driver writes what it knows of the deciding fish into before
-/// each decision: `species`, its species index + 1 (nil when the caller did not say). The
-/// `shoal` API answers `shoal.species()` from it without a call into Rust.
-pub const DECISION_KEY: &str = "shoal.decision";
+pub use crate::api::DECISION_KEY;
 
 /// Runs one decision: the layers of a module for one fish. Host-private: scripts never see it.
 const DRIVER: &str = r#"
@@ -547,7 +544,7 @@ impl ScriptHost {
         let table = self.modules.get(module)?.table.as_ref()?;
         let _metered = self.begin_call();
         if self.line_hook {
-            super::debug::add_line_hook(&self.lua);
+            super::watchdog::add_line_hook(&self.lua);
         }
         Some(self.driver.call::<()>((table, fish, species_number)))
     }

@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod api;
+pub mod budget;
 pub mod check;
 pub mod debug;
 pub mod error;

@@ -106,15 +106,28 @@ pub fn install(lua: &Lua, globals: &Table) -> mlua::Result<()> {
     globals.set(
         LOGPOINT_FN,
         lua.create_function(|lua, args: mlua::Variadic<Value>| {
-            let mut text = super::sandbox::caller_location(lua);
+            let mut text = crate::budget::caller_location(lua);
             text.push_str(" logpoint: ");
             for v in args.iter() {
                 text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
             }
-            super::sandbox::console_line(lua, &text);
+            console_line(lua, &text);
             Ok(())
         })?,
     )
+}
+
+/// Puts `text` in the script console as a print, with the deciding fish and the world's time
+/// when a behaviour stage is running (`print` and logpoints).
+pub fn console_line(lua: &Lua, text: &str) {
+    let (fish, time_s) = lua
+        .app_data_ref::<crate::api::Ctx>()
+        .map_or((None, 0.0), |c| {
+            (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
+        });
+    if let Some(mut log) = lua.app_data_mut::<crate::log::ScriptLog>() {
+        log.push(crate::log::LogLevel::Info, text, fish, time_s);
+    }
 }
 
 #[cfg(test)]

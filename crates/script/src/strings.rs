@@ -27,7 +27,7 @@ use std::sync::{Arc, Mutex};
 use mlua::{Function, Lua, LuaString, MultiValue, Table, Value};
 use regex::bytes::{Captures, Regex, RegexBuilder};
 
-use super::sandbox::{Abort, Budget, caller_location, time_message};
+use super::budget::{Abort, Budget, caller_location, time_message};
 
 /// Largest bound on the work of Lua's own matcher the sandbox lets it run (about 10 ms).
 pub const FALLBACK_STEPS: f64 = 1e7;

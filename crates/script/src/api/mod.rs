@@ -469,7 +469,10 @@ const FORGET_SPECIES_KEY: &str = "shoal.forget_species";
 
 /// Registry key of the table the host's driver writes the deciding fish's species into
 /// (`decision.species`, the species index + 1) before each decision.
-pub use crate::host::DECISION_KEY;
+/// Registry key of the table the driver writes what it knows of the deciding fish into before
+/// each decision: `species`, its species index + 1 (nil when the caller did not say). The
+/// `shoal` API answers `shoal.species()` from it without a call into Rust.
+pub const DECISION_KEY: &str = "shoal.decision";
 
 /// Tells the Lua side of the API that a behaviour stage starts at `time` in `world`'s tank
 /// (`Some`) or has ended (`None`).

@@ -38,15 +38,16 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
 
 use serde_json::{Value, json};
 
+use super::budget::Budget;
 use super::host::{ModuleIndex, ScriptHost};
-use super::sandbox::Budget;
+use super::sandbox::LineHook;
 use shoal_core::world::FishId;
 
 mod paused;
 pub mod server;
 pub mod wire;
 
-pub(crate) use paused::{add_line_hook, on_hook};
+use paused::on_hook;
 
 /// The address `--dap` listens on when none is given.
 pub const DEFAULT_ADDR: &str = "127.0.0.1:4711";
@@ -477,6 +478,7 @@ pub(crate) fn begin_decision(
         paths: HashMap::new(),
         stopped_ns: 0,
     });
+    host.lua().set_app_data(LineHook(on_hook));
     host.set_line_hook(true);
     true
 }
@@ -486,6 +488,7 @@ pub(crate) fn begin_decision(
 /// decision was held stopped (no cost of the script's, for the profile).
 pub(crate) fn end_decision(debugger: &Debugger, host: &mut ScriptHost) -> u64 {
     host.set_line_hook(false);
+    host.lua().remove_app_data::<LineHook>();
     let call = host.lua().remove_app_data::<ActiveCall>();
     let mut s = lock(&debugger.shared);
     if let Some(step) = &mut s.step {

@@ -75,24 +75,6 @@ fn path_of(lua: &Lua, chunk: &str) -> Option<PathBuf> {
     resolved
 }
 
-/// Adds line events to the hook of `lua`'s main thread, which [`crate::watchdog`] has
-/// just set to count instructions for the call about to start (its guard turns both off after).
-pub(crate) fn add_line_hook(lua: &Lua) {
-    let Ok(main) = crate::profiler::main_thread(lua) else {
-        return;
-    };
-    // SAFETY: `main` is `lua`'s live main thread. Reading its hook and setting it again with one
-    // more event in the mask happens on the thread that owns the state, between calls.
-    unsafe {
-        let Some(hook) = ffi::lua_gethook(main) else {
-            return;
-        };
-        let mask = ffi::lua_gethookmask(main) | ffi::LUA_MASKLINE;
-        let count = ffi::lua_gethookcount(main);
-        ffi::lua_sethook(main, Some(hook), mask, count);
-    }
-}
-
 /// Number of frames on the stopped thread's stack.
 fn depth(lua: &Lua) -> usize {
     let mut n = 0;
