@@ -177,6 +177,25 @@ impl TracedWindow {
         None
     }
 
+    /// Waits until the window has presented `n` more frames (it prints `ui: frame N` after each
+    /// with `SHOAL_UI_TRACE`): time measured in frames, not seconds, so a slow renderer waits
+    /// longer instead of letting the check pass before anything was drawn.
+    fn frames(&mut self, n: usize) {
+        // Lines already waiting are of frames before now.
+        while let Ok(line) = self.lines.try_recv() {
+            self.seen.push(line);
+        }
+        for k in 0..n {
+            self.wait_for(&|l| l.starts_with("ui: frame "), Duration::from_secs(120))
+                .unwrap_or_else(|| {
+                    panic!(
+                        "the window stopped presenting frames ({k} of {n}):\n{:#?}",
+                        self.seen
+                    )
+                });
+        }
+    }
+
     /// Where the button `label` is now (screen pixels: the window sits at the origin), once
     /// the panel has drawn it and settled its layout.
     fn button(&mut self, label: &str) -> (String, String) {
@@ -186,7 +205,7 @@ impl TracedWindow {
                 .unwrap_or_else(|| panic!("the window never drew {label:?}:\n{:#?}", self.seen));
             // The panel settles its layout over the first frames; the window prints a button
             // again whenever it moves.
-            let _ = self.wait_for(&|_| false, Duration::from_secs(3));
+            self.frames(5);
         }
         let line = self
             .seen
@@ -233,7 +252,7 @@ impl TracedWindow {
     fn click_button(&mut self, label: &str) {
         let (x, y) = self.button(label);
         self.xdotool(&["mousemove", &x, &y]);
-        std::thread::sleep(Duration::from_millis(700));
+        self.frames(3);
         self.xdotool(&["click", "1"]);
     }
 }
@@ -255,7 +274,7 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
     let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
     w.button("quick turn left");
     // Let the window settle for a few frames, then click like a user.
-    std::thread::sleep(Duration::from_millis(500));
+    w.frames(3);
     w.click_button("quick turn left");
     let before_click = w.seen.len();
     let requested = w.wait_for(
@@ -268,7 +287,7 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
         w.seen
     );
     // A few more frames: the release must not have reached the picker.
-    let _ = w.wait_for(&|_| false, Duration::from_secs(2));
+    w.frames(5);
     assert!(
         !w.seen[before_click..]
             .iter()
@@ -297,7 +316,7 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
     .unwrap_or_else(|| panic!("pause did not pause:\n{:#?}", w.seen));
     // The pointer rests on the panel for several frames, then moves into the view (x 640 is
     // left of the panel, which begins near 830) and clicks in one go.
-    std::thread::sleep(Duration::from_millis(1500));
+    w.frames(5);
     let before_click = w.seen.len();
     w.xdotool(&["mousemove", "640", "380", "click", "1"]);
     let picked = w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60));
@@ -333,19 +352,19 @@ fn xdotool_drop_food_button_and_shift_click_in_the_view() {
     w.xdotool(&["windowfocus", &id]);
     // Onto the floor in front of the camera, then a click with shift held.
     w.xdotool(&["mousemove", "300", "600"]);
-    std::thread::sleep(Duration::from_millis(700));
+    w.frames(3);
     let before = w.seen.len();
     w.xdotool(&["keydown", "shift"]);
-    std::thread::sleep(Duration::from_millis(500));
+    w.frames(2);
     w.xdotool(&["click", "1"]);
-    std::thread::sleep(Duration::from_millis(300));
+    w.frames(2);
     w.xdotool(&["keyup", "shift"]);
-    let dropped = w.wait_for(
-        &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
-        Duration::from_secs(60),
-    );
+    let food = |l: &str| l.starts_with("console: food #") && l.contains(" dropped at ");
+    // The frames waited for above may have read the line already.
+    let dropped = w.seen[before..].iter().any(|l| food(l))
+        || w.wait_for(&food, Duration::from_secs(60)).is_some();
     assert!(
-        dropped.is_some(),
+        dropped,
         "the shift+click dropped no food:\n{:#?}",
         &w.seen[before..]
     );
@@ -390,7 +409,7 @@ fn the_3d_view_ends_where_the_panel_begins() {
     let before_click = w.seen.len();
     let x = (width / 2).to_string();
     w.xdotool(&["mousemove", &x, "380"]);
-    std::thread::sleep(Duration::from_millis(700));
+    w.frames(3);
     w.xdotool(&["click", "1"]);
     assert!(
         w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60))

@@ -65,8 +65,9 @@ pub(super) struct UiState {
     /// The timeline slider was being dragged last frame (its value is the designer's, not
     /// the clock's).
     pub scrub_dragging: bool,
-    /// `SHOAL_UI_TRACE` is set: console lines, selection changes and the panel's button
-    /// rectangles are also printed on stdout, so an end-to-end test can click by label.
+    /// `SHOAL_UI_TRACE` is set: console lines, selection changes, the panel's button
+    /// rectangles and each presented frame (`ui: frame N`) are also printed on stdout, so an
+    /// end-to-end test can click by label and wait in frames.
     pub trace: bool,
     /// The split tank's version B, when `shoal run --split` shows two versions.
     pub split: Option<Split>,

@@ -380,6 +380,10 @@ impl App {
         ws.gpu.queue.present(surface_texture);
         let draw_ms = rt.draw_ms + submit.elapsed().as_secs_f32() * 1e3;
         self.presented += 1;
+        if self.aq.ui.trace {
+            // End-to-end tests count frames instead of sleeping.
+            println!("ui: frame {}", self.presented);
+        }
         let times = &mut self.aq.ui.times;
         times.push_back(FrameTimes {
             sim_ms,
