@@ -340,8 +340,7 @@ pub(crate) fn lua_sim(
     if lanes == Some(0) {
         anyhow::bail!("--lanes must be at least 1");
     }
-    anyhow::Context::with_context(
-        shoal_script::sim::bench_school(root, fish, seed, lanes),
-        || format!("loading the scripts under {}", root.display()),
-    )
+    use anyhow::Context as _;
+    shoal_script::sim::bench_school(root, fish, seed, lanes)
+        .with_context(|| format!("loading the scripts under {}", root.display()))
 }

@@ -1,5 +1,6 @@
 //! The aquarium window (`shoal run`): winit 0.30 + the egui tuning panel over the wgpu
-//! renderer. The per-frame logic that needs no window lives in [`super::aquarium`].
+//! renderer. The per-frame logic that needs no window lives in [`super::aquarium`] and
+//! `ui_state.rs`.
 //!
 //! Mouse: left drag orbits, right or middle drag pans, the wheel zooms, a left click (without
 //! dragging) selects the fish under the cursor (ray against each fish's bounding sphere).
@@ -47,6 +48,7 @@ pub fn default_msaa(device_type: wgpu::DeviceType) -> u32 {
         4
     }
 }
+
 /// Opens the aquarium window on `sim` and runs until it is closed (or `options.frames` are
 /// presented). Returns the number of frames presented.
 pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, AppError> {

@@ -8,14 +8,8 @@ use std::path::{Path, PathBuf};
 #[error("{0}")]
 pub struct SplitSourceError(String);
 
-impl SplitSourceError {
-    fn new(message: String) -> Self {
-        Self(message)
-    }
-}
-
 fn fail<T>(message: String) -> Result<T, SplitSourceError> {
-    Err(SplitSourceError::new(message))
+    Err(SplitSourceError(message))
 }
 
 /// Version B of a split tank (`--split DIR` or `--split git:REV`): its scripts directory and
@@ -57,7 +51,7 @@ pub fn split_source(spec: &str, a_scripts: &Path) -> Result<SplitSource, SplitSo
         ));
     }
     let top = git(spec, a_scripts, &["rev-parse", "--show-toplevel"]).map_err(|e| {
-        SplitSourceError::new(format!(
+        SplitSourceError(format!(
             "{e}: the scripts directory {} must be inside a git repository for git:REV",
             a_scripts.display()
         ))
@@ -76,7 +70,7 @@ pub fn split_source(spec: &str, a_scripts: &Path) -> Result<SplitSource, SplitSo
         ],
     )
     .map_err(|_| {
-        SplitSourceError::new(format!(
+        SplitSourceError(format!(
             "--split {spec}: no revision `{rev}` in the git repository {}",
             top.display()
         ))
@@ -88,7 +82,7 @@ pub fn split_source(spec: &str, a_scripts: &Path) -> Result<SplitSource, SplitSo
         .prefix("shoal-split-")
         .tempdir()
         .map_err(|e| {
-            SplitSourceError::new(format!(
+            SplitSourceError(format!(
                 "--split {spec}: cannot make a temporary directory ({e})"
             ))
         })?;
@@ -109,14 +103,14 @@ pub fn split_source(spec: &str, a_scripts: &Path) -> Result<SplitSource, SplitSo
         let text = git(spec, &top, &["cat-file", "blob", object])?;
         if let Some(parent) = out.parent() {
             std::fs::create_dir_all(parent).map_err(|e| {
-                SplitSourceError::new(format!(
+                SplitSourceError(format!(
                     "--split {spec}: cannot write {} ({e})",
                     parent.display()
                 ))
             })?;
         }
         std::fs::write(&out, text).map_err(|e| {
-            SplitSourceError::new(format!(
+            SplitSourceError(format!(
                 "--split {spec}: cannot write {} ({e})",
                 out.display()
             ))
@@ -147,7 +141,7 @@ fn git(spec: &str, dir: &Path, args: &[&str]) -> Result<Vec<u8>, SplitSourceErro
         .args(args)
         .output()
         .map_err(|e| {
-            SplitSourceError::new(format!(
+            SplitSourceError(format!(
                 "--split {spec}: cannot run git ({e}); install git, or pass a scripts directory \
                  instead"
             ))

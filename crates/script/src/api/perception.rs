@@ -33,10 +33,6 @@ pub(super) fn kind_key(keys: &Keys, k: PerceptKind) -> &LuaString {
     }
 }
 
-pub(super) fn parse_kind(s: &[u8]) -> Option<PerceptKind> {
-    PerceptKind::from_name(s)
-}
-
 pub(super) fn fill_percept(
     lua: &Lua,
     ctx: &mut Ctx,
@@ -107,11 +103,6 @@ pub(super) fn percept_values(p: &Percept) -> PerceptValues {
     )
 }
 
-/// The percept kind numbered `k` on the Lua side (`KIND` in `wrappers.lua`).
-fn kind_numbered(k: u8) -> Option<PerceptKind> {
-    PerceptKind::numbered(k)
-}
-
 /// Perception: `see`, `motion`, `random` in `shoal`; the raw `body`, `nearest`, `species`,
 /// `species_name` and `outside` (a message) that `wrappers.lua` builds `shoal.body`,
 /// `shoal.nearest`, `shoal.species`, `shoal.tank` and `shoal.time` on, in the returned table.
@@ -120,7 +111,7 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<Tabl
         "see",
         lua.create_function(|lua, (kind, max): (Option<LuaString>, Option<usize>)| {
             let kind = match &kind {
-                Some(k) => Some(parse_kind(&k.as_bytes()).ok_or_else(|| {
+                Some(k) => Some(PerceptKind::from_name(&k.as_bytes()).ok_or_else(|| {
                     rt("shoal.see: kind must be \"fish\", \"food\", \"obstacle\" or \"predator\"")
                 })?),
                 None => None,
@@ -161,7 +152,8 @@ pub(super) fn register_perception(lua: &Lua, shoal: &Table) -> mlua::Result<Tabl
         })?,
     )?;
     let nearest_raw = lua.create_function(|lua, (kind, species): (u8, Option<LuaString>)| {
-        let kind = kind_numbered(kind)
+        // Numbered as `KIND` in wrappers.lua passes them.
+        let kind = PerceptKind::numbered(kind)
             .ok_or_else(|| rt(format!("shoal.nearest: kind must be {KINDS}")))?;
         with_ctx(lua, "nearest", |w, f, ctx| {
             let start = sense_start(ctx);
