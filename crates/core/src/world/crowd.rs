@@ -179,34 +179,34 @@ impl World {
         }
         let reach2 = reach * reach;
 
-        if self.grid_exact && self.grid_positions_current {
+        if self.index.grid_exact && self.index.grid_positions_current {
             // Nothing moved since the rebuild: everything the rules need lies in the grid's
             // cell-ordered arrays, read front to back.
-            let keys = self.grid.keys();
-            let positions = self.grid.positions();
-            let species_of = &self.grid_species;
+            let keys = self.index.grid.keys();
+            let positions = self.index.grid.positions();
+            let species_of = &self.index.grid_species;
             // The columns are filled only for worlds whose behaviours make crowd queries: the
             // first query after a rebuild without them asks the next rebuild for them and
             // meanwhile scans the grid's positions and the roots' headings (the same values).
-            if self.crowd_columns.len() == keys.len() {
+            if self.index.crowd_columns.len() == keys.len() {
                 // Ask the next rebuild for them again (a plain load first: a store per query
                 // would bounce the flag's cache line between the lanes). Without this, every
                 // other tick's queries took the fallback below.
-                if !self.crowd_wanted.load(Ordering::Relaxed) {
-                    self.crowd_wanted.store(true, Ordering::Relaxed);
+                if !self.index.crowd_wanted.load(Ordering::Relaxed) {
+                    self.index.crowd_wanted.store(true, Ordering::Relaxed);
                 }
                 let query = LaneQuery::new(centre, me, species, r2);
                 let mut lanes = LaneSums::default();
-                let columns = &self.crowd_columns;
-                self.grid.for_each_run_within(centre, reach, |run| {
+                let columns = &self.index.crowd_columns;
+                self.index.grid.for_each_run_within(centre, reach, |run| {
                     columns.add_run(run, &query, &mut lanes);
                     true
                 });
                 return Some(lanes.total());
             }
             // No columns yet: ask the next rebuild for them (see above).
-            self.crowd_wanted.store(true, Ordering::Relaxed);
-            self.grid.for_each_run_within(centre, reach, |run| {
+            self.index.crowd_wanted.store(true, Ordering::Relaxed);
+            self.index.grid.for_each_run_within(centre, reach, |run| {
                 for slot in run {
                     let pos = positions[slot];
                     let d2 = pos.distance_squared(centre);
@@ -246,19 +246,21 @@ impl World {
                 || heading_vector(self.state.fish.roots[o].heading),
             );
         };
-        self.grid.for_each_within(centre, reach, |key, _, grid_d2| {
-            let dense = if self.grid_exact {
-                Some(key as usize)
-            } else {
-                self.state.fish.dense(self.grid_ids[key as usize])
-            };
-            if let Some(o) = dense {
-                visit(o, grid_d2);
-            }
-            true
-        });
-        if !self.grid_exact {
-            for &spawned in &self.spawned_since_grid {
+        self.index
+            .grid
+            .for_each_within(centre, reach, |key, _, grid_d2| {
+                let dense = if self.index.grid_exact {
+                    Some(key as usize)
+                } else {
+                    self.state.fish.dense(self.index.grid_ids[key as usize])
+                };
+                if let Some(o) = dense {
+                    visit(o, grid_d2);
+                }
+                true
+            });
+        if !self.index.grid_exact {
+            for &spawned in &self.index.spawned_since_grid {
                 if let Some(o) = self.state.fish.dense(spawned) {
                     // Not in the grid: only the current position counts.
                     visit(o, f32::NEG_INFINITY);
@@ -442,9 +444,9 @@ mod tests {
         }
         check(&world, "spawned and despawned", &radii, Against::Bitwise);
         // The queries asked for the columns; the rebuild fills them.
-        assert_eq!(world.crowd_columns.len(), 0);
+        assert_eq!(world.index.crowd_columns.len(), 0);
         world.rebuild_grid();
-        assert_eq!(world.crowd_columns.len(), world.num_fish());
+        assert_eq!(world.index.crowd_columns.len(), world.num_fish());
         let found = check(&world, "rebuilt, columns filled", &radii, Against::Rounding);
         assert!(
             found.iter().all(|&n| n > 400),

@@ -181,7 +181,7 @@ impl<'w> FishRef<'w> {
 
     /// Its species.
     pub fn species(&self) -> &'w Species {
-        &self.world.species[usize::from(self.species_id().0)]
+        &self.world.catalog.species[usize::from(self.species_id().0)]
     }
 
     /// The behaviour script it runs.

@@ -74,7 +74,7 @@ impl World {
                 .foods
                 .retain(|(_, f)| now - f.dropped_at < f64::from(life));
             if self.state.foods.len() != before {
-                self.food_in_grid = 0;
+                self.index.food_changed();
             }
         }
         let currents = &self.state.currents;
@@ -96,7 +96,7 @@ impl World {
             moved = true;
         }
         if moved {
-            self.food_in_grid = 0;
+            self.index.food_changed();
         }
     }
 }

@@ -16,7 +16,8 @@
 //! grids, palettes) is configuration or derived from it.
 //!
 //! The files follow the world's sections: `types.rs` (value types and errors), `state.rs` (the
-//! plain state), `registry.rs` (species), `population.rs` (spawning fish, food, rocks,
+//! plain state), `registry.rs` (species: the catalogue), `index.rs` (the spatial index),
+//! `pose/buffers.rs` (the pose stage's output), `population.rs` (spawning fish, food, rocks,
 //! currents), `fish.rs` (the agent view and motion requests), `perception.rs` (vision and body
 //! sense), `stages.rs` (the Rust stages), `contact.rs` (currents and hard contact), `tick.rs`
 //! (the pipeline).
@@ -35,6 +36,7 @@ pub mod driver;
 mod fish;
 mod food;
 pub mod grid;
+mod index;
 pub mod measures;
 mod nearest;
 mod perception;
@@ -51,12 +53,8 @@ mod test_world;
 pub mod tick;
 mod types;
 
-use std::sync::atomic::AtomicBool;
-
-use glam::Mat4;
-
-use crate::motion::WaveTable;
-use grid::Grid;
+use index::SpatialIndex;
+use pose::buffers::PoseBuffers;
 
 pub use crate::skin::FishModel;
 pub use crate::species::{SpeciesDesc, SpeciesRig};
@@ -125,68 +123,27 @@ pub enum PoseMode {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SpeciesId(pub u16);
 
-/// An aquarium: its [`WorldState`] (everything that defines it at a tick, plain data), its
-/// species, and what the stages derive from the state (the spatial grids, the skinning palettes,
-/// the stage timings).
+/// An aquarium, in four separate values the stages take explicitly (as Rapier's pipeline takes
+/// its body, collider and broad-phase sets):
+///
+/// - the [`WorldState`]: everything that defines it at a tick, plain data;
+/// - the species catalogue (`registry.rs`): its configuration, with what is prepared per
+///   species for the stages (pose plans, wave tables);
+/// - the spatial index (`index.rs`): grids, crowding columns and predator spots, which the grid
+///   stage derives from the state and the sensors read;
+/// - the pose buffers (`pose/buffers.rs`): the palettes or GPU records the pose stage writes.
 ///
 /// The state changes only through this type's methods and the stages of a tick
 /// ([`tick::step`]); what is derived is rebuilt by the stages, or by [`World::restore`].
 pub struct World {
     /// Everything that defines the world at a tick (see [`WorldState`]).
     state: WorldState,
-    species: Vec<Species>,
-    /// Per species: its skeleton prepared for the pose stage.
-    pose_plans: Vec<pose::PosePlan>,
-    /// Per species: its body wave's constants for the motion stage.
-    wave_tables: Vec<WaveTable>,
-    /// Live fish of species whose description marks them predators (see `nearest.rs`).
-    predators: Vec<FishId>,
-    /// The predator fish as of the last grid rebuild, packed for the scan in `nearest.rs`
-    /// (position, species, id, dense index side by side: one cache line per few predators
-    /// instead of four scattered reads each). Valid while the grid is exact and current.
-    predator_spots: Vec<nearest::PredatorSpot>,
-
-    grid: Grid,
-    /// Fish in the grid, by grid key (the dense index at rebuild time).
-    grid_ids: Vec<FishId>,
-    /// No fish was spawned or despawned since the rebuild: grid keys are dense indices.
-    grid_exact: bool,
-    /// Additionally no fish moved since the rebuild: the grid's positions are the roots'.
-    grid_positions_current: bool,
-    /// Fish spawned since the last rebuild (searched linearly until the next one).
-    spawned_since_grid: Vec<FishId>,
-    /// Per grid slot (the grid's cell order): the fish's species at the rebuild.
-    grid_species: Vec<SpeciesId>,
-    /// Per grid slot: what the crowding rules read of each candidate (position, heading cosine
-    /// and sine, species, dense index), one column per field; filled only while crowd queries
-    /// are being made (`crowd_wanted`), else empty.
-    crowd_columns: crowd::CrowdColumns,
-    /// A crowd query ran since the last rebuild: the next rebuild fills `crowd_columns`. Worlds
-    /// whose behaviours never ask do not pay for the cosines.
-    crowd_wanted: AtomicBool,
-    food_grid: Grid,
-    /// Live pellets `0..food_in_grid` (positions in `state.foods`) are in `food_grid`; later
-    /// ones are searched linearly. Eating a pellet empties the grid until the next rebuild.
-    food_in_grid: usize,
-
-    /// `palette_offsets[i]..palette_offsets[i + 1]` is dense fish i's palette range (its
-    /// species' slots, see `pose.rs`).
-    palette_offsets: Vec<u32>,
-    palettes: Vec<Mat4>,
-    /// Where the pose stage poses (see [`PoseMode`]).
-    pose_mode: PoseMode,
-    /// The species' pose programs for the GPU pass, rebuilt with `pose_plans`; an error names
-    /// a species whose skeleton is too big for it (the stage then poses on the CPU).
-    gpu_programs: Result<crate::skin::pose_program::GpuPosePrograms, String>,
-    /// After a GPU-mode pose stage, per dense fish: its record for the pose pass.
-    gpu_fish: Vec<crate::skin::pose_program::GpuFishPose>,
-    /// After a GPU-mode pose stage, per dense fish: its palette's slot 0 (culling).
-    pose_anchors: Vec<Mat4>,
-    /// The fish's stored body shapes (`yaw`, `lateral`, the players' head recoil) are the
-    /// players' current ones. False after a motion stage that left the shape to the GPU pass
-    /// ([`PoseMode::Gpu`]) and after a restore: readers then derive it from the players, and
-    /// the CPU pose stage refreshes it first.
-    shapes_current: bool,
+    /// The species and what is prepared per species for the stages.
+    catalog: registry::Catalog,
+    /// What the grid stage derives from the state for the next tick's sensing.
+    index: SpatialIndex,
+    /// What the pose stage writes: skinning palettes or the GPU pass's records.
+    pose: PoseBuffers,
     counters: StageCounters,
     rejected_motion_steps: u64,
 }
@@ -201,32 +158,11 @@ impl World {
     /// A world around `state`, with no species yet and nothing derived.
     fn from_state(state: WorldState) -> Self {
         let tank = state.tank;
-        let grid = Grid::new(tank.min, tank.max, tank.extent().max_element() / 16.0);
-        let food_grid = grid.clone();
         Self {
             state,
-            species: Vec::new(),
-            pose_plans: Vec::new(),
-            wave_tables: Vec::new(),
-            predators: Vec::new(),
-            predator_spots: Vec::new(),
-            grid,
-            grid_ids: Vec::new(),
-            grid_exact: true,
-            grid_positions_current: true,
-            spawned_since_grid: Vec::new(),
-            grid_species: Vec::new(),
-            crowd_columns: crowd::CrowdColumns::default(),
-            crowd_wanted: AtomicBool::new(false),
-            food_grid,
-            food_in_grid: 0,
-            palette_offsets: vec![0],
-            palettes: Vec::new(),
-            pose_mode: PoseMode::Cpu,
-            gpu_programs: Ok(crate::skin::pose_program::GpuPosePrograms::default()),
-            gpu_fish: Vec::new(),
-            pose_anchors: Vec::new(),
-            shapes_current: true,
+            catalog: registry::Catalog::default(),
+            index: SpatialIndex::new(&tank),
+            pose: PoseBuffers::default(),
             counters: StageCounters::default(),
             rejected_motion_steps: 0,
         }

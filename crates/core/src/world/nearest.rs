@@ -47,7 +47,7 @@ impl World {
 
     /// Fish of predator species now alive, in no particular order.
     pub fn predator_fish(&self) -> &[FishId] {
-        &self.predators
+        &self.index.predators
     }
 
     /// [`World::nearest_in_view`]'s winner for dense fish `d`, as a sort key.
@@ -80,7 +80,7 @@ impl World {
                     // The grid's set, without the grid: every predator within range now (the
                     // grid is current, so the spots' positions are the roots').
                     let r2 = view.range * view.range;
-                    for spot in &self.predator_spots {
+                    for spot in &self.index.predator_spots {
                         let d2 = spot.pos.distance_squared(view.pos);
                         if d2 > r2 || spot.dense as usize == d {
                             continue;
@@ -116,42 +116,25 @@ impl World {
     /// (a cube of 2·range plus a cell a side, capped by the tank).
     fn predator_list_pays(&self, range: f32) -> bool {
         let valid_range = range >= 0.0; // false for NaN, as the grid's own test
-        if !(self.grid_exact && self.grid_positions_current && valid_range) {
+        if !(self.index.grid_exact && self.index.grid_positions_current && valid_range) {
             return false;
         }
         let extent = self.state.tank.extent().max(Vec3::splat(1e-6));
-        let side = 2.0 * range + self.grid.cell_size();
+        let side = 2.0 * range + self.index.grid.cell_size();
         let scanned = (Vec3::splat(side).min(extent) / extent).element_product()
             * self.state.fish.len() as f32;
-        2.0 * self.predators.len() as f32 <= scanned
+        2.0 * self.index.predators.len() as f32 <= scanned
     }
 
     /// Rebuilds the list of predator fish from the species' `predator` flags.
     pub(super) fn refresh_predators(&mut self) {
-        self.predators.clear();
+        self.index.predators.clear();
         for (&id, &s) in self.state.fish.ids.iter().zip(&self.state.fish.species) {
-            if self.species[usize::from(s.0)].desc.predator {
-                self.predators.push(id);
+            if self.catalog.species[usize::from(s.0)].desc.predator {
+                self.index.predators.push(id);
             }
         }
-        self.refresh_predator_spots();
-    }
-
-    /// Packs the predators' positions, species, ids and dense indices as they are now (the grid
-    /// rebuild calls it, so they match the grid's positions while the grid is current).
-    pub(super) fn refresh_predator_spots(&mut self) {
-        let fish = &self.state.fish;
-        self.predator_spots.clear();
-        self.predator_spots
-            .extend(self.predators.iter().filter_map(|&p| {
-                let d = fish.dense(p)?;
-                Some(PredatorSpot {
-                    pos: fish.roots[d].pos,
-                    species: fish.species[d],
-                    index: p.index,
-                    dense: d as u32,
-                })
-            }));
+        self.index.refresh_predator_spots(&self.state);
     }
 }
 
@@ -164,6 +147,17 @@ pub(super) struct PredatorSpot {
     index: u32,
     /// Its dense index when the spots were packed.
     dense: u32,
+}
+
+impl PredatorSpot {
+    pub(super) fn new(pos: Vec3, species: SpeciesId, index: u32, dense: u32) -> Self {
+        Self {
+            pos,
+            species,
+            index,
+            dense,
+        }
+    }
 }
 
 #[cfg(test)]

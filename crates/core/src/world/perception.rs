@@ -20,10 +20,10 @@ impl World {
         mut visit: impl FnMut(usize, Vec3, f32),
     ) {
         let r2 = radius * radius;
-        if self.grid_exact && self.grid_positions_current {
+        if self.index.grid_exact && self.index.grid_positions_current {
             // Nothing moved since the rebuild: the grid's own (cell-ordered) copy of the positions
             // is exact, and reading it avoids a cache miss per candidate on the roots array.
-            self.grid.for_each_within(pos, radius, |key, p, d2| {
+            self.index.grid.for_each_within(pos, radius, |key, p, d2| {
                 visit(key as usize, p, d2);
                 true
             });
@@ -36,20 +36,20 @@ impl World {
                 visit(d, p, d2);
             }
         };
-        if self.grid_exact {
-            self.grid.for_each_within(pos, radius, |key, _, _| {
+        if self.index.grid_exact {
+            self.index.grid.for_each_within(pos, radius, |key, _, _| {
                 check(key as usize);
                 true
             });
             return;
         }
-        self.grid.for_each_within(pos, radius, |key, _, _| {
-            if let Some(d) = self.state.fish.dense(self.grid_ids[key as usize]) {
+        self.index.grid.for_each_within(pos, radius, |key, _, _| {
+            if let Some(d) = self.state.fish.dense(self.index.grid_ids[key as usize]) {
                 check(d);
             }
             true
         });
-        for &id in &self.spawned_since_grid {
+        for &id in &self.index.spawned_since_grid {
             if let Some(d) = self.state.fish.dense(id) {
                 check(d);
             }
@@ -142,7 +142,7 @@ impl World {
     pub(super) fn view_of(&self, d: usize) -> View {
         let me = self.state.fish.roots[d];
         let species = self.state.fish.species[d];
-        let desc = &self.species[usize::from(species.0)].desc;
+        let desc = &self.catalog.species[usize::from(species.0)].desc;
         let fwd = forward(me.heading, me.pitch);
         View {
             pos: me.pos,
@@ -156,7 +156,7 @@ impl World {
 
     /// How a fish of species `viewer` perceives a fish of species `other`.
     pub(super) fn fish_kind(&self, viewer: SpeciesId, other: SpeciesId) -> PerceptKind {
-        if other != viewer && self.species[usize::from(other.0)].desc.predator {
+        if other != viewer && self.catalog.species[usize::from(other.0)].desc.predator {
             PerceptKind::Predator
         } else {
             PerceptKind::Fish
@@ -202,14 +202,15 @@ impl World {
                 found(Seen::new(dist, PerceptKind::Food, id.0, i as u32));
             }
         };
-        if self.food_in_grid > 0 {
-            self.food_grid
+        if self.index.food_in_grid > 0 {
+            self.index
+                .food_grid
                 .for_each_within(view.pos, view.range, |key, _, _| {
                     see_food(key as usize);
                     true
                 });
         }
-        for i in self.food_in_grid..foods.len() {
+        for i in self.index.food_in_grid..foods.len() {
             see_food(i);
         }
     }
@@ -370,10 +371,10 @@ mod tests {
         let longest = (0..scene.world.num_species())
             .map(|s| scene.world.species(SpeciesId(s as u16)).desc.view_range)
             .fold(0.0f32, f32::max);
-        let cell = super::super::stages::GRID_CELL_OF_VIEW * longest;
+        let cell = super::super::index::GRID_CELL_OF_VIEW * longest;
         assert!(longest > 0.0 && cell < 0.5 * longest);
-        assert_eq!(scene.world.grid.cell_size(), cell);
-        assert_eq!(scene.world.food_grid.cell_size(), cell);
+        assert_eq!(scene.world.index.grid.cell_size(), cell);
+        assert_eq!(scene.world.index.food_grid.cell_size(), cell);
     }
 
     #[test]

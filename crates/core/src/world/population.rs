@@ -24,6 +24,7 @@ impl World {
     /// it), a negative speed, or a position outside the tank.
     pub fn spawn(&mut self, p: SpawnParams) -> Result<FishId, WorldError> {
         let species = self
+            .catalog
             .species
             .get(usize::from(p.species.0))
             .ok_or(WorldError::UnknownSpecies(p.species))?;
@@ -54,7 +55,7 @@ impl World {
         if p.speed > 0.0 {
             player.push(MotionRequest::Swim { speed: p.speed })?;
         }
-        let slots = self.pose_plans[usize::from(p.species.0)].num_slots() as u32;
+        let slots = self.catalog.plans[usize::from(p.species.0)].num_slots() as u32;
         let predator = species.desc.predator;
         let id = self.state.fish.insert(NewFish {
             root: RootState {
@@ -68,13 +69,13 @@ impl World {
             behavior: p.behavior,
             seed: p.seed,
         });
-        let last = *self.palette_offsets.last().unwrap_or(&0);
-        self.palette_offsets.push(last + slots);
+        let last = *self.pose.palette_offsets.last().unwrap_or(&0);
+        self.pose.palette_offsets.push(last + slots);
         if predator {
-            self.predators.push(id);
+            self.index.predators.push(id);
         }
-        self.spawned_since_grid.push(id);
-        self.grid_exact = false;
+        self.index.spawned_since_grid.push(id);
+        self.index.grid_exact = false;
         Ok(id)
     }
 
@@ -83,22 +84,22 @@ impl World {
         if self.state.fish.remove(id).is_none() {
             return false;
         }
-        if let Some(k) = self.predators.iter().position(|&p| p == id) {
-            self.predators.swap_remove(k);
+        if let Some(k) = self.index.predators.iter().position(|&p| p == id) {
+            self.index.predators.swap_remove(k);
         }
-        self.grid_exact = false;
-        self.spawned_since_grid.retain(|&f| f != id);
+        self.index.grid_exact = false;
+        self.index.spawned_since_grid.retain(|&f| f != id);
         self.relayout_palettes();
         true
     }
 
     pub(super) fn relayout_palettes(&mut self) {
-        self.palette_offsets.clear();
-        self.palette_offsets.push(0);
+        self.pose.palette_offsets.clear();
+        self.pose.palette_offsets.push(0);
         let mut total = 0u32;
         for &s in &self.state.fish.species {
-            total += self.pose_plans[usize::from(s.0)].num_slots() as u32;
-            self.palette_offsets.push(total);
+            total += self.catalog.plans[usize::from(s.0)].num_slots() as u32;
+            self.pose.palette_offsets.push(total);
         }
     }
 
@@ -255,7 +256,7 @@ impl World {
             return false;
         };
         let reach = EAT_REACH_LENGTHS
-            * self.species[usize::from(self.state.fish.species[d].0)].body_length();
+            * self.catalog.species[usize::from(self.state.fish.species[d].0)].body_length();
         let mouth = self.state.fish.roots[d].pos;
         self.food_index(food)
             .is_some_and(|i| self.state.foods[i].1.pos.distance(mouth) <= reach)
@@ -289,7 +290,7 @@ impl World {
         let at = self.state.eaten.partition_point(|(i, _)| *i < id);
         self.state.eaten.insert(at, (id, f));
         // The grid's keys are positions in the list, which just shifted.
-        self.food_in_grid = 0;
+        self.index.food_changed();
         true
     }
 

@@ -14,6 +14,7 @@
 //! per-fish work is [`PosePlan`] (which multiplies only what differs between joints), checked
 //! against the layers' own jobs ([`reference_palette`]).
 
+pub(crate) mod buffers;
 pub mod gpu;
 
 use std::cell::RefCell;

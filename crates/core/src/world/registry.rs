@@ -10,6 +10,17 @@ use super::{
 };
 use crate::motion::WaveTable;
 
+/// The world's species (its configuration, not its state) and what is prepared per species for
+/// the stages, all indexed by [`SpeciesId`].
+#[derive(Default)]
+pub(super) struct Catalog {
+    pub(super) species: Vec<Species>,
+    /// Each species' skeleton prepared for the pose stage.
+    pub(super) plans: Vec<pose::PosePlan>,
+    /// Each species' body wave constants for the motion stage.
+    pub(super) wave_tables: Vec<WaveTable>,
+}
+
 /// A species in the world: its data, its rig and its model (shared by every fish of it).
 #[derive(Debug, Clone)]
 pub struct Species {
@@ -116,12 +127,15 @@ impl World {
         if let Err(e) = s.validate() {
             log::error!("species {:?}: {e}", s.desc.name);
         }
-        self.pose_plans.push(pose::PosePlan::new(&s.rig, &s.model));
-        self.wave_tables
+        self.catalog
+            .plans
+            .push(pose::PosePlan::new(&s.rig, &s.model));
+        self.catalog
+            .wave_tables
             .push(WaveTable::new(&s.desc.motion, &s.rig.body));
-        self.species.push(s);
+        self.catalog.species.push(s);
         self.refresh_gpu_programs();
-        SpeciesId((self.species.len() - 1) as u16)
+        SpeciesId((self.catalog.species.len() - 1) as u16)
     }
 
     /// Replaces a species (hot reload): live fish of it pick up the new data on their next step.
@@ -129,6 +143,7 @@ impl World {
     pub fn replace_species(&mut self, id: SpeciesId, s: Species) -> Result<(), WorldError> {
         s.validate()?;
         let slot = self
+            .catalog
             .species
             .get_mut(usize::from(id.0))
             .ok_or(WorldError::UnknownSpecies(id))?;
@@ -138,9 +153,9 @@ impl World {
         let plan = pose::PosePlan::new(&s.rig, &s.model);
         // Other driven joints, rest poses or bind poses can change which palette entries are
         // copies, and so the fish's number of slots (the palette ranges then move).
-        let slots_changed = plan.num_slots() != self.pose_plans[usize::from(id.0)].num_slots();
-        self.pose_plans[usize::from(id.0)] = plan;
-        self.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
+        let slots_changed = plan.num_slots() != self.catalog.plans[usize::from(id.0)].num_slots();
+        self.catalog.plans[usize::from(id.0)] = plan;
+        self.catalog.wave_tables[usize::from(id.0)] = WaveTable::new(&s.desc.motion, &s.rig.body);
         *slot = s;
         self.refresh_gpu_programs();
         if predator_changed {
@@ -163,9 +178,10 @@ impl World {
     /// Rebuilds the GPU pose programs from the species' pose plans (after either changes).
     fn refresh_gpu_programs(&mut self) {
         let shapes: Vec<pose::gpu::SpeciesShape<'_>> = self
+            .catalog
             .species
             .iter()
-            .zip(&self.wave_tables)
+            .zip(&self.catalog.wave_tables)
             .map(|(s, table)| pose::gpu::SpeciesShape {
                 name: &s.desc.name,
                 params: &s.desc.motion,
@@ -173,7 +189,7 @@ impl World {
                 table,
             })
             .collect();
-        self.gpu_programs = pose::gpu::programs(&self.pose_plans, &shapes);
+        self.pose.gpu_programs = pose::gpu::programs(&self.catalog.plans, &shapes);
     }
 
     /// The species' palette layout: joint j's palette entry is slot `slot_of_joint(s)[j]` of a
@@ -181,33 +197,34 @@ impl World {
     /// slot 0). A mesh drawn with the world's palettes has its joint indices remapped through
     /// it ([`pose::remap_joints`]). Panics on an id this world did not issue.
     pub fn slot_of_joint(&self, id: SpeciesId) -> &[u16] {
-        self.pose_plans[usize::from(id.0)].slot_of_joint()
+        self.catalog.plans[usize::from(id.0)].slot_of_joint()
     }
 
     /// Palette entries (slots) per fish of the species: its distinct per-joint entries. Panics
     /// on an id this world did not issue.
     pub fn num_palette_slots(&self, id: SpeciesId) -> usize {
-        self.pose_plans[usize::from(id.0)].num_slots()
+        self.catalog.plans[usize::from(id.0)].num_slots()
     }
 
     /// A species. Panics on an id this world did not issue (a programming error).
     pub fn species(&self, id: SpeciesId) -> &Species {
-        &self.species[usize::from(id.0)]
+        &self.catalog.species[usize::from(id.0)]
     }
 
     /// A species, or `None` for an unknown id.
     pub fn try_species(&self, id: SpeciesId) -> Option<&Species> {
-        self.species.get(usize::from(id.0))
+        self.catalog.species.get(usize::from(id.0))
     }
 
     /// Number of species.
     pub fn num_species(&self) -> usize {
-        self.species.len()
+        self.catalog.species.len()
     }
 
     /// The species named `name`.
     pub fn species_by_name(&self, name: &str) -> Option<SpeciesId> {
-        self.species
+        self.catalog
+            .species
             .iter()
             .position(|s| s.desc.name == name)
             .map(|i| SpeciesId(i as u16))

@@ -169,7 +169,7 @@ impl World {
             .fish
             .species
             .iter()
-            .find(|s| usize::from(s.0) >= self.species.len())
+            .find(|s| usize::from(s.0) >= self.catalog.species.len())
         {
             return Err(super::WorldError::UnknownSpecies(s));
         }
@@ -177,12 +177,12 @@ impl World {
         self.state = state;
         if tank_changed {
             let fresh = Self::from_state(self.state.clone());
-            self.grid = fresh.grid;
-            self.food_grid = fresh.food_grid;
+            self.index.grid = fresh.index.grid;
+            self.index.food_grid = fresh.index.food_grid;
         }
-        self.food_in_grid = 0;
+        self.index.food_changed();
         // The state may come from a world that left the body shapes to the GPU.
-        self.shapes_current = false;
+        self.pose.shapes_current = false;
         self.refresh_predators();
         self.relayout_palettes();
         self.rebuild_grid();

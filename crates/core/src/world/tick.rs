@@ -15,6 +15,12 @@
 //!   5. grid           World::rebuild_grid     the spatial grids the next tick senses; grid_ns
 //! ```
 //!
+//! Each Rust stage is a one-line method of [`World`] that hands its parts to the stage
+//! explicitly: motion takes the state and the species catalogue (`stages::move_fish`), pose
+//! writes the pose buffers from the state and the catalogue (`PoseBuffers::update`), grid
+//! rebuilds the spatial index from the state (`SpatialIndex::rebuild`). So what each stage
+//! reads and writes is in its signature.
+//!
 //! The behaviour layer is the only part that differs between simulations: the Lua scripts
 //! (`script::Simulation`'s script lanes) and the built-in Rust driver
 //! ([`super::driver::WanderDriver`]) are two implementations of [`Behavior`]. [`Sim`] pairs a

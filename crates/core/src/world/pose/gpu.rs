@@ -43,24 +43,73 @@ pub struct SpeciesShape<'a> {
     pub table: &'a WaveTable,
 }
 
+/// Why a species cannot be posed by the GPU pass (the pose stage then poses on the CPU).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ProgramsError {
+    /// The world gave no body for the species at this index (a world bug).
+    #[error("species {0}: no body for its pose program")]
+    NoBody(usize),
+    /// The species (by name) exceeds what the pass holds.
+    #[error("species {species}: {limit}")]
+    Limit {
+        /// The species' name.
+        species: String,
+        /// What it exceeds.
+        limit: ProgramLimit,
+    },
+}
+
+/// What a species' skeleton or body exceeds in the GPU pose pass.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ProgramLimit {
+    /// More model matrices per fish than the pass's [`GPU_POSE_MAX_MODELS`].
+    #[error("its skeleton needs {needed} model matrices per fish; the GPU pose pass holds {max}")]
+    Models {
+        /// What the skeleton needs.
+        needed: usize,
+        /// What the pass holds.
+        max: usize,
+    },
+    /// More midline samples than the pass's [`GPU_POSE_MAX_SAMPLES`], or a body whose driven
+    /// joints and samples do not pair up.
+    #[error(
+        "its body has {driven} driven joints and {samples} midline samples; the GPU pose pass \
+         holds {max} driven joints"
+    )]
+    Samples {
+        /// The body's driven joints.
+        driven: usize,
+        /// The body's midline samples (`joints_x`).
+        samples: usize,
+        /// The driven joints the pass holds.
+        max: usize,
+    },
+    /// The wave table does not match the species' parameters and body (a world bug).
+    #[error("its wave table was built for other parameters")]
+    StaleTable,
+}
+
 /// The programs of `plans`, one per species of `shapes`. An error names the first species whose
 /// skeleton needs more than [`GPU_POSE_MAX_MODELS`] model matrices or whose body has more
 /// midline samples than the pass holds.
 pub fn programs(
     plans: &[PosePlan],
     shapes: &[SpeciesShape<'_>],
-) -> Result<GpuPosePrograms, String> {
+) -> Result<GpuPosePrograms, ProgramsError> {
     let mut out = GpuPosePrograms::default();
     for (species, plan) in plans.iter().enumerate() {
         let Some(shape) = shapes.get(species) else {
-            return Err(format!("species {species}: no body for its pose program"));
+            return Err(ProgramsError::NoBody(species));
         };
         let program = match &plan.matrices {
             PlanMatrices::Affine(m) => plan.gpu_program(m, &mut out),
             PlanMatrices::General(m) => plan.gpu_program(m, &mut out),
         }
         .and_then(|program| shape_samples(shape, program, &mut out));
-        let program = program.map_err(|e| format!("species {}: {e}", shape.name))?;
+        let program = program.map_err(|limit| ProgramsError::Limit {
+            species: shape.name.to_owned(),
+            limit,
+        })?;
         out.programs.push(program);
     }
     Ok(out)
@@ -71,20 +120,18 @@ fn shape_samples(
     shape: &SpeciesShape<'_>,
     mut program: GpuProgram,
     out: &mut GpuPosePrograms,
-) -> Result<GpuProgram, String> {
+) -> Result<GpuProgram, ProgramLimit> {
     let body = shape.body;
     let n = body.joints_x.len() + 1;
     if n > GPU_POSE_MAX_SAMPLES || body.power.len() + 2 != n {
-        return Err(format!(
-            "its body has {} driven joints and {} midline samples; the GPU pose pass holds {} \
-             driven joints",
-            body.power.len(),
-            body.joints_x.len(),
-            GPU_POSE_MAX_SAMPLES - 2
-        ));
+        return Err(ProgramLimit::Samples {
+            driven: body.power.len(),
+            samples: body.joints_x.len(),
+            max: GPU_POSE_MAX_SAMPLES - 2,
+        });
     }
     if !shape.table.matches(shape.params, body) {
-        return Err("its wave table was built for other parameters".to_owned());
+        return Err(ProgramLimit::StaleTable);
     }
     program.first_sample = out.samples.len() as u32;
     program.num_samples = n as u32;
@@ -140,14 +187,13 @@ impl PosePlan {
         &self,
         m: &Matrices<T>,
         out: &mut GpuPosePrograms,
-    ) -> Result<GpuProgram, String> {
+    ) -> Result<GpuProgram, ProgramLimit> {
         let schedule = &self.schedule;
         if schedule.models.len() > GPU_POSE_MAX_MODELS {
-            return Err(format!(
-                "its skeleton needs {} model matrices per fish; the GPU pose pass holds {}",
-                schedule.models.len(),
-                GPU_POSE_MAX_MODELS
-            ));
+            return Err(ProgramLimit::Models {
+                needed: schedule.models.len(),
+                max: GPU_POSE_MAX_MODELS,
+            });
         }
         // Joint → its model step's index (parents come first, so a parent's is known).
         let mut step_of_joint = vec![-1i32; self.num_joints()];
@@ -410,6 +456,17 @@ mod tests {
         let mut shape = shapes(&species[..1], &tables);
         shape[0].name = "big";
         let err = programs(&[plan], &shape).unwrap_err();
+        assert_eq!(
+            err,
+            ProgramsError::Limit {
+                species: "big".into(),
+                limit: ProgramLimit::Models {
+                    needed: GPU_POSE_MAX_MODELS + 1,
+                    max: GPU_POSE_MAX_MODELS
+                }
+            }
+        );
+        let err = err.to_string();
         assert!(
             err.contains("species big") && err.contains("33 model matrices"),
             "{err}"
@@ -427,7 +484,12 @@ mod tests {
         // The eel's table beside the porgy's parameters and body.
         let shape = shapes(&species[..1], &tables);
         let err = programs(&[plan], &shape).unwrap_err();
-        assert!(err.contains("species black_porgy"), "{err}");
+        assert!(
+            matches!(&err, ProgramsError::Limit { species, limit: ProgramLimit::StaleTable }
+                if species == "black_porgy"),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("species black_porgy"), "{err}");
     }
 
     #[test]
