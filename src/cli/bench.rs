@@ -5,7 +5,7 @@
 //! second, then times each 60 Hz tick and reports the median and p99 milliseconds, fish-ticks per
 //! second and the split by stage. `--driver lua` (default) runs the shipped behaviour scripts
 //! through `script::Simulation`; `--driver rust` runs the built-in Rust wander/school driver, to
-//! measure the Rust stages alone. Both tick through `world::step` as a `world::Sim`.
+//! measure the Rust stages alone. Both tick through `world::step` as a `world::Pipeline`.
 //!
 //! `shoal bench peer --fish 1000,10000 [--engines luajit,luajit-tuned,lua5.4,mlua] [--peer PATH]`
 //! runs `bench sim`'s Lua scene beside the pure-Lua peer of the same workload and prints the
@@ -27,8 +27,8 @@ use anyhow::Context;
 
 use super::PoseArg;
 use shoal_app::WorldScene;
-use shoal_core::world::bench::{RustSim, SimBenchResult, bench_world, measure};
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::bench::{SimBenchResult, bench_world, measure};
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::{Species, SpeciesDesc, SpeciesId, TICK_HZ};
 use shoal_render::{Camera, Gpu, OffscreenTarget, Renderer};
 use shoal_script::Simulation;
@@ -155,7 +155,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
             Some(species) => {
                 let mut world = bench_world(species.clone(), fish, args.seed)?;
                 world.set_pose_mode(args.pose.mode());
-                let mut sim = RustSim::new(world, WanderDriver::default());
+                let mut sim = WanderPipeline::new(world, WanderDriver::default());
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
@@ -171,7 +171,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                         args.pose.describe()
                     );
                 }
-                let result = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+                let result = measure(sim.pipeline_mut(), TICK_HZ as usize, ticks);
                 if sampling {
                     let samples: u64 = sim.profile().iter().map(|m| m.samples).sum();
                     eprintln!("{fish} fish: {samples} stack samples taken");
@@ -259,7 +259,7 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
         sim.step();
     }
     sim.reset_profile();
-    let result = measure(sim.sim_mut(), 0, ticks);
+    let result = measure(sim.pipeline_mut(), 0, ticks);
     let modules = sim.profile();
     let memory = sim.script_memory();
     let errors = sim.error_messages();
@@ -429,7 +429,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             None => porgy_species()?,
             Some(path) => model_species(path)?,
         };
-        let mut scene = WorldScene::new(RustSim::new(
+        let mut scene = WorldScene::new(WanderPipeline::new(
             bench_world(species, n, 1)?,
             WanderDriver::default(),
         ));

@@ -413,7 +413,7 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
             let mut sim = super::lua_sim(&args.root, fish, args.seed, args.lanes)?;
             sim.world_mut().set_pose_mode(args.pose.mode());
             let lanes = sim.num_lanes();
-            let shoal = measure(sim.sim_mut(), TICK_HZ as usize, ticks);
+            let shoal = measure(sim.pipeline_mut(), TICK_HZ as usize, ticks);
             if let Some(e) = sim.error_messages().first() {
                 eprintln!("script error during the bench: {e}");
             }

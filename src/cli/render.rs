@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use shoal_app::{DynScene, OverlayToggles, SimView, WorldScene};
-use shoal_core::world::bench::{RustSim, bench_world};
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::bench::bench_world;
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::{Species, SpeciesDesc};
 use shoal_render::{Gpu, OffscreenTarget, Renderer};
 use shoal_script::Simulation;
@@ -176,12 +176,12 @@ pub const DEFAULT_PORGIES: usize = 40;
 
 /// A world of `fish` black porgies (the generated asset, `assets/black_porgy.glb`) at constant
 /// density, driven by the built-in Rust wander/school driver.
-pub fn porgy_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<RustSim> {
+pub fn porgy_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<WanderPipeline> {
     let assets = root.join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets)
         .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
     let world = bench_world(species, fish, seed)?;
-    Ok(RustSim::new(world, WanderDriver::default()))
+    Ok(WanderPipeline::new(world, WanderDriver::default()))
 }
 
 /// Builds the scene named by `--scene` (see [`Args::scene`]) with the `--seed` and `--fish`

@@ -3,7 +3,7 @@
 //!
 //! - [`SimView`] is what the app sees of a simulation: whole 60 Hz ticks of a
 //!   [`shoal_core::world::World`], plus inspector lines, a log and hot reload where the simulation has
-//!   them. [`shoal_script::Simulation`] (Lua behaviours) and [`shoal_core::world::bench::RustSim`]
+//!   them. [`shoal_script::Simulation`] (Lua behaviours) and [`shoal_core::world::driver::WanderPipeline`]
 //!   (the built-in Rust driver) implement it, in [`sim`].
 //! - [`WorldScene`] turns a [`SimView`] into what [`shoal_render::Renderer`] draws (meshes,
 //!   palettes, instances, props, overlays) and answers the panel's questions about a fish, by

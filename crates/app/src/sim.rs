@@ -1,12 +1,12 @@
 //! [`SimView`]: what the window sees of a simulation, and its two implementations — the Lua
 //! behaviour host ([`shoal_script::Simulation`]) and the built-in Rust wander driver
-//! ([`shoal_core::world::bench::RustSim`]).
+//! ([`shoal_core::world::driver::WanderPipeline`]).
 //!
 //! The impls are kept together and short on purpose: they are the only lines of the app that
 //! name the simulation types, so a change of the world's tick API is adapted here.
 
 use shoal_core::motion::MotionError;
-use shoal_core::world::bench::RustSim;
+use shoal_core::world::driver::WanderPipeline;
 use shoal_core::world::{FishId, World, WorldError, WorldState};
 use shoal_script::log::LogLevel;
 use shoal_script::{ScriptError, SimSnapshot, Simulation};
@@ -328,22 +328,24 @@ impl SimView for Simulation {
     }
 }
 
-impl SimView for RustSim {
+impl SimView for WanderPipeline {
     fn tick(&mut self) {
-        RustSim::tick(self);
+        WanderPipeline::tick(self);
     }
     fn world(&self) -> &World {
-        RustSim::world(self)
+        WanderPipeline::world(self)
     }
     fn world_mut(&mut self) -> &mut World {
-        RustSim::world_mut(self)
+        WanderPipeline::world_mut(self)
     }
     fn snapshot(&self) -> Result<SimState, SimError> {
-        Ok(SimState::Rust(Box::new(RustSim::world(self).snapshot())))
+        Ok(SimState::Rust(Box::new(
+            WanderPipeline::world(self).snapshot(),
+        )))
     }
     fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
         match state {
-            SimState::Rust(w) => Ok(RustSim::world_mut(self).restore((**w).clone())?),
+            SimState::Rust(w) => Ok(WanderPipeline::world_mut(self).restore((**w).clone())?),
             SimState::Script(_) => Err(SimError::WrongSnapshot),
         }
     }

@@ -475,14 +475,15 @@ pub(super) fn drop_food_at(scene: &mut DynScene, ui: &mut UiState, at: Vec2, siz
 #[cfg(test)]
 mod tests {
     use super::*;
-    use shoal_core::world::bench::{RustSim, bench_world};
+    use shoal_core::world::bench::bench_world;
     use shoal_core::world::driver::WanderDriver;
+    use shoal_core::world::driver::WanderPipeline;
     use shoal_core::world::{Species, SpeciesDesc};
 
-    fn porgies(fish: usize) -> WorldScene<RustSim> {
+    fn porgies(fish: usize) -> WorldScene<WanderPipeline> {
         let assets = shoal_core::source_root().join("assets");
         let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("porgy loads");
-        WorldScene::new(RustSim::new(
+        WorldScene::new(WanderPipeline::new(
             bench_world(species, fish, 1).expect("the bench world builds"),
             WanderDriver::default(),
         ))

@@ -10,8 +10,8 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use shoal_core::world::bench::{RustSim, bench_positions, bench_world};
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::bench::{bench_positions, bench_world};
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::sense::{forward, in_view_cone};
 use shoal_core::world::{FishId, PerceptKind, SpawnParams, Species, SpeciesDesc, TICK_HZ, World};
 
@@ -22,7 +22,7 @@ fn world(fish: usize) -> World {
     let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("default species");
     let world = bench_world(species, fish, 7).expect("bench scene");
     // One second of driven ticks so players, palettes and the grid are warm.
-    let mut sim = RustSim::new(world, WanderDriver::default());
+    let mut sim = WanderPipeline::new(world, WanderDriver::default());
     for _ in 0..TICK_HZ as usize {
         sim.tick();
     }
@@ -184,7 +184,7 @@ fn stages(c: &mut Criterion) {
 
         let mut g = c.benchmark_group("tick_rust_driver");
         g.throughput(Throughput::Elements(fish as u64));
-        let mut sim = RustSim::new(w, WanderDriver::default());
+        let mut sim = WanderPipeline::new(w, WanderDriver::default());
         g.bench_function(BenchmarkId::from_parameter(fish), |b| b.iter(|| sim.tick()));
         g.finish();
     }

@@ -6,19 +6,18 @@ use crate::common;
 
 use glam::{Mat4, Vec3};
 use shoal_app::WorldScene;
-use shoal_core::world::bench::RustSim;
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_render::{Camera, Gpu, GpuPoseFrame, OffscreenTarget, RenderError, Renderer};
 
 /// Ten porgies and ten eels two seconds into swimming (bent bodies), posed on the GPU.
-fn scene() -> WorldScene<RustSim> {
+fn scene() -> WorldScene<WanderPipeline> {
     let world = common::porgy_and_eel_world();
-    let mut scene = WorldScene::new(RustSim::new(world, WanderDriver::default()));
+    let mut scene = WorldScene::new(WanderPipeline::new(world, WanderDriver::default()));
     scene.step(2.0);
     scene
 }
 
-fn renderer(gpu: &Gpu, scene: &WorldScene<RustSim>) -> Renderer {
+fn renderer(gpu: &Gpu, scene: &WorldScene<WanderPipeline>) -> Renderer {
     let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT).unwrap();
     for m in scene.meshes() {
         renderer.upload_mesh(gpu, &m).unwrap();
@@ -43,7 +42,7 @@ fn relative_error(a: &Mat4, b: &Mat4) -> f32 {
 
 /// `scene()` with every fish a fraction of a second into a turn (quick, normal and serial in
 /// turn), so the pass's shape step runs both turn waves and the cross-fade from the swim.
-fn turning_scene() -> WorldScene<RustSim> {
+fn turning_scene() -> WorldScene<WanderPipeline> {
     use shoal_core::motion::{MotionRequest, Side, TurnKind};
     let mut scene = scene();
     let w = scene.sim_mut().world_mut();
@@ -138,7 +137,7 @@ fn frames_posed_on_the_gpu_look_as_frames_posed_on_the_cpu() {
         fov_y_rad: 0.8,
     };
     let target = OffscreenTarget::new(&gpu, 200, 150);
-    let mut frame = |scene: &WorldScene<RustSim>| {
+    let mut frame = |scene: &WorldScene<WanderPipeline>| {
         let mut input = scene.frame_input();
         input.camera = camera;
         renderer
@@ -151,7 +150,7 @@ fn frames_posed_on_the_gpu_look_as_frames_posed_on_the_cpu() {
     let on_cpu = frame(&scene);
     // Something is drawn where the fish is: the frame is not just water.
     let water = frame(&{
-        let mut empty = WorldScene::new(RustSim::new(
+        let mut empty = WorldScene::new(WanderPipeline::new(
             shoal_core::world::World::new(*scene.world().tank(), 1),
             WanderDriver::default(),
         ));

@@ -7,16 +7,16 @@ use crate::common;
 use glam::{Mat4, Vec3};
 use shoal_app::WorldScene;
 use shoal_core::motion::MotionRequest;
-use shoal_core::world::bench::{RustSim, bench_world};
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::bench::bench_world;
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::{Species, SpeciesDesc, SpeciesId};
 use shoal_render::{Gpu, OffscreenTarget, Renderer};
 
-fn porgy_scene(fish: usize) -> WorldScene<RustSim> {
+fn porgy_scene(fish: usize) -> WorldScene<WanderPipeline> {
     let assets = shoal_core::source_root().to_path_buf().join("assets");
     let species = Species::load(SpeciesDesc::black_porgy(), &assets).expect("porgy loads");
     let world = bench_world(species, fish, 3).unwrap();
-    WorldScene::new(RustSim::new(world, WanderDriver::default()))
+    WorldScene::new(WanderPipeline::new(world, WanderDriver::default()))
 }
 
 #[test]
@@ -183,9 +183,9 @@ fn an_edited_scene_file_restarts_with_its_new_contents() {
 }
 
 /// Ten porgies and ten eels two seconds into swimming, in a scene posed on the CPU.
-fn porgy_and_eel_scene() -> WorldScene<RustSim> {
+fn porgy_and_eel_scene() -> WorldScene<WanderPipeline> {
     let world = common::porgy_and_eel_world();
-    let mut scene = WorldScene::new(RustSim::new(world, WanderDriver::default()));
+    let mut scene = WorldScene::new(WanderPipeline::new(world, WanderDriver::default()));
     // These tests check the CPU palettes' layout.
     scene.set_gpu_pose(false);
     scene.step(2.0);
@@ -223,7 +223,7 @@ fn skin_bits(
 /// with the frame's palette from the fish's offset, and the species' own mesh with the
 /// per-joint palette expanded from the world — gives the same positions and normals, bit for
 /// bit. Returns how many fish were checked.
-fn assert_uploads_skin_as_the_per_joint_palettes(scene: &WorldScene<RustSim>) -> usize {
+fn assert_uploads_skin_as_the_per_joint_palettes(scene: &WorldScene<WanderPipeline>) -> usize {
     let w = scene.world();
     let meshes = scene.meshes();
     let input = scene.frame_input();

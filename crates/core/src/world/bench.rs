@@ -1,8 +1,8 @@
 //! Measuring the tick (issue 7): a scene that scales with the fish count, a timing loop, and the
 //! figures `shoal bench sim` prints.
 //!
-//! The loop ticks a [`Sim`] of either [`Behavior`]: the built-in
-//! [`super::driver::WanderDriver`] ([`RustSim`]) or the Lua scripts with the shipped behaviours
+//! The loop ticks a [`Pipeline`] of either [`Behavior`]: the built-in
+//! [`super::driver::WanderDriver`] ([`WanderPipeline`]) or the Lua scripts with the shipped behaviours
 //! (`script::Simulation`'s, in `cli::bench`).
 
 use std::time::Instant;
@@ -11,11 +11,7 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use super::driver::WanderDriver;
-use super::{Behavior, Sim, SpawnParams, Species, StageCounters, Tank, World, WorldError};
-
-/// A world whose fish the built-in Rust driver decides for.
-pub type RustSim = Sim<WanderDriver>;
+use super::{Behavior, Pipeline, SpawnParams, Species, StageCounters, Tank, World, WorldError};
 
 /// Body lengths³ of water per fish in [`bench_world`]: the density stays the same at every fish
 /// count, so cost per fish is comparable across counts.
@@ -144,7 +140,7 @@ fn median_of(mut values: Vec<f64>) -> f64 {
 }
 
 /// Runs `warmup` ticks, then times `ticks` ticks of `sim`.
-pub fn measure<B: Behavior>(sim: &mut Sim<B>, warmup: usize, ticks: usize) -> SimBenchResult {
+pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) -> SimBenchResult {
     for _ in 0..warmup {
         sim.tick();
     }

@@ -12,7 +12,7 @@
 //! While nothing moved since the grid's rebuild (the behaviour stage of a tick) the scan reads
 //! only the grid's cell-ordered columns — positions, species, heading cosine/sine and dense
 //! index, packed in groups of four by [`World::rebuild_grid`] — four candidates at a time
-//! (`crowd/lanes.rs`). Otherwise it falls back to the fish arrays with the same rules as
+//! (`crowd/simd.rs`). Otherwise it falls back to the fish arrays with the same rules as
 //! the world's other neighbour queries (the grid as of its rebuild, current positions, plus the
 //! fish spawned since).
 
@@ -23,10 +23,10 @@ use glam::{Vec2, Vec3};
 use super::steer::{self, Agent, Steer};
 use super::{FishId, World};
 
-mod lanes;
+mod simd;
 
-pub(super) use lanes::CrowdColumns;
-use lanes::{LaneQuery, LaneSums};
+pub(super) use simd::CrowdColumns;
+use simd::{LaneQuery, LaneSums};
 
 /// What the three crowding rules ask of a fish (see [`World::steer_crowd`]); each is `None` when
 /// its rule has nothing to say (no neighbour in its radius, or their pulls cancel out).

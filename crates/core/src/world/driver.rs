@@ -16,6 +16,10 @@ use super::steer::{self, Steer};
 use super::tick::{Behavior, exclusive};
 use super::{FishControls, FishId, FishRef, PerceptKind, TICK_HZ, VisionBatch, World};
 
+/// A world whose fish the built-in Rust driver decides for (`shoal bench sim --driver rust`, the
+/// renderer's tests).
+pub type WanderPipeline = super::Pipeline<WanderDriver>;
+
 /// Parameters of [`WanderDriver`], in body lengths and seconds. `Copy`, see [`Default`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WanderParams {

@@ -64,7 +64,7 @@ pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
 pub use registry::Species;
 pub use state::{EATEN_HISTORY, FoodDrops, WorldState, random_point};
-pub use tick::{Behavior, Sim, TICK_DT, step};
+pub use tick::{Behavior, Pipeline, TICK_DT, step};
 pub use types::{
     BodySense, Current, Food, Obstacle, Percept, PerceptKind, SpawnParams, StageCounters, Tank,
     VisionBatch, WorldError,

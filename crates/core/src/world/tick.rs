@@ -23,7 +23,7 @@
 //!
 //! The behaviour layer is the only part that differs between simulations: the Lua scripts
 //! (`script::Simulation`'s script lanes) and the built-in Rust driver
-//! ([`super::driver::WanderDriver`]) are two implementations of [`Behavior`]. [`Sim`] pairs a
+//! ([`super::driver::WanderDriver`]) are two implementations of [`Behavior`]. [`Pipeline`] pairs a
 //! world with one.
 
 use std::sync::Arc;
@@ -61,13 +61,13 @@ pub fn step(world: &mut Arc<World>, behavior: &mut (impl Behavior + ?Sized)) {
 }
 
 /// A world and the behaviour that decides for its fish, ticked by [`step`].
-pub struct Sim<B> {
+pub struct Pipeline<B> {
     world: Arc<World>,
     /// The behaviour layer.
     pub behavior: B,
 }
 
-impl<B: Behavior> Sim<B> {
+impl<B: Behavior> Pipeline<B> {
     /// Pairs `world` with `behavior`.
     pub fn new(world: World, behavior: B) -> Self {
         Self {

@@ -3,8 +3,8 @@
 //! scans does not grow over a long session).
 
 use glam::Vec3;
-use shoal_core::world::bench::{RustSim, bench_world};
-use shoal_core::world::driver::WanderDriver;
+use shoal_core::world::bench::bench_world;
+use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::{
     EATEN_HISTORY, FoodDrops, PerceptKind, SpawnParams, Species, SpeciesDesc, Tank, World,
 };
@@ -29,7 +29,7 @@ fn fingerprint(w: &World) -> Vec<u32> {
 
 #[test]
 fn a_restored_world_runs_the_same_future_bit_for_bit() {
-    let mut sim = RustSim::new(
+    let mut sim = WanderPipeline::new(
         bench_world(porgy(), 300, 11).unwrap(),
         WanderDriver::default(),
     );
@@ -63,7 +63,7 @@ fn a_restored_world_runs_the_same_future_bit_for_bit() {
 
 #[test]
 fn a_state_restores_into_a_fresh_world_with_the_same_species() {
-    let mut a = RustSim::new(
+    let mut a = WanderPipeline::new(
         bench_world(porgy(), 120, 5).unwrap(),
         WanderDriver::default(),
     );
@@ -72,7 +72,7 @@ fn a_state_restores_into_a_fresh_world_with_the_same_species() {
     }
     let state = a.world().snapshot();
     // Another world: same species, different fish, tank and seed.
-    let mut b = RustSim::new(
+    let mut b = WanderPipeline::new(
         bench_world(porgy(), 10, 99).unwrap(),
         WanderDriver::default(),
     );

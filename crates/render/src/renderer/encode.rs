@@ -6,7 +6,7 @@ use std::time::Instant;
 use bytemuck::Zeroable;
 use glam::{Mat4, Vec3};
 
-use super::pose::fish_palette_len;
+use super::pose_pass::fish_palette_len;
 use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
 use crate::lod::{Frustum, LodSelector, ShadowProjection};
 use crate::{FrameInput, Gpu, RenderError};
@@ -45,7 +45,7 @@ impl Renderer {
             }
         }
         if let Some(pose) = &input.gpu_pose {
-            super::pose::validate(pose, input.instances.len())?;
+            super::pose_pass::validate(pose, input.instances.len())?;
         }
         for (i, prop) in input.props.iter().enumerate() {
             match self.meshes.get(prop.mesh.0 as usize) {

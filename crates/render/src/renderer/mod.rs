@@ -10,7 +10,7 @@
 
 mod encode;
 mod pipelines;
-mod pose;
+mod pose_pass;
 mod readback;
 mod upload;
 

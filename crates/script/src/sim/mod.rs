@@ -40,8 +40,8 @@ use super::reload::ScriptWatcher;
 use super::sandbox::Limits;
 use super::scene::{BoxDesc, SceneDesc, SpeciesFile, species_from_table};
 use shoal_core::world::{
-    Current, FishId, FoodDrops, FoodPhysics, Sim, SpawnParams, Species, SpeciesId, TICK_HZ, Tank,
-    World, random_point,
+    Current, FishId, FoodDrops, FoodPhysics, Pipeline, SpawnParams, Species, SpeciesId, TICK_HZ,
+    Tank, World, random_point,
 };
 
 mod bench;
@@ -69,7 +69,7 @@ struct SpeciesSlot {
 /// The aquarium: world, scripts, scene.
 pub struct Simulation {
     /// The world and the script lanes deciding for its fish (the tick's behaviour stage).
-    sim: Sim<Scripts>,
+    sim: Pipeline<Scripts>,
     scripts_dir: PathBuf,
     /// The repository root the assets are found under.
     root: PathBuf,
@@ -273,7 +273,7 @@ impl Simulation {
             debugger,
         };
         Ok(Self {
-            sim: Sim::new(world, scripts),
+            sim: Pipeline::new(world, scripts),
             scripts_dir,
             root: root.to_path_buf(),
             assets_dir,
@@ -515,9 +515,9 @@ impl Simulation {
         self.sim.tick();
     }
 
-    /// The world and the scripts as one [`Sim`] (for `shoal bench sim`, which ticks either
+    /// The world and the scripts as one [`Pipeline`] (for `shoal bench sim`, which ticks either
     /// behaviour the same way).
-    pub fn sim_mut(&mut self) -> &mut Sim<Scripts> {
+    pub fn pipeline_mut(&mut self) -> &mut Pipeline<Scripts> {
         &mut self.sim
     }
 

@@ -318,8 +318,8 @@ impl GltfScene {
 }
 
 mod accessor;
-mod pose;
 mod primitive;
+mod scene_pose;
 
 use accessor::RawAccessor;
 
