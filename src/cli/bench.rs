@@ -410,7 +410,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         args.pose.describe()
     );
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>6} {:>7} {:>7} {:>20} {:>12}",
+        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>6} {:>7} {:>7} {:>24} {:>12}",
         "fish",
         "median ms",
         "p99 ms",
@@ -419,7 +419,13 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         "draws",
         "drawn",
         "culled",
-        "fish per LOD 0/1/2",
+        format!(
+            "fish per LOD {}",
+            (0..shoal_render::MAX_LODS)
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join("/")
+        ),
         "triangles"
     );
     for &n in &args.fish {
@@ -457,8 +463,12 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
                     .iter()
                     .map(|l| format!("{} (error {:.3})", l.num_triangles(), l.error))
                     .collect();
+                let shadow = renderer
+                    .mesh_shadow_level(id)
+                    .map_or(0, |l| l.num_triangles());
                 println!(
-                    "mesh: {} ({num_joints} joints), triangles per level of detail: {}",
+                    "mesh: {} ({num_joints} joints), triangles per level of detail: {}; \
+                     shadow: {shadow}",
                     m.label,
                     levels.join(", ")
                 );
@@ -486,14 +496,19 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let (median, p99) = shoal_core::world::bench::median_p99(&mut times);
         let (pose, _) = shoal_core::world::bench::median_p99(&mut pose_ms);
         let t = renderer.timings();
-        let [l0, l1, l2] = t.num_fish_per_lod;
+        let per_lod = t
+            .num_fish_per_lod
+            .iter()
+            .map(u32::to_string)
+            .collect::<Vec<_>>()
+            .join("/");
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>6} {:>7} {:>7} {:>20} {:>12}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>6} {:>7} {:>7} {:>24} {:>12}",
             upload / args.frames as f64,
             t.num_draw_calls,
             t.num_fish_drawn,
             t.num_fish_culled,
-            format!("{l0}/{l1}/{l2}"),
+            per_lod,
             t.num_triangles
         );
     }

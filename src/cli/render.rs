@@ -50,6 +50,10 @@ pub struct Args {
     /// Draw every debug overlay (skeletons, midlines, velocity, sensor ranges).
     #[arg(long)]
     pub overlays: bool,
+    /// Largest projected error of a coarser level of detail, pixels (as `bench render`); 0 draws
+    /// every fish at full detail.
+    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX)]
+    pub lod_tolerance_px: f32,
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
@@ -298,9 +302,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     scene.set_selected(select);
 
+    if !(args.lod_tolerance_px.is_finite() && args.lod_tolerance_px >= 0.0) {
+        anyhow::bail!(
+            "--lod-tolerance-px {} must be a number ≥ 0",
+            args.lod_tolerance_px
+        );
+    }
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
+    renderer.set_lod_tolerance_px(args.lod_tolerance_px);
     render_frames(&gpu, &mut renderer, &mut scene, select, &args, &output)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -81,8 +81,16 @@ impl Default for Camera {
 impl Camera {
     /// Near plane distance, length units.
     pub const NEAR: f32 = 1.0;
-    /// Far plane distance, length units.
+    /// Far plane distance, length units, for a camera up to [`Camera::FAR`] / 2 from its target
+    /// (see [`Camera::far`]).
     pub const FAR: f32 = 10_000.0;
+
+    /// This camera's far plane: [`Camera::FAR`], or twice its distance from the target when that
+    /// is more, so a camera pulled back to see a tank of 100,000 fish whole still sees its far
+    /// side.
+    pub fn far(&self) -> f32 {
+        Self::FAR.max(2.0 * self.distance)
+    }
 
     /// The eye position, world space.
     pub fn eye(&self) -> Vec3 {
@@ -106,7 +114,7 @@ impl Camera {
             self.fov_y_rad,
             aspect.max(1e-3),
             Self::NEAR,
-            Self::FAR,
+            self.far(),
         )
     }
 

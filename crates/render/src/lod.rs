@@ -19,22 +19,26 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-/// The most levels of detail a mesh has: full detail, about 1/4 and about 1/16 of its triangles.
-pub const MAX_LODS: usize = 3;
+/// The most levels of detail a mesh has: full detail, then about 1/4, 1/16, 1/64 and 1/256 of
+/// its triangles (the porgy: 5,616, 1,404, 350, 88 and 22). The two coarsest are for fish a few
+/// pixels long, which a whole-tank view of 10,000 or 100,000 fish is made of, and for shadows.
+pub const MAX_LODS: usize = 5;
 
 /// Meshes with fewer triangles than this get only their full-detail level: below it the vertex
 /// work per instance is already small, and splitting their draws by level would cost more draw
 /// calls than the triangles it saves (the rocks and food pellets are such meshes).
 pub const MIN_TRIANGLES_FOR_LODS: usize = 1024;
 
-/// Each coarser level aims at this fraction of the previous level's triangles.
-pub const LOD_TRIANGLE_RATIO: f32 = 0.25;
+/// Level k + 1 aims at `LOD_TRIANGLE_RATIOS[k]` of level k's triangles: quarters down to the
+/// porgy's 350 triangles (full detail, 1,404, 350), then halves (175, 88), whose errors grow
+/// fastest, so that a fish a few pixels long finds a level within the tolerance.
+pub const LOD_TRIANGLE_RATIOS: [f32; MAX_LODS - 1] = [0.25, 0.25, 0.5, 0.5];
 
 /// How far the simplifier may stray from the original surface, relative to the mesh's largest
 /// extent, when it aims at a level's triangle count: a safety cap, well above what the fish
 /// meshes need, so a mesh that cannot be simplified gracefully stops short of the target rather
 /// than collapsing. The selection uses the error actually reached.
-pub const MAX_SIMPLIFY_ERROR: f32 = 0.1;
+pub const MAX_SIMPLIFY_ERROR: f32 = 0.3;
 
 /// A coarser level that does not drop at least this fraction of the previous level's triangles
 /// is not kept (it would cost a draw call and save almost nothing).
@@ -214,7 +218,25 @@ pub struct MeshLods {
     pub indices: Vec<u32>,
     /// The levels, full detail first (1 to [`MAX_LODS`]).
     pub levels: Vec<LodLevel>,
+    /// The level shadows are drawn with, after the levels in [`MeshLods::indices`]: the mesh
+    /// simplified by its positions alone (ignoring seams) to about [`SHADOW_TRIANGLE_RATIO`] of its triangles (a
+    /// shadow is one flat dark colour, so only the outline counts), or `None` where that does not
+    /// save a quarter of the coarsest level's (shadows then use the coarsest level).
+    pub shadow: Option<LodLevel>,
 }
+
+/// Fish drawn at this level of detail or finer cast their shadow at this level (the porgy's 350
+/// triangles, as every shadow was drawn before the outline level); coarser ones, a few pixels
+/// long, cast the outline level ([`MeshLods::shadow`]).
+pub const NEAR_SHADOW_LOD: usize = 2;
+
+/// A shadow level aims at this fraction of the full mesh's triangles (the porgy: 5,616 → 22),
+/// at least [`MIN_SHADOW_TRIANGLES`]: a shadow on the sand is a dark outline a few pixels across
+/// in a large school, and at the coarsest fish level it was half of what a frame drew.
+pub const SHADOW_TRIANGLE_RATIO: f32 = 1.0 / 256.0;
+
+/// The fewest triangles a shadow level aims at.
+pub const MIN_SHADOW_TRIANGLES: usize = 16;
 
 /// Weights of the vertex normal (each component) and colour (each of r, g, b) against position
 /// in the simplifier's error: an attribute change of Δ counts like moving the surface by
@@ -224,11 +246,16 @@ pub struct MeshLods {
 /// long) still match with the default tolerance.
 pub const LOD_ATTRIBUTE_WEIGHTS: [f32; 2] = [1.0, 2.0];
 
+/// Factor on [`LOD_ATTRIBUTE_WEIGHTS`] for the levels coarser than [`NEAR_SHADOW_LOD`], drawn
+/// for fish a few pixels long: there a colour band is a pixel or two and the outline is what
+/// shows, so the simplifier may trade colour for shape.
+pub const COARSE_ATTRIBUTE_FACTOR: f32 = 0.25;
+
 impl MeshLods {
     /// Builds the levels of a valid triangle mesh (as checked by [`super::Renderer::upload_mesh`]):
     /// level 0 is `mesh.indices` unchanged; each next level asks meshoptimizer's attribute-aware
     /// simplifier (`meshopt::simplify_with_attributes_and_locks`, nothing locked) for
-    /// [`LOD_TRIANGLE_RATIO`] of the previous level's triangles, simplifying the original each
+    /// [`LOD_TRIANGLE_RATIOS`] of the previous level's triangles, simplifying the original each
     /// time (so every error is measured against the original), within [`MAX_SIMPLIFY_ERROR`]
     /// and weighing normals and colours by [`LOD_ATTRIBUTE_WEIGHTS`]. Meshes below
     /// [`MIN_TRIANGLES_FOR_LODS`] triangles keep one level; a level that saves less than a
@@ -243,6 +270,7 @@ impl MeshLods {
                 num_indices: indices.len() as u32,
                 error: 0.0,
             }],
+            shadow: None,
         };
         let n = mesh.positions.len();
         if indices.len() / 3 < MIN_TRIANGLES_FOR_LODS
@@ -258,7 +286,14 @@ impl MeshLods {
         };
         let scale = meshopt::simplify_scale(&adapter);
         let [wn, wc] = LOD_ATTRIBUTE_WEIGHTS;
-        let weights = [wn, wn, wn, wc, wc, wc];
+        let weights_at = |level: usize| {
+            let f = if level > NEAR_SHADOW_LOD {
+                COARSE_ATTRIBUTE_FACTOR
+            } else {
+                1.0
+            };
+            [wn, wn, wn, wc, wc, wc].map(|w| w * f)
+        };
         let attributes: Vec<f32> = mesh
             .normals
             .iter()
@@ -269,13 +304,14 @@ impl MeshLods {
         let mut previous = indices.len();
         let mut previous_error = 0.0f32;
         while out.levels.len() < MAX_LODS {
-            let target = ((previous as f32 * LOD_TRIANGLE_RATIO) as usize / 3).max(1) * 3;
+            let ratio = LOD_TRIANGLE_RATIOS[out.levels.len() - 1];
+            let target = ((previous as f32 * ratio) as usize / 3).max(1) * 3;
             let mut relative_error = 0.0f32;
             let simplified = meshopt::simplify_with_attributes_and_locks(
                 indices,
                 &adapter,
                 &attributes,
-                &weights,
+                &weights_at(out.levels.len()),
                 std::mem::size_of::<[f32; 6]>(),
                 &unlocked,
                 target,
@@ -298,7 +334,36 @@ impl MeshLods {
             previous = simplified.len();
             previous_error = error;
         }
+        let shadow_target = ((indices.len() as f32 / 3.0 * SHADOW_TRIANGLE_RATIO) as usize)
+            .max(MIN_SHADOW_TRIANGLES)
+            * 3;
+        let mut shadow_error = 0.0f32;
+        // The sloppy simplifier ignores the mesh's topology (its seams and borders, which the
+        // others keep and which stop the porgy at ~110 triangles): right for a flat shadow.
+        let shadow = meshopt::simplify_sloppy(
+            indices,
+            &adapter,
+            shadow_target,
+            MAX_SIMPLIFY_ERROR,
+            Some(&mut shadow_error),
+        );
+        if !shadow.is_empty() && (shadow.len() as f32) <= previous as f32 * (1.0 - MIN_LEVEL_SAVING)
+        {
+            out.shadow = Some(LodLevel {
+                first_index: out.indices.len() as u32,
+                num_indices: shadow.len() as u32,
+                error: shadow_error * scale,
+            });
+            out.indices.extend_from_slice(&shadow);
+        }
         out
+    }
+
+    /// The level shadows are drawn with: [`MeshLods::shadow`], else the coarsest level.
+    pub fn shadow_level(&self) -> LodLevel {
+        self.shadow
+            .or(self.levels.last().copied())
+            .expect("a mesh has at least its full-detail level")
     }
 }
 

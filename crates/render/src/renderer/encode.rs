@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 
 use super::pose_pass::fish_palette_len;
 use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
-use crate::lod::{Frustum, LodSelector, ShadowProjection};
+use crate::lod::{Frustum, LodSelector, NEAR_SHADOW_LOD, ShadowProjection};
 use crate::{FrameInput, Gpu, RenderError};
 
 /// What the frame's camera and light work out to, shared by the upload steps.
@@ -177,7 +177,7 @@ impl Renderer {
             .look
             .shadows
             .then(|| ShadowProjection::new(input.tank.min.y, frame.light));
-        let num_buckets = self.num_lod_buckets as usize + self.meshes.len();
+        let num_buckets = self.num_lod_buckets as usize + 2 * self.meshes.len();
         self.scratch_ranges.clear();
         self.scratch_ranges.resize(num_buckets, (0, 0));
         self.scratch_buckets.clear();
@@ -193,8 +193,8 @@ impl Renderer {
         for (mesh_id, joint0, is_fish) in fish.chain(props) {
             let mesh = &self.meshes[mesh_id.0 as usize];
             let (sphere, scale) = mesh.bounds.world_sphere(joint0);
+            let lod = selector.select(&mesh.levels, sphere, scale);
             let draw = if frustum.intersects(sphere) {
-                let lod = selector.select(&mesh.levels, sphere, scale);
                 if is_fish {
                     stats.num_fish_drawn += 1;
                     stats.num_fish_per_lod[lod] += 1;
@@ -208,10 +208,14 @@ impl Renderer {
             };
             let shade = match shadow {
                 Some(projection) if frustum.intersects(projection.project(sphere)) => {
+                    // A fish drawn at one of the levels for a few pixels casts the outline
+                    // shadow; nearer ones the fish's own detail, at least `NEAR_SHADOW_LOD`'s.
+                    let far = lod > NEAR_SHADOW_LOD;
                     if is_fish {
                         stats.num_shadows_drawn += 1;
+                        stats.num_outline_shadows += u32::from(far);
                     }
-                    self.num_lod_buckets + mesh_id.0
+                    self.num_lod_buckets + 2 * mesh_id.0 + u32::from(far)
                 }
                 _ => CULLED,
             };
@@ -365,18 +369,28 @@ impl Renderer {
         Ok(draws)
     }
 
-    /// One shadow draw per mesh and material with shadows in view. Shadows are small and dark:
-    /// always the coarsest level.
+    /// Shadow draws per mesh and material with shadows in view. Shadows are small and dark: a
+    /// fish at one of the levels for a few pixels (coarser than [`NEAR_SHADOW_LOD`]) casts the
+    /// mesh's outline shadow level ([`MeshLods::shadow`](crate::lod::MeshLods::shadow)), a
+    /// nearer one level [`NEAR_SHADOW_LOD`] (or the coarsest there is).
     fn draw_shadows(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
         pass.set_pipeline(&self.pipelines.shadows);
-        let shadow_ranges = &self.scratch_ranges[self.num_lod_buckets as usize..];
-        for (mesh, &(begin, end)) in self.meshes.iter().zip(shadow_ranges) {
-            let (Some(level), Some(parts)) = (
-                mesh.levels.last().filter(|_| end > begin),
-                mesh.level_parts.last(),
-            ) else {
+        let shadow_ranges = self.scratch_ranges[self.num_lod_buckets as usize..].chunks_exact(2);
+        let shadows = self
+            .meshes
+            .iter()
+            .zip(shadow_ranges)
+            .flat_map(|(mesh, ranges)| {
+                let near = NEAR_SHADOW_LOD.min(mesh.levels.len() - 1);
+                [
+                    (mesh, mesh.levels[near], &mesh.level_parts[near], ranges[0]),
+                    (mesh, mesh.shadow_level, &mesh.shadow_parts, ranges[1]),
+                ]
+            });
+        for (mesh, level, parts, (begin, end)) in shadows {
+            if end == begin {
                 continue;
-            };
+            }
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
             pass.set_vertex_buffer(2, mesh.surface.slice(..));
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);

@@ -41,7 +41,8 @@ pub struct RenderTimings {
     pub upload_ms: f32,
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
-    /// Number of draw calls in the scene pass (background, floor, one per species' shadows and
+    /// Number of draw calls in the scene pass (background, floor, one or two per species'
+    /// shadows (near and outline) and
     /// one per species and level of detail with fish in view, each times the species' materials,
     /// tank edges, overlays).
     pub num_draw_calls: u32,
@@ -51,6 +52,9 @@ pub struct RenderTimings {
     pub num_fish_culled: u32,
     /// Fish shadows drawn (0 with [`super::Look::shadows`] off).
     pub num_shadows_drawn: u32,
+    /// Of those, the shadows drawn at the mesh's outline level (fish coarser than
+    /// [`crate::lod::NEAR_SHADOW_LOD`]); the others are at that level.
+    pub num_outline_shadows: u32,
     /// Fish drawn at each level of detail, full detail first.
     pub num_fish_per_lod: [u32; MAX_LODS],
     /// Triangles submitted by the fish, shadow and prop draws: instances × their level's
@@ -140,7 +144,7 @@ struct GpuMesh {
     vertices: wgpu::Buffer,
     /// Every level's indices, finest first ([`MeshLods::indices`](super::lod::MeshLods::indices)).
     indices: wgpu::Buffer,
-    /// At least one level; the last is the coarsest (used for shadows).
+    /// At least one level; the last is the coarsest.
     levels: Vec<LodLevel>,
     bounds: MeshBounds,
     /// This mesh's first instance bucket: one bucket per level, meshes one after the other.
@@ -154,6 +158,10 @@ struct GpuMesh {
     materials: Vec<GpuMaterial>,
     /// Per level of detail, its index ranges by material (one draw each).
     level_parts: Vec<Vec<shoal_core::skin::MeshPart>>,
+    /// The level shadows are drawn with ([`MeshLods::shadow_level`](super::lod::MeshLods::shadow_level)).
+    shadow_level: LodLevel,
+    /// Its index ranges by material.
+    shadow_parts: Vec<shoal_core::skin::MeshPart>,
 }
 
 /// Vertex buffer slot 2 of the fish pipelines: texture coordinates and tangent.

@@ -101,8 +101,17 @@ impl Renderer {
                 vertex_material[i as usize] = part.material;
             }
         }
-        let level_parts =
-            split_levels_by_material(&mut lods.indices, &lods.levels, &vertex_material);
+        let shadow_level = lods.shadow_level();
+        let mut level_parts = split_levels_by_material(
+            &mut lods.indices,
+            &[lods.levels.as_slice(), lods.shadow.as_slice()].concat(),
+            &vertex_material,
+        );
+        let shadow_parts = if lods.shadow.is_some() {
+            level_parts.pop().unwrap_or_default()
+        } else {
+            level_parts.last().cloned().unwrap_or_default()
+        };
         use wgpu::util::DeviceExt;
         let vertex_label = format!("{} vertices", mesh.label);
         let index_label = format!("{} indices", mesh.label);
@@ -173,6 +182,8 @@ impl Renderer {
             surface,
             materials,
             level_parts,
+            shadow_level,
+            shadow_parts,
         });
         Ok(MeshId(self.meshes.len() as u32 - 1))
     }
@@ -182,6 +193,11 @@ impl Renderer {
         self.meshes
             .get(mesh.0 as usize)
             .map(|m| m.levels.as_slice())
+    }
+
+    /// The level a mesh's shadows are drawn with.
+    pub fn mesh_shadow_level(&self, id: MeshId) -> Option<LodLevel> {
+        self.meshes.get(id.0 as usize).map(|m| m.shadow_level)
     }
 
     /// Number of joints a mesh's vertices refer to (its highest joint index + 1).

@@ -11,7 +11,7 @@ use shoal_core::motion::{
     Body, MotionParams, MotionPlayer, MotionRequest, RootState, Side, TurnKind,
 };
 use shoal_core::world::{Species, SpeciesDesc};
-use shoal_render::lod::{LOD_TRIANGLE_RATIO, MIN_TRIANGLES_FOR_LODS};
+use shoal_render::lod::{LOD_TRIANGLE_RATIOS, MIN_TRIANGLES_FOR_LODS, NEAR_SHADOW_LOD};
 use shoal_render::testmesh::TestFish;
 use shoal_render::{
     Camera, FishInstance, FrameInput, Gpu, Look, MAX_LODS, MeshBounds, MeshId, MeshLods,
@@ -75,7 +75,11 @@ fn expected_triangles(renderer: &Renderer, mesh: MeshId) -> u64 {
         .zip(t.num_fish_per_lod)
         .map(|(l, n)| u64::from(l.num_triangles()) * u64::from(n))
         .sum();
-    fish + u64::from(levels.last().unwrap().num_triangles()) * u64::from(t.num_shadows_drawn)
+    let near = levels[NEAR_SHADOW_LOD.min(levels.len() - 1)].num_triangles();
+    let outline = renderer.mesh_shadow_level(mesh).unwrap().num_triangles();
+    let shadows = u64::from(near) * u64::from(t.num_shadows_drawn - t.num_outline_shadows)
+        + u64::from(outline) * u64::from(t.num_outline_shadows);
+    fish + shadows
 }
 
 /// A fish in front of the camera is drawn; one behind the camera and one far off to the side
@@ -223,20 +227,29 @@ fn a_shadow_in_view_is_drawn_for_a_fish_out_of_view() {
     );
 }
 
-/// Checks one mesh's levels: full detail first and unchanged, then each about a quarter of the
-/// one before, every index a vertex of the mesh, no collapsed triangle, and growing error.
+/// Checks one mesh's levels: full detail first and unchanged, then each about its ratio of the
+/// one before (or, where the simplifier's error cap stops it, still a quarter fewer), every index
+/// a vertex of the mesh, no collapsed triangle, and growing error; then the shadow level after
+/// them, a quarter smaller than the coarsest at least.
 fn check_levels(name: &str, mesh: &MeshUpload<'_>, lods: &MeshLods) {
     let n = mesh.positions.len() as u32;
     let full = mesh.indices.len() as u32;
-    assert_eq!(lods.levels.len(), MAX_LODS, "{name}: {:?}", lods.levels);
+    assert!(
+        (3..=MAX_LODS).contains(&lods.levels.len()),
+        "{name}: {:?}",
+        lods.levels
+    );
     assert_eq!(lods.levels[0].num_indices, full);
     assert_eq!(&lods.indices[..full as usize], mesh.indices);
     let mut previous = lods.levels[0];
-    for level in &lods.levels[1..] {
-        let target = previous.num_triangles() as f32 * LOD_TRIANGLE_RATIO;
+    for (k, level) in lods.levels[1..].iter().enumerate() {
+        let target = previous.num_triangles() as f32 * LOD_TRIANGLE_RATIOS[k];
         let got = level.num_triangles() as f32;
+        // The halving steps (k ≥ 2) may stop short of their target at the error cap, but must
+        // still drop a quarter of the triangles.
+        let capped = k >= 2 && got <= previous.num_triangles() as f32 * 0.75;
         assert!(
-            got <= target + 1.0 && got >= target * 0.75,
+            (got <= target + 1.0 && got >= target * 0.75) || capped,
             "{name}: {got} triangles for a target of {target}"
         );
         assert_eq!(
@@ -254,14 +267,34 @@ fn check_levels(name: &str, mesh: &MeshUpload<'_>, lods: &MeshLods) {
         }
         previous = *level;
     }
+    let Some(shadow) = lods.shadow else {
+        // No outline level: shadows use the coarsest.
+        assert_eq!(lods.shadow_level(), previous, "{name}");
+        assert_eq!(
+            lods.indices.len() as u32,
+            previous.first_index + previous.num_indices
+        );
+        return;
+    };
+    assert_eq!(
+        shadow.first_index,
+        previous.first_index + previous.num_indices
+    );
+    assert!(
+        shadow.num_triangles() * 4 <= previous.num_triangles() * 3 && shadow.num_triangles() > 0,
+        "{name}: shadow {shadow:?} against the coarsest {previous:?}"
+    );
+    let range = shadow.first_index as usize..(shadow.first_index + shadow.num_indices) as usize;
+    assert!(lods.indices[range].iter().all(|&i| i < n), "{name}");
+    assert_eq!(lods.shadow_level(), shadow);
     assert_eq!(
         lods.indices.len() as u32,
-        previous.first_index + previous.num_indices
+        shadow.first_index + shadow.num_indices
     );
 }
 
-/// The porgy asset and the procedural fish get three levels: 1, ~1/4, ~1/16 of their
-/// triangles over their own vertices; the renderer uploads exactly those. Small meshes (the
+/// The porgy asset and the procedural fish get five levels (1, ~1/4, ~1/16, then halves) and an
+/// outline level for shadows, over their own vertices; the renderer uploads exactly those. Small meshes (the
 /// props) keep one level.
 #[test]
 fn lod_index_lists_are_quarter_steps_over_the_same_vertices() {
@@ -269,6 +302,11 @@ fn lod_index_lists_are_quarter_steps_over_the_same_vertices() {
     let upload = rig.upload();
     let lods = MeshLods::build(&upload);
     check_levels("porgy", &upload, &lods);
+    assert_eq!(lods.levels.len(), MAX_LODS, "the porgy gets every level");
+    let shadow = lods
+        .shadow
+        .expect("the porgy gets an outline level for shadows");
+    assert!(shadow.num_triangles() <= 32, "{shadow:?}");
     let procedural = TestFish::demo();
     let proc_upload = procedural.upload();
     check_levels("procedural", &proc_upload, &MeshLods::build(&proc_upload));
@@ -326,12 +364,12 @@ fn a_far_fish_uses_a_coarser_level_than_a_near_one() {
     let near = lod_of(&mut renderer, 0);
     let far = lod_of(&mut renderer, 1);
     assert_eq!(near, 0, "a close-up is drawn at full detail");
-    assert_eq!(
-        far,
-        MAX_LODS - 1,
-        "a fish 2,500 units away uses the coarsest level"
+    assert!(
+        far > NEAR_SHADOW_LOD,
+        "a fish 2,500 units away (~15 px long) uses one of the levels for a few pixels, got {far}"
     );
-    // Both together: one draw per level in use, plus one shadow draw.
+    // Both together: one draw per level in use, plus one shadow draw (the far fish's outline;
+    // the near one's shadow falls outside this view).
     let instances = [instance(mesh, 0), instance(mesh, nj as u32)];
     renderer
         .render(
@@ -343,6 +381,7 @@ fn a_far_fish_uses_a_coarser_level_than_a_near_one() {
         .unwrap();
     let t = renderer.timings();
     assert_eq!(t.num_draw_calls, 2 + 1 + 2 + 1, "{t:?}");
+    assert_eq!(t.num_outline_shadows, 1, "{t:?}");
     assert_eq!(
         t.num_triangles,
         expected_triangles(&renderer, mesh),
