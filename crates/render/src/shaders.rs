@@ -131,6 +131,16 @@ pub fn source_dir() -> Option<PathBuf> {
         .find(|p| p.join("fish.wgsl").is_file())
 }
 
+/// The shader directory could not be watched for changes (hot reload stays off).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot watch {}: {source}", dir.display())]
+pub struct WatchError {
+    /// The directory.
+    pub dir: PathBuf,
+    /// The file watcher's error.
+    pub source: notify_debouncer_full::notify::Error,
+}
+
 /// Watches a shader directory; [`ShaderWatcher::changed`] says whether a `.wgsl` file was saved
 /// since the last call.
 pub struct ShaderWatcher {
@@ -152,7 +162,11 @@ impl std::fmt::Debug for ShaderWatcher {
 
 impl ShaderWatcher {
     /// Starts watching `dir` (non-recursive).
-    pub fn new(dir: &Path) -> Result<Self, String> {
+    pub fn new(dir: &Path) -> Result<Self, WatchError> {
+        let failed = |source| WatchError {
+            dir: dir.to_owned(),
+            source,
+        };
         let (tx, rx) = mpsc::channel();
         let mut debouncer = notify_debouncer_full::new_debouncer(
             Duration::from_millis(150),
@@ -180,13 +194,13 @@ impl ShaderWatcher {
                 }
             },
         )
-        .map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
+        .map_err(failed)?;
         debouncer
             .watch(
                 dir,
                 notify_debouncer_full::notify::RecursiveMode::NonRecursive,
             )
-            .map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
+            .map_err(failed)?;
         Ok(Self {
             dir: dir.to_owned(),
             rx,
