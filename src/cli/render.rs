@@ -225,7 +225,10 @@ pub fn load_scene(
             if fish.is_none() && default_lua.is_file() {
                 match lua(&default_lua) {
                     Ok(s) => return Ok(s),
-                    Err(e) => log::warn!("{e:#}; showing the porgy world instead"),
+                    Err(e) => log::warn!(
+                        "{}; showing the porgy world instead",
+                        super::error_chain(&e)
+                    ),
                 }
             }
             porgies()

@@ -25,9 +25,20 @@ pub enum ScriptError {
         /// What is wrong and what was expected.
         why: String,
     },
-    /// A data file is invalid; the message names the file.
-    #[error("{0}")]
-    Invalid(String),
+    /// A value of a data file (species or scene) is not of the type its field wants.
+    #[error(transparent)]
+    Field(Box<crate::scene::FieldError>),
+    /// A species file's table is not a species.
+    #[error(transparent)]
+    Species(Box<crate::scene::SpeciesFileError>),
+    /// A scene's number is out of its range.
+    #[error("{file}: {source}")]
+    Scene {
+        /// The scene file, as shown.
+        file: String,
+        /// Which field, and why.
+        source: Box<crate::scene::SceneValueError>,
+    },
     /// The world rejected a request made while building or running a scene.
     #[error("{context}: {source}")]
     World {
@@ -44,6 +55,20 @@ pub enum ScriptError {
         /// Why.
         why: String,
     },
+}
+
+// The data files' errors are boxed: they are the largest, and every `Result` of the host
+// carries a `ScriptError`.
+impl From<crate::scene::FieldError> for ScriptError {
+    fn from(e: crate::scene::FieldError) -> Self {
+        Self::Field(Box::new(e))
+    }
+}
+
+impl From<crate::scene::SpeciesFileError> for ScriptError {
+    fn from(e: crate::scene::SpeciesFileError) -> Self {
+        Self::Species(Box::new(e))
+    }
 }
 
 /// Formats an mlua error as one line `file:line: message`, without mlua's wrapping
