@@ -222,7 +222,7 @@ fn watch_runs_once_per_save() {
     let rerun = |l: &str| l.contains("tiny_test.lua changed, rerunning");
     // A save: its rerun, to its summary line.
     std::fs::write(&file, format!("{source}-- edited\n")).unwrap();
-    lines.extend(collect_until(&rx, wait, |l| is_summary(l)));
+    lines.extend(collect_until(&rx, wait, is_summary));
     assert!(
         lines.iter().any(|l| rerun(l)),
         "the save reran the tests, naming the file: {lines:#?}"
@@ -237,7 +237,7 @@ fn watch_runs_once_per_save() {
     std::fs::write(&file, format!("{source}-- edited again\n")).unwrap();
     let before = lines.len();
     lines.extend(collect_until(&rx, wait, |l| rerun(l)));
-    lines.extend(collect_until(&rx, wait, |l| is_summary(l)));
+    lines.extend(collect_until(&rx, wait, is_summary));
     assert!(
         lines[before..].iter().any(|l| rerun(l)),
         "the second save reran the tests: {lines:#?}"
