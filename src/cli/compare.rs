@@ -34,7 +34,7 @@ pub struct Args {
     pub seconds: Option<f64>,
     /// Run only this shard of the seeds (`i/n`, 1-based: seeds i, i+n, i+2n…); merge the
     /// shards' `--json` outputs with `--merge`.
-    #[arg(long, value_parser = parse_shard)]
+    #[arg(long, value_parser = compare::parse_shard)]
     pub shard: Option<(u32, u32)>,
     /// Merge the JSON of shards of one experiment instead of running one.
     #[arg(long, num_args = 1.., value_name = "SHARD.json", conflicts_with_all = ["a", "b", "seeds", "seconds", "shard", "scene"])]
@@ -45,10 +45,6 @@ pub struct Args {
     /// Also draw the comparison into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-}
-
-fn parse_shard(text: &str) -> Result<(u32, u32), String> {
-    compare::parse_shard(text)
 }
 
 /// Runs `shoal compare`.
@@ -156,7 +152,7 @@ fn merge(files: &[PathBuf]) -> anyhow::Result<Comparison> {
             Ok((f.display().to_string(), c))
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
-    compare::merge(parts).map_err(anyhow::Error::msg)
+    Ok(compare::merge(parts)?)
 }
 
 fn fmt_estimate(e: &Estimate) -> String {

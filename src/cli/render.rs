@@ -80,7 +80,7 @@ pub enum CameraSpec {
 }
 
 /// Parses [`Args::camera`].
-pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
+pub fn parse_camera(s: &str) -> anyhow::Result<CameraSpec> {
     match s.trim() {
         "default" => return Ok(CameraSpec::Default),
         "top" => return Ok(CameraSpec::Top),
@@ -89,13 +89,13 @@ pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
         _ => {}
     }
     let bad = || {
-        format!(
+        anyhow::anyhow!(
             "camera `{s}`: expected default, top, orbit, follow, or EX,EY,EZ:TX,TY,TZ (eye and \
              target, world units)"
         )
     };
     let (eye, target) = s.split_once(':').ok_or_else(bad)?;
-    let v3 = |t: &str| -> Result<glam::Vec3, String> {
+    let v3 = |t: &str| -> anyhow::Result<glam::Vec3> {
         let v: Vec<f32> = t
             .split(',')
             .map(|x| x.trim().parse::<f32>().map_err(|_| bad()))
@@ -107,9 +107,7 @@ pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
     };
     let (eye, target) = (v3(eye)?, v3(target)?);
     if (eye - target).length() < 1e-3 {
-        return Err(format!(
-            "camera `{s}`: the eye and the target are the same point"
-        ));
+        anyhow::bail!("camera `{s}`: the eye and the target are the same point");
     }
     Ok(CameraSpec::Fixed { eye, target })
 }
@@ -161,16 +159,16 @@ pub fn camera_for<S: SimView>(
 }
 
 /// Parses `WIDTHxHEIGHT`.
-pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let (w, h) = s
         .split_once(['x', 'X'])
-        .ok_or_else(|| format!("size `{s}` is not WIDTHxHEIGHT (e.g. 960x540)"))?;
+        .with_context(|| format!("size `{s}` is not WIDTHxHEIGHT (e.g. 960x540)"))?;
     let parse = |v: &str| {
         v.trim()
             .parse::<u32>()
             .ok()
             .filter(|n| (1..=8192).contains(n))
-            .ok_or_else(|| format!("size `{s}`: `{v}` is not a number in 1..=8192"))
+            .with_context(|| format!("size `{s}`: `{v}` is not a number in 1..=8192"))
     };
     Ok((parse(w)?, parse(h)?))
 }
@@ -229,7 +227,10 @@ pub fn load_scene(
             if fish.is_none() && default_lua.is_file() {
                 match lua(&default_lua) {
                     Ok(s) => return Ok(s),
-                    Err(e) => log::warn!("{e:#}; showing the porgy world instead"),
+                    Err(e) => log::warn!(
+                        "{}; showing the porgy world instead",
+                        super::error_chain(&e)
+                    ),
                 }
             }
             porgies()

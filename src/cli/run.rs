@@ -64,13 +64,11 @@ pub struct Args {
 }
 
 /// `--msaa`: 1 or 4.
-fn parse_msaa(s: &str) -> Result<u32, String> {
+fn parse_msaa(s: &str) -> anyhow::Result<u32> {
     match s.trim() {
         "1" => Ok(1),
         "4" => Ok(4),
-        other => Err(format!(
-            "{other:?} is not a sample count shoal draws with: 1 (off) or 4"
-        )),
+        other => anyhow::bail!("{other:?} is not a sample count shoal draws with: 1 (off) or 4"),
     }
 }
 

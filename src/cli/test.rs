@@ -200,6 +200,9 @@ fn watch(paths: &[PathBuf], root: &Path, options: &RunOptions) -> anyhow::Result
             .watch(dir, RecursiveMode::Recursive)
             .with_context(|| format!("cannot watch {}", dir.display()))?;
     }
+    // `SHOAL_WATCH_TRACE`: a line for each batch of file events that does not rerun the tests, so
+    // a test can wait for the watcher's decision instead of sleeping.
+    let trace = std::env::var_os("SHOAL_WATCH_TRACE").is_some_and(|v| !v.is_empty());
     let mut last = lua_fingerprint(&watched);
     if let Err(err) = run_once(paths, options) {
         println!("error: {err:#}");
@@ -208,11 +211,23 @@ fn watch(paths: &[PathBuf], root: &Path, options: &RunOptions) -> anyhow::Result
     for events in rx {
         let Ok(events) = events else { continue };
         if !events.iter().any(|e| is_lua_content_event(e)) {
+            if trace {
+                println!(
+                    "watch: {} file events, none a .lua save: no rerun",
+                    events.len()
+                );
+            }
             continue;
         }
         // Saving the same text again, or a burst of events for one save, changes nothing.
         let now = lua_fingerprint(&watched);
         if now == last {
+            if trace {
+                println!(
+                    "watch: {} saved with the same text: no rerun",
+                    changed_names(&events, root)
+                );
+            }
             continue;
         }
         last = now;

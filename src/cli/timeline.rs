@@ -207,7 +207,7 @@ pub fn diff(args: DiffArgs) -> anyhow::Result<ExitCode> {
                 plot.display()
             );
         }
-        timeline::plot::write(&a, &b, &d, plot).map_err(anyhow::Error::msg)?;
+        timeline::plot::write(&a, &b, &d, plot)?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&d)?);

@@ -59,7 +59,7 @@ fn an_unrigged_model_is_refused_with_a_hint() {
     let m =
         FishModel::load(&shoal_core::source_root().join("../shared/gltf-samples/RiggedSimple.glb"))
             .unwrap();
-    let e = suggest("x", "x.glb", &m).unwrap_err();
+    let e = suggest("x", "x.glb", &m).unwrap_err().to_string();
     assert!(e.contains("shoal asset rig"), "{e}");
 }
 

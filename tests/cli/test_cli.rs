@@ -141,6 +141,30 @@ fn is_summary(line: &str) -> bool {
         if p.parse::<u32>().is_ok() && f.parse::<u32>().is_ok())
 }
 
+/// Lines read from `rx` up to the first for which `done` holds; fails if none comes within
+/// `timeout`.
+fn collect_until(
+    rx: &mpsc::Receiver<String>,
+    timeout: Duration,
+    done: impl Fn(&str) -> bool,
+) -> Vec<String> {
+    let deadline = Instant::now() + timeout;
+    let mut lines = Vec::new();
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(line) => {
+                let stop = done(&line);
+                lines.push(line);
+                if stop {
+                    return lines;
+                }
+            }
+            Err(e) => panic!("waited {timeout:?} ({e}); the lines so far: {lines:#?}"),
+        }
+    }
+}
+
 /// Lines read from `rx` until `until` is seen or `timeout` passes.
 fn collect(rx: &mpsc::Receiver<String>, timeout: Duration, until: Option<&str>) -> Vec<String> {
     let deadline = Instant::now() + timeout;
@@ -161,7 +185,8 @@ fn collect(rx: &mpsc::Receiver<String>, timeout: Duration, until: Option<&str>) 
 }
 
 /// One save, one rerun: the runner's own reads of the test files do not trigger it, and saving
-/// the same text again does nothing.
+/// the same text again does nothing. Waits on the runner's output, not on time: with
+/// `SHOAL_WATCH_TRACE` the watcher says when a batch of events ran nothing.
 #[test]
 fn watch_runs_once_per_save() {
     let dir = tempfile::tempdir().unwrap();
@@ -171,6 +196,7 @@ fn watch_runs_once_per_save() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_shoal"))
         .current_dir(dir.path())
         .env_remove("RUST_LOG")
+        .env("SHOAL_WATCH_TRACE", "1")
         .args(["test", "--watch", "."])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
@@ -186,24 +212,38 @@ fn watch_runs_once_per_save() {
             }
         }
     });
-    let mut lines = collect(&rx, Duration::from_secs(60), Some("watching for changes"));
+    // Each step waits (a minute at most) for what must happen.
+    let wait = Duration::from_secs(60);
+    let mut lines = collect(&rx, wait, Some("watching for changes"));
     assert!(
         lines.iter().any(|l| l.contains("watching for changes")),
         "the watcher started: {lines:?}"
     );
-    // Let the watcher see the initial run's own file reads before saving.
-    lines.extend(collect(&rx, Duration::from_millis(800), None));
+    let rerun = |l: &str| l.contains("tiny_test.lua changed, rerunning");
+    // A save: its rerun, to its summary line.
     std::fs::write(&file, format!("{source}-- edited\n")).unwrap();
-    lines.extend(collect(&rx, Duration::from_secs(3), None));
-    // The same text saved again is not a change.
-    std::fs::write(&file, format!("{source}-- edited\n")).unwrap();
-    lines.extend(collect(&rx, Duration::from_secs(2), None));
-    let runs = lines.iter().filter(|l| is_summary(l)).count();
-    assert_eq!(runs, 2, "initial run plus one per save: {lines:#?}");
+    lines.extend(collect_until(&rx, wait, is_summary));
     assert!(
-        lines
-            .iter()
-            .any(|l| l.contains("tiny_test.lua changed, rerunning")),
-        "the rerun names the saved file: {lines:#?}"
+        lines.iter().any(|l| rerun(l)),
+        "the save reran the tests, naming the file: {lines:#?}"
     );
+    // The same text saved again: the watcher looks and runs nothing (a rerun here fails below).
+    std::fs::write(&file, format!("{source}-- edited\n")).unwrap();
+    lines.extend(collect_until(&rx, wait, |l| {
+        l.contains("saved with the same text: no rerun") || rerun(l)
+    }));
+    // Another save with new text: its rerun is the proof that whatever the first save, the
+    // runner's reads of the files and the same-text save caused has come in before it.
+    std::fs::write(&file, format!("{source}-- edited again\n")).unwrap();
+    let before = lines.len();
+    lines.extend(collect_until(&rx, wait, |l| rerun(l)));
+    lines.extend(collect_until(&rx, wait, is_summary));
+    assert!(
+        lines[before..].iter().any(|l| rerun(l)),
+        "the second save reran the tests: {lines:#?}"
+    );
+    let runs = lines.iter().filter(|l| is_summary(l)).count();
+    assert_eq!(runs, 3, "the first run plus one per new text: {lines:#?}");
+    let reruns = lines.iter().filter(|l| rerun(l)).count();
+    assert_eq!(reruns, 2, "one rerun per save with new text: {lines:#?}");
 }

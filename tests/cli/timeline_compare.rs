@@ -115,13 +115,15 @@ fn shards_merge_into_the_whole_experiment() {
     assert_eq!(exact(&merged), exact(&whole));
     // The same shard twice is refused, naming it.
     let twice = vec![parts[0].clone(), ("again.json".into(), parts[0].1.clone())];
-    let e = compare::merge(twice).unwrap_err();
+    let e = compare::merge(twice).unwrap_err().to_string();
     assert!(e.contains("again.json") && e.contains("seed 1"), "{e}");
     // So is a shard of another experiment.
     let mut other = parts[1].clone();
     other.1.seconds = 9.0;
     other.0 = "other.json".into();
-    let e = compare::merge(vec![parts[0].clone(), other]).unwrap_err();
+    let e = compare::merge(vec![parts[0].clone(), other])
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("other.json") && e.contains("same experiment"),
         "{e}"

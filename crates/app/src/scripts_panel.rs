@@ -10,7 +10,7 @@
 use std::collections::VecDeque;
 
 use super::scene::DynScene;
-use super::sim::SimView;
+use super::sim::{SimError, SimView};
 use shoal_core::world::FishId;
 use shoal_script::sim::ModuleProfile;
 
@@ -68,6 +68,33 @@ pub struct Watch {
     pub points: VecDeque<[f64; 2]>,
     /// Its last value as text, or why it could not be evaluated.
     pub last: Result<String, String>,
+}
+
+/// Why the "pause when" condition could not be evaluated; it is cleared.
+#[derive(Debug, thiserror::Error)]
+#[error("pause when `{condition}`: {source} (condition cleared)")]
+pub struct PauseWhenError {
+    /// The condition.
+    pub condition: String,
+    /// Why it could not be evaluated.
+    pub source: SimError,
+}
+
+/// Why a logpoint line (`file:line message`) could not be read.
+#[derive(Debug, thiserror::Error)]
+enum ParseLogpointError {
+    /// No `file:line` at its start.
+    #[error(
+        "`{0}`: expected file:line message, such as behaviors/forage.lua:34 hunger \
+         {{fish.memory.hunger}}"
+    )]
+    NoPlace(String),
+    /// The part after the last `:` is not a line number.
+    #[error("`{0}`: the line must be a number")]
+    BadLine(String),
+    /// Nothing after `file:line`.
+    #[error("`{0}`: a logpoint needs a message after file:line")]
+    NoMessage(String),
 }
 
 /// The Scripts section's state.
@@ -198,7 +225,7 @@ impl ScriptsPanel {
                     .as_f64()
                     .map_or_else(|| n.to_string(), |f| format!("{f:.4}"))),
                 Ok(v) => Ok(v.to_string()),
-                Err(e) => Err(e.clone()),
+                Err(e) => Err(e.to_string()),
             };
             if let Some(y) = value.ok().as_ref().and_then(as_number) {
                 w.points.push_back([now, y]);
@@ -221,7 +248,10 @@ impl ScriptsPanel {
     /// After a tick: the first fish (in the world's order) for which the "pause when" condition
     /// has just started to hold, with the console line saying so; or an error line (and the
     /// condition is cleared) when it cannot be evaluated.
-    pub fn check_pause(&mut self, sim: &dyn SimView) -> Option<Result<(FishId, String), String>> {
+    pub fn check_pause(
+        &mut self,
+        sim: &dyn SimView,
+    ) -> Option<Result<(FishId, String), PauseWhenError>> {
         let cond = self.pause_when.clone()?;
         let w = sim.world();
         let mut met = None;
@@ -230,10 +260,13 @@ impl ScriptsPanel {
             let holds = match sim.eval_fish(id, &watch_code(&cond, sim, id)) {
                 Ok(v) => !matches!(v, serde_json::Value::Null | serde_json::Value::Bool(false)),
                 // A fish that has not decided yet has no table: not an error of the condition.
-                Err(e) if e.contains("has not decided yet") => false,
-                Err(e) => {
+                Err(SimError::Eval(shoal_script::EvalError::NotDecided(_))) => false,
+                Err(source) => {
                     self.set_pause_when(None);
-                    return Some(Err(format!("pause when `{cond}`: {e} (condition cleared)")));
+                    return Some(Err(PauseWhenError {
+                        condition: cond,
+                        source,
+                    }));
                 }
             };
             let was = if holds {
@@ -298,27 +331,25 @@ impl ScriptsPanel {
 }
 
 /// Parses `file:line message`.
-fn parse_logpoint(text: &str) -> Result<(String, usize, String), String> {
+fn parse_logpoint(text: &str) -> Result<(String, usize, String), ParseLogpointError> {
     let text = text.trim();
     let (place, message) = text.split_once(char::is_whitespace).unwrap_or((text, ""));
     let (file, line) = place
         .rsplit_once(':')
-        .ok_or_else(|| format!("`{text}`: expected file:line message, such as behaviors/forage.lua:34 hunger {{fish.memory.hunger}}"))?;
+        .ok_or_else(|| ParseLogpointError::NoPlace(text.to_owned()))?;
     let line: usize = line
         .parse()
-        .map_err(|_| format!("`{place}`: the line must be a number"))?;
+        .map_err(|_| ParseLogpointError::BadLine(place.to_owned()))?;
     let message = message.trim();
     if message.is_empty() {
-        return Err(format!(
-            "`{text}`: a logpoint needs a message after file:line"
-        ));
+        return Err(ParseLogpointError::NoMessage(text.to_owned()));
     }
     Ok((file.to_owned(), line, message.to_owned()))
 }
 
 impl ScriptsPanel {
     /// Sets every logpoint of `file` as the list holds them.
-    fn apply_logpoints(&self, scene: &mut DynScene, file: &str) -> Result<(), String> {
+    fn apply_logpoints(&self, scene: &mut DynScene, file: &str) -> Result<(), SimError> {
         let points = self
             .logpoints
             .iter()

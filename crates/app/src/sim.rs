@@ -9,7 +9,8 @@ use shoal_core::motion::MotionError;
 use shoal_core::world::driver::WanderPipeline;
 use shoal_core::world::{FishId, World, WorldError, WorldState};
 use shoal_script::log::LogLevel;
-use shoal_script::{ScriptError, SimSnapshot, Simulation};
+use shoal_script::logpoints::SetLogpointsError;
+use shoal_script::{EvalError, ScriptError, SimSnapshot, Simulation};
 
 /// Why the window could not do what the designer asked of the simulation.
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +39,16 @@ pub enum SimError {
     /// A state taken from another kind of simulation.
     #[error("this state was taken from another kind of simulation")]
     WrongSnapshot,
+    /// The simulation runs no scripts (the built-in Rust driver), so there is no Lua to
+    /// evaluate and no file to put logpoints in.
+    #[error("this simulation runs no scripts")]
+    NoScripts,
+    /// Lua evaluated in a fish's context (the console, a watch, "pause when") gave no value.
+    #[error(transparent)]
+    Eval(#[from] EvalError),
+    /// A file's logpoints were not set.
+    #[error(transparent)]
+    Logpoints(#[from] SetLogpointsError),
 }
 
 /// A simulation at one tick, kept by the window's history ring and put back by
@@ -175,18 +186,18 @@ pub trait SimView {
         false
     }
     /// Evaluates Lua in fish `id`'s context (the console and watches).
-    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, SimError> {
         let _ = (id, code);
-        Err("this simulation runs no scripts".into())
+        Err(SimError::NoScripts)
     }
     /// Sets one script file's logpoints (see [`Simulation::set_logpoints`]).
     fn set_logpoints(
         &mut self,
         file: &str,
         points: Vec<shoal_script::logpoints::Logpoint>,
-    ) -> Result<(), String> {
+    ) -> Result<(), SimError> {
         let _ = (file, points);
-        Err("this simulation runs no scripts".into())
+        Err(SimError::NoScripts)
     }
 }
 
@@ -239,14 +250,14 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn function_sampling(&self) -> bool {
         (**self).function_sampling()
     }
-    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, SimError> {
         (**self).eval_fish(id, code)
     }
     fn set_logpoints(
         &mut self,
         file: &str,
         points: Vec<shoal_script::logpoints::Logpoint>,
-    ) -> Result<(), String> {
+    ) -> Result<(), SimError> {
         (**self).set_logpoints(file, points)
     }
 }
@@ -268,15 +279,15 @@ impl SimView for Simulation {
     fn function_sampling(&self) -> bool {
         Simulation::function_sampling(self).is_some()
     }
-    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
-        Simulation::eval_fish(self, id, code)
+    fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, SimError> {
+        Ok(Simulation::eval_fish(self, id, code)?)
     }
     fn set_logpoints(
         &mut self,
         file: &str,
         points: Vec<shoal_script::logpoints::Logpoint>,
-    ) -> Result<(), String> {
-        Simulation::set_logpoints(self, file, points)
+    ) -> Result<(), SimError> {
+        Ok(Simulation::set_logpoints(self, file, points)?)
     }
     fn world(&self) -> &World {
         Simulation::world(self)

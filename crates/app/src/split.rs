@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use super::scene::DynScene;
-use super::sim::SimView;
+use super::sim::{SimError, SimView};
 use super::timeline::{Divergence, GHOST_COLOR, NEW_PATH_COLOR, Timeline};
 use shoal_core::world::{FishId, SpeciesId, TICK_HZ};
 use shoal_render::OverlayLine;
@@ -49,6 +49,22 @@ pub enum SplitError {
         a: String,
         /// B's species, by name.
         b: String,
+    },
+    /// B could not be put back to a state its history kept.
+    #[error(transparent)]
+    Rewind(#[from] SimError),
+    /// B's history has no state to go back to.
+    #[error("B has kept no state to go back to")]
+    NothingKept,
+    /// B's history does not reach the moment A went to.
+    #[error(
+        "B went to {reached_s:.2} s, not {wanted_s:.2} s: its history does not reach that moment"
+    )]
+    NotReached {
+        /// Where B went, seconds.
+        reached_s: f64,
+        /// Where A went, seconds.
+        wanted_s: f64,
     },
 }
 
@@ -159,14 +175,14 @@ impl Split {
 
     /// Takes B to A's moment (`a_history` is A's history, already seeked) and lists again the
     /// fish that differ up to it. Fails, saying why, when B's history cannot reach that tick.
-    pub(super) fn seek(&mut self, a_history: &Timeline, tick: u64) -> Result<(), String> {
+    pub(super) fn seek(&mut self, a_history: &Timeline, tick: u64) -> Result<(), SplitError> {
         let time_s = tick as f64 / TICK_HZ;
         let result = match self.timeline.seek(time_s) {
             Some((state, ticks)) => self
                 .scene
                 .rewind_to(state, ticks)
-                .map_err(|e| e.to_string()),
-            None => Err("B has kept no state to go back to".to_owned()),
+                .map_err(SplitError::Rewind),
+            None => Err(SplitError::NothingKept),
         };
         self.divergences.clear();
         let from = self.timeline.first_tick().unwrap_or(0);
@@ -175,10 +191,10 @@ impl Split {
         self.compare(a_history);
         result?;
         if now != tick {
-            return Err(format!(
-                "B went to {:.2} s, not {time_s:.2} s: its history does not reach that moment",
-                now as f64 / TICK_HZ
-            ));
+            return Err(SplitError::NotReached {
+                reached_s: now as f64 / TICK_HZ,
+                wanted_s: time_s,
+            });
         }
         Ok(())
     }

@@ -340,7 +340,7 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
             ui.log(line);
             ui.select(scene, Some(fish));
         }
-        Some(Err(line)) => ui.log(line),
+        Some(Err(e)) => ui.log(e.to_string()),
         None => {}
     }
     scene.drain_log(&mut ui.scratch_log);

@@ -191,7 +191,7 @@ impl App {
                             .log(format!("watching {} for shader edits", dir.display()));
                         self.aq.ui.watcher = Some(w);
                     }
-                    Err(e) => self.aq.ui.log(e),
+                    Err(e) => self.aq.ui.log(e.to_string()),
                 }
                 ShaderSources::load_dir(&dir).unwrap_or_default()
             }

@@ -131,11 +131,22 @@ pub fn source_dir() -> Option<PathBuf> {
         .find(|p| p.join("fish.wgsl").is_file())
 }
 
+/// The shader directory could not be watched for changes (hot reload stays off).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot watch {}: {source}", dir.display())]
+pub struct WatchError {
+    /// The directory.
+    pub dir: PathBuf,
+    /// The file watcher's error.
+    pub source: notify_debouncer_full::notify::Error,
+}
+
 /// Watches a shader directory; [`ShaderWatcher::changed`] says whether a `.wgsl` file was saved
-/// since the last call.
+/// since the last call, [`ShaderWatcher::saved`] which.
 pub struct ShaderWatcher {
     dir: PathBuf,
-    rx: mpsc::Receiver<()>,
+    /// The `.wgsl` files written, one message per batch of file events that has any.
+    rx: mpsc::Receiver<Vec<PathBuf>>,
     _debouncer: notify_debouncer_full::Debouncer<
         notify_debouncer_full::notify::RecommendedWatcher,
         notify_debouncer_full::RecommendedCache,
@@ -152,7 +163,11 @@ impl std::fmt::Debug for ShaderWatcher {
 
 impl ShaderWatcher {
     /// Starts watching `dir` (non-recursive).
-    pub fn new(dir: &Path) -> Result<Self, String> {
+    pub fn new(dir: &Path) -> Result<Self, WatchError> {
+        let failed = |source| WatchError {
+            dir: dir.to_owned(),
+            source,
+        };
         let (tx, rx) = mpsc::channel();
         let mut debouncer = notify_debouncer_full::new_debouncer(
             Duration::from_millis(150),
@@ -162,31 +177,31 @@ impl ShaderWatcher {
                     use notify_debouncer_full::notify::EventKind;
                     use notify_debouncer_full::notify::event::ModifyKind;
                     // Only writes count: reading the files to reload them must not re-trigger.
-                    let wgsl = events.iter().any(|e| {
-                        let write = match e.kind {
+                    let written: Vec<PathBuf> = events
+                        .iter()
+                        .filter(|e| match e.kind {
                             EventKind::Create(_) | EventKind::Remove(_) => true,
                             EventKind::Modify(ModifyKind::Metadata(_)) => false,
                             EventKind::Modify(_) => true,
                             _ => false,
-                        };
-                        write
-                            && e.paths
-                                .iter()
-                                .any(|p| p.extension().is_some_and(|x| x == "wgsl"))
-                    });
-                    if wgsl {
-                        let _ = tx.send(());
+                        })
+                        .flat_map(|e| e.paths.iter())
+                        .filter(|p| p.extension().is_some_and(|x| x == "wgsl"))
+                        .cloned()
+                        .collect();
+                    if !written.is_empty() {
+                        let _ = tx.send(written);
                     }
                 }
             },
         )
-        .map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
+        .map_err(failed)?;
         debouncer
             .watch(
                 dir,
                 notify_debouncer_full::notify::RecursiveMode::NonRecursive,
             )
-            .map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
+            .map_err(failed)?;
         Ok(Self {
             dir: dir.to_owned(),
             rx,
@@ -199,13 +214,18 @@ impl ShaderWatcher {
         &self.dir
     }
 
-    /// True if a `.wgsl` file changed since the last call.
+    /// True if a `.wgsl` file changed since the last call (of this or [`ShaderWatcher::saved`]).
     pub fn changed(&self) -> bool {
-        let mut any = false;
-        while self.rx.try_recv().is_ok() {
-            any = true;
-        }
-        any
+        !self.saved().is_empty()
+    }
+
+    /// The `.wgsl` files written (saved, created or removed) since the last call, sorted, each
+    /// once.
+    pub fn saved(&self) -> Vec<PathBuf> {
+        let mut files: Vec<PathBuf> = self.rx.try_iter().flatten().collect();
+        files.sort();
+        files.dedup();
+        files
     }
 }
 

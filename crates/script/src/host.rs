@@ -24,7 +24,7 @@ use std::time::Duration;
 
 use mlua::{Function, Lua, LuaSerdeExt, Table, Value};
 
-use super::error::{ScriptError, describe};
+use super::error::{DecisionError, EvalError, ScriptError, describe};
 use super::log::{LogLevel, ScriptLog};
 use super::sandbox::{self, Abort, Budget, LOADED_KEY, Limits, ScriptRoot};
 use super::watchdog::{Meter, Metered};
@@ -106,6 +106,40 @@ pub enum Reloaded {
     Failed(String),
     /// The file is not a behaviour module nor required by one.
     NotAModule,
+}
+
+/// Why a behaviour module did not load (the last good version keeps running).
+#[derive(Debug, thiserror::Error)]
+enum LoadError {
+    /// The file could not be read or does not compile.
+    #[error(transparent)]
+    File(#[from] ScriptError),
+    /// Running the file raised an error or was stopped by a limit.
+    #[error("{message}")]
+    Run {
+        /// The message as the console shows it (`file:line: message`).
+        message: String,
+    },
+    /// The file returned something other than a table.
+    #[error(
+        "{file}: a behaviour must return a table with tick(fish) or perceive/intend/behave \
+         functions (got {got})"
+    )]
+    NotATable {
+        /// The file as shown.
+        file: String,
+        /// The Lua type it returned.
+        got: &'static str,
+    },
+    /// The table has none of the layers' functions.
+    #[error(
+        "{file}: a behaviour must return a table with tick(fish) or perceive/intend/behave \
+         functions"
+    )]
+    NoLayers {
+        /// The file as shown.
+        file: String,
+    },
 }
 
 /// One Lua state: the fish of one script lane.
@@ -287,7 +321,8 @@ impl ScriptHost {
                 }
                 true
             }
-            Err(msg) => {
+            Err(e) => {
+                let msg = e.to_string();
                 self.log(LogLevel::Error, &msg, None, time_s);
                 self.load_errors.insert(display, msg);
                 false
@@ -295,23 +330,25 @@ impl ScriptHost {
         }
     }
 
-    fn compile_module(&self, path: &Path, display: &str) -> Result<Table, String> {
-        let f = sandbox::load_file(&self.lua, path).map_err(|e| e.to_string())?;
+    fn compile_module(&self, path: &Path, display: &str) -> Result<Table, LoadError> {
+        let f = sandbox::load_file(&self.lua, path)?;
         let v: Value = {
             let _metered = self.begin_load();
-            f.call(()).map_err(|e| self.after_error(&e))?
+            f.call(()).map_err(|e| LoadError::Run {
+                message: self.after_error(&e),
+            })?
         };
         let Value::Table(t) = v else {
-            return Err(format!(
-                "{display}: a behaviour must return a table with tick(fish) or perceive/intend/behave functions (got {})",
-                v.type_name()
-            ));
+            return Err(LoadError::NotATable {
+                file: display.to_owned(),
+                got: v.type_name(),
+            });
         };
         let has = |k: &str| matches!(t.raw_get::<Value>(k), Ok(Value::Function(_)));
         if !(has("tick") || has("behave") || has("intend") || has("perceive")) {
-            return Err(format!(
-                "{display}: a behaviour must return a table with tick(fish) or perceive/intend/behave functions"
-            ));
+            return Err(LoadError::NoLayers {
+                file: display.to_owned(),
+            });
         }
         Ok(t)
     }
@@ -319,12 +356,16 @@ impl ScriptHost {
     /// Formats an error from a call, collecting garbage after a memory error so the next call
     /// has room again.
     fn after_error(&self, e: &mlua::Error) -> String {
-        let msg = describe(e);
+        self.recover(e);
+        describe(e)
+    }
+
+    /// Collects garbage after a memory error so the next call has room again.
+    fn recover(&self, e: &mlua::Error) {
         if matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted() == Some(Abort::Memory)
         {
             let _ = self.lua.gc_collect();
         }
-        msg
     }
 
     /// Reloads what `path` (a changed file under `scripts/`) affects: the behaviour module of that
@@ -477,7 +518,7 @@ impl ScriptHost {
         id: FishId,
         fish: &Table,
         time_s: f64,
-    ) -> Result<(), String> {
+    ) -> Result<(), DecisionError> {
         let Some(result) = self.call_driver(module, fish, None) else {
             return Ok(());
         };
@@ -495,11 +536,10 @@ impl ScriptHost {
         (species_id, species): (shoal_core::world::SpeciesId, &str),
         behavior: &str,
         time_s: f64,
-    ) -> Result<(), String> {
+    ) -> Result<(), DecisionError> {
         if let Err(e) = self.ensure_fish_table(id, species, behavior) {
-            let msg = e.to_string();
-            self.log(LogLevel::Error, &msg, Some(id), time_s);
-            return Err(msg);
+            self.log(LogLevel::Error, &e.to_string(), Some(id), time_s);
+            return Err(DecisionError::NoTable(e));
         }
         let Some(fish) = self.cached_table(id) else {
             return Ok(());
@@ -556,15 +596,16 @@ impl ScriptHost {
         module: ModuleIndex,
         id: FishId,
         time_s: f64,
-    ) -> Result<(), String> {
+    ) -> Result<(), DecisionError> {
         match result {
             Ok(()) => {
                 self.last_call_hit_limit = false;
                 Ok(())
             }
             Err(e) => {
-                self.last_call_hit_limit =
+                let stopped =
                     matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted().is_some();
+                self.last_call_hit_limit = stopped;
                 let mut msg = self.after_error(&e);
                 if !super::error::has_location(&msg) && !msg.starts_with(&self.root.display) {
                     // Errors without a position (out of memory) at least name the file.
@@ -575,7 +616,11 @@ impl ScriptHost {
                 if self.fish_errors.get(&id.index) != Some(&msg) {
                     self.fish_errors.insert(id.index, msg.clone());
                 }
-                Err(msg)
+                Err(if stopped {
+                    DecisionError::Stopped { message: msg }
+                } else {
+                    DecisionError::Raised { message: msg }
+                })
             }
         }
     }
@@ -706,8 +751,8 @@ impl ScriptHost {
 
     /// Runs a snippet of Lua in a fresh sandboxed environment (for the console and tests),
     /// within the per-load budget. Returns the value converted to JSON.
-    pub fn eval(&self, name: &str, code: &str) -> Result<serde_json::Value, String> {
-        let env = sandbox::module_env(&self.lua).map_err(|e| describe(&e))?;
+    pub fn eval(&self, name: &str, code: &str) -> Result<serde_json::Value, EvalError> {
+        let env = sandbox::module_env(&self.lua).map_err(EvalError::Setup)?;
         self.eval_in(env, name, code)
     }
 
@@ -724,14 +769,14 @@ impl ScriptHost {
     }
 
     /// Whether `source` compiles as Lua (the error says why not).
-    pub fn check_compiles(&self, name: &str, source: &str) -> Result<(), String> {
+    pub fn check_compiles(&self, name: &str, source: &str) -> Result<(), EvalError> {
         self.lua
             .load(source)
             .set_name(format!("@{name}"))
             .set_mode(mlua::chunk::ChunkMode::Text)
             .into_function()
             .map(|_| ())
-            .map_err(|e| describe(&e))
+            .map_err(EvalError::Syntax)
     }
 
     /// Like [`ScriptHost::eval`], with the fish's table as `fish` (its `memory`, `intention`,
@@ -739,12 +784,12 @@ impl ScriptHost {
     /// (`fish.memory.hunger * 2`) gives its value; a statement (`fish.memory.hunger = 0`) runs and
     /// gives null. The sandbox and the per-load budget apply. `shoal.*` sensor and motion calls
     /// are not available here (they act only inside a decision).
-    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, EvalError> {
         let fish = self
             .existing_fish_table(id)
-            .ok_or_else(|| format!("fish #{} has not decided yet: it has no table", id.index))?;
-        let env = sandbox::module_env(&self.lua).map_err(|e| describe(&e))?;
-        env.raw_set("fish", fish).map_err(|e| describe(&e))?;
+            .ok_or(EvalError::NotDecided(id))?;
+        let env = sandbox::module_env(&self.lua).map_err(EvalError::Setup)?;
+        env.raw_set("fish", fish).map_err(EvalError::Setup)?;
         let name = format!("console (fish #{})", id.index);
         // An expression first; if it does not parse as one, a statement.
         let as_expr = format!("return {code}");
@@ -758,7 +803,7 @@ impl ScriptHost {
         self.eval_in(env, &name, code)
     }
 
-    fn eval_in(&self, env: Table, name: &str, code: &str) -> Result<serde_json::Value, String> {
+    fn eval_in(&self, env: Table, name: &str, code: &str) -> Result<serde_json::Value, EvalError> {
         let f = self
             .lua
             .load(code)
@@ -766,10 +811,13 @@ impl ScriptHost {
             .set_mode(mlua::chunk::ChunkMode::Text)
             .set_environment(env)
             .into_function()
-            .map_err(|e| describe(&e))?;
+            .map_err(EvalError::Syntax)?;
         let v: Value = {
             let _metered = self.begin_load();
-            f.call(()).map_err(|e| self.after_error(&e))?
+            f.call(()).map_err(|e| {
+                self.recover(&e);
+                EvalError::Runtime(e)
+            })?
         };
         Ok(value_to_json(&v, 0))
     }

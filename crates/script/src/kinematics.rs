@@ -49,8 +49,8 @@ pub enum SubjectError {
         file: String,
     },
     /// The species file's table is not a species (the message names the file and the field).
-    #[error("{0}")]
-    Invalid(String),
+    #[error(transparent)]
+    Invalid(#[from] crate::scene::SpeciesFileError),
     /// The species' motion parameters are out of range.
     #[error("{file}: motion: {source}")]
     Motion {
@@ -137,7 +137,7 @@ pub fn subject(
     let mlua::Value::Table(table) = value else {
         return Err(SubjectError::NotATable { file: display });
     };
-    let file = species_from_table(host.lua(), &display, table).map_err(SubjectError::Invalid)?;
+    let file = species_from_table(host.lua(), &display, table)?;
     let desc = file.desc;
     desc.motion
         .validate()

@@ -48,7 +48,7 @@ pub mod timeline;
 pub mod versions;
 pub mod watchdog;
 
-pub use error::ScriptError;
+pub use error::{DecisionError, EvalError, ScriptError};
 pub use host::ScriptHost;
 pub use log::{LogEntry, LogLevel};
 pub use sandbox::Limits;

@@ -28,8 +28,84 @@ pub struct Logpoint {
 #[derive(Debug, Default, Clone)]
 pub struct Logpoints(pub HashMap<PathBuf, Vec<Logpoint>>);
 
+/// Why logpoints cannot be put into a file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LogpointError {
+    /// A `{` in the message has no `}` after it.
+    #[error("`{message}`: a `{{` without its `}}`")]
+    Unclosed {
+        /// The message.
+        message: String,
+    },
+    /// A `{}` with no expression in it.
+    #[error("`{message}`: an empty `{{}}`")]
+    EmptyExpression {
+        /// The message.
+        message: String,
+    },
+    /// The logpoint's line is not in the file.
+    #[error("line {line}: the file has {lines} lines")]
+    PastEnd {
+        /// The logpoint's line.
+        line: usize,
+        /// The file's lines.
+        lines: usize,
+    },
+    /// The file is not text, so nothing can be injected into it.
+    #[error("not UTF-8 text")]
+    NotUtf8,
+}
+
+/// Why a file's logpoints were not set (see [`crate::Simulation::set_logpoints`]); the file keeps
+/// the ones it had. Each names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum SetLogpointsError {
+    /// No such file under the scripts directory.
+    #[error("{file}: no such script under {}", dir.display())]
+    NoSuchScript {
+        /// The file as given.
+        file: String,
+        /// The scripts directory.
+        dir: PathBuf,
+    },
+    /// The file resolves outside the scripts directory.
+    #[error("{file}: not inside the scripts directory")]
+    OutsideScripts {
+        /// The file as given.
+        file: String,
+    },
+    /// The file could not be read.
+    #[error("{file}: {source}")]
+    Read {
+        /// The file as shown (`scripts/behaviors/forage.lua`).
+        file: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A logpoint's line or message is wrong.
+    #[error("{file}: {source}")]
+    Logpoint {
+        /// The file as shown.
+        file: String,
+        /// What is wrong.
+        source: LogpointError,
+    },
+    /// The file compiles, but not with the logpoints in it: one sits inside a statement.
+    #[error(
+        "{file}: a logpoint must sit on a line where a statement starts (line {} continues one, \
+         or its message is not Lua)",
+        lines.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+    )]
+    NotAStatement {
+        /// The file as shown.
+        file: String,
+        /// The lines of the file's logpoints.
+        lines: Vec<usize>,
+    },
+}
+
 /// The message as Lua call arguments: literal text as strings, `{expr}` as `(expr)`.
-fn message_args(message: &str) -> Result<String, String> {
+fn message_args(message: &str) -> Result<String, LogpointError> {
     let mut args = Vec::new();
     let mut rest = message;
     while let Some(open) = rest.find('{') {
@@ -37,12 +113,14 @@ fn message_args(message: &str) -> Result<String, String> {
             args.push(format!("{:?}", &rest[..open]));
         }
         let after = &rest[open + 1..];
-        let close = after
-            .find('}')
-            .ok_or_else(|| format!("`{message}`: a `{{` without its `}}`"))?;
+        let close = after.find('}').ok_or_else(|| LogpointError::Unclosed {
+            message: message.to_owned(),
+        })?;
         let expr = after[..close].trim();
         if expr.is_empty() {
-            return Err(format!("`{message}`: an empty `{{}}`"));
+            return Err(LogpointError::EmptyExpression {
+                message: message.to_owned(),
+            });
         }
         args.push(format!("({expr})"));
         rest = &after[close + 1..];
@@ -54,16 +132,15 @@ fn message_args(message: &str) -> Result<String, String> {
 }
 
 /// `source` with each logpoint's call put at the start of its line.
-pub fn inject(source: &str, points: &[Logpoint]) -> Result<String, String> {
+pub fn inject(source: &str, points: &[Logpoint]) -> Result<String, LogpointError> {
     let lines: Vec<&str> = source.split('\n').collect();
     let mut by_line: HashMap<usize, Vec<&Logpoint>> = HashMap::new();
     for p in points {
         if p.line == 0 || p.line > lines.len() {
-            return Err(format!(
-                "line {}: the file has {} lines",
-                p.line,
-                lines.len()
-            ));
+            return Err(LogpointError::PastEnd {
+                line: p.line,
+                lines: lines.len(),
+            });
         }
         by_line.entry(p.line).or_default().push(p);
     }
@@ -87,7 +164,7 @@ pub fn inject(source: &str, points: &[Logpoint]) -> Result<String, String> {
 
 /// The source to compile for `path`: the file as it is, or with its logpoints injected. The
 /// error names the logpoint's line when the injection does not compile.
-pub fn source_for(lua: &Lua, path: &Path, source: Vec<u8>) -> Result<Vec<u8>, String> {
+pub fn source_for(lua: &Lua, path: &Path, source: Vec<u8>) -> Result<Vec<u8>, LogpointError> {
     let real = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
     let points = match lua.app_data_ref::<Logpoints>() {
         Some(lp) => match lp.0.get(&real) {
@@ -96,7 +173,7 @@ pub fn source_for(lua: &Lua, path: &Path, source: Vec<u8>) -> Result<Vec<u8>, St
         },
         None => return Ok(source),
     };
-    let text = String::from_utf8(source).map_err(|_| "not UTF-8 text".to_owned())?;
+    let text = String::from_utf8(source).map_err(|_| LogpointError::NotUtf8)?;
     Ok(inject(&text, &points)?.into_bytes())
 }
 

@@ -98,6 +98,46 @@ pub struct ScriptRoot {
     pub display: String,
 }
 
+/// Why a module name (`require`, a behaviour or species name) names no script file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ModuleError {
+    /// An absolute path or an empty name.
+    #[error("module name '{name}' must be relative to {root}/")]
+    NotRelative {
+        /// The name as given.
+        name: String,
+        /// The script root as shown (`scripts`).
+        root: String,
+    },
+    /// A component that is empty, `..`, or has characters other than letters, digits, `_`, `-`.
+    #[error(
+        "module name '{name}' may only name files inside {root}/ (letters, digits, '_', '-', \
+         separated by '.' or '/')"
+    )]
+    BadName {
+        /// The name as given.
+        name: String,
+        /// The script root as shown.
+        root: String,
+    },
+    /// No such file.
+    #[error("module '{name}' not found (looked for {looked_for})")]
+    NotFound {
+        /// The name as given.
+        name: String,
+        /// The file looked for, as shown (`scripts/behaviors/forage.lua`).
+        looked_for: String,
+    },
+    /// The file is outside the root (through a symbolic link).
+    #[error("module '{name}' resolves outside {root}/")]
+    Outside {
+        /// The name as given.
+        name: String,
+        /// The script root as shown.
+        root: String,
+    },
+}
+
 impl ScriptRoot {
     /// `root` must exist.
     pub fn new(root: &Path) -> Result<Self, ScriptError> {
@@ -129,13 +169,13 @@ impl ScriptRoot {
     /// Resolves a module name (`behaviors.lib.util` or `behaviors/lib/util`) to a file inside the
     /// root. Rejects absolute paths, `..`, empty components and anything outside the root
     /// (symbolic links included).
-    pub fn resolve_module(&self, name: &str) -> Result<PathBuf, String> {
+    pub fn resolve_module(&self, name: &str) -> Result<PathBuf, ModuleError> {
         let trimmed = name.strip_suffix(".lua").unwrap_or(name);
         if trimmed.is_empty() || trimmed.starts_with('/') || trimmed.starts_with('\\') {
-            return Err(format!(
-                "module name '{name}' must be relative to {}/",
-                self.display
-            ));
+            return Err(ModuleError::NotRelative {
+                name: name.to_owned(),
+                root: self.display.clone(),
+            });
         }
         let mut rel = PathBuf::new();
         let separated = if trimmed.contains('/') {
@@ -150,26 +190,24 @@ impl ScriptRoot {
                     .bytes()
                     .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
             if !ok {
-                return Err(format!(
-                    "module name '{name}' may only name files inside {}/ (letters, digits, '_', '-', separated by '.' or '/')",
-                    self.display
-                ));
+                return Err(ModuleError::BadName {
+                    name: name.to_owned(),
+                    root: self.display.clone(),
+                });
             }
             rel.push(part);
         }
         rel.set_extension("lua");
         let path = self.dir.join(&rel);
-        let real = path.canonicalize().map_err(|_| {
-            format!(
-                "module '{name}' not found (looked for {})",
-                self.display_of(&path)
-            )
+        let real = path.canonicalize().map_err(|_| ModuleError::NotFound {
+            name: name.to_owned(),
+            looked_for: self.display_of(&path),
         })?;
         if !real.starts_with(&self.dir) || real.components().any(|c| c == Component::ParentDir) {
-            return Err(format!(
-                "module '{name}' resolves outside {}/",
-                self.display
-            ));
+            return Err(ModuleError::Outside {
+                name: name.to_owned(),
+                root: self.display.clone(),
+            });
         }
         Ok(real)
     }
@@ -617,8 +655,12 @@ fn load_in_family(lua: &Lua, path: &Path, cache: &Table) -> Result<Function, Scr
         path: path.to_path_buf(),
         source,
     })?;
-    let source = super::logpoints::source_for(lua, path, source)
-        .map_err(|e| ScriptError::Lua(format!("{display}: logpoint: {e}")))?;
+    let source = super::logpoints::source_for(lua, path, source).map_err(|source| {
+        ScriptError::Logpoint {
+            file: display.clone(),
+            source,
+        }
+    })?;
     let env = family_env(lua, cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.load(source)
         .set_name(format!("@{display}"))

@@ -183,10 +183,74 @@ fn is_array_like(t: &Table) -> bool {
     t.raw_len() > 0
 }
 
+/// Why a species table (the value a species file returned) is not a species. Each names the
+/// file.
+#[derive(Debug, thiserror::Error)]
+pub enum SpeciesFileError {
+    /// Lua failed reading the table (a metamethod raised an error).
+    #[error("{file}: {}", super::error::describe(cause))]
+    Lua {
+        /// The file, as shown.
+        file: String,
+        /// Lua's error.
+        cause: mlua::Error,
+    },
+    /// `decision_hz` is not a number in (0, 60].
+    #[error("{file}: decision_hz must be a number in (0, 60], got {got}")]
+    DecisionHz {
+        /// The file, as shown.
+        file: String,
+        /// The value given, as Lua writes it.
+        got: String,
+    },
+    /// `base` names no built-in species.
+    #[error("{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")")]
+    UnknownBase {
+        /// The file, as shown.
+        file: String,
+        /// The name given.
+        base: String,
+    },
+    /// The built-in description did not become a Lua table (a bug of the host's).
+    #[error("{file}: base species did not serialize to a table")]
+    BaseNotATable {
+        /// The file, as shown.
+        file: String,
+    },
+    /// A key no species has (`vertebral_joint`, `motion.lamda`).
+    #[error("{file}: {key}: {why}")]
+    UnknownKey {
+        /// The file, as shown.
+        file: String,
+        /// The key's path (`motion.lamda`).
+        key: String,
+        /// The "unknown key …; did you mean …" line.
+        why: String,
+    },
+    /// A value of the wrong type.
+    #[error(transparent)]
+    Field(#[from] FieldError),
+    /// The motion parameters are out of range.
+    #[error("{file}: motion: {source}")]
+    Motion {
+        /// The file, as shown.
+        file: String,
+        /// Which parameter, and why.
+        source: shoal_core::motion::MotionError,
+    },
+}
+
 /// Reads a species table (the value a species file returned) into a [`SpeciesFile`]. `file` names
 /// the file in messages.
-pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile, String> {
-    let err = |e: mlua::Error| format!("{file}: {}", super::error::describe(&e));
+pub fn species_from_table(
+    lua: &Lua,
+    file: &str,
+    t: Table,
+) -> Result<SpeciesFile, SpeciesFileError> {
+    let err = |cause: mlua::Error| SpeciesFileError::Lua {
+        file: file.to_owned(),
+        cause,
+    };
     let decision_hz = match t.raw_get::<Value>("decision_hz").map_err(err)? {
         Value::Nil => 10.0,
         v => {
@@ -195,10 +259,10 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
                 .or(v.as_integer().map(|i| i as f64))
                 .unwrap_or(f64::NAN);
             if !(hz.is_finite() && hz > 0.0 && hz <= 60.0) {
-                return Err(format!(
-                    "{file}: decision_hz must be a number in (0, 60], got {}",
-                    v.to_string().unwrap_or_default()
-                ));
+                return Err(SpeciesFileError::DecisionHz {
+                    file: file.to_owned(),
+                    got: v.to_string().unwrap_or_default(),
+                });
             }
             hz
         }
@@ -206,13 +270,14 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
     t.raw_set("decision_hz", Value::Nil).map_err(err)?;
     let table = match t.raw_get::<Option<String>>("base").map_err(err)? {
         Some(base) => {
-            let desc = base_desc(&base).ok_or_else(|| {
-                format!(
-                    "{file}: unknown base species '{base}' (expected \"black_porgy\" or \"eel\")"
-                )
+            let desc = base_desc(&base).ok_or_else(|| SpeciesFileError::UnknownBase {
+                file: file.to_owned(),
+                base: base.clone(),
             })?;
             let Value::Table(b) = lua.to_value(&desc).map_err(err)? else {
-                return Err(format!("{file}: base species did not serialize to a table"));
+                return Err(SpeciesFileError::BaseNotATable {
+                    file: file.to_owned(),
+                });
             };
             t.raw_set("base", Value::Nil).map_err(err)?;
             merge(&b, &t).map_err(err)?;
@@ -223,17 +288,37 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
     // Keys no species has (`vertebral_joint`, `motion.lamda`): the JSON form of a full
     // description lists every field, optional ones included.
     if let Ok(known) = serde_json::to_value(SpeciesDesc::black_porgy())
-        && let Some(why) = unknown_species_key(&table, &known, "")
+        && let Some((key, why)) = unknown_species_key(&table, &known, "")
     {
-        return Err(format!("{file}: {why}"));
+        return Err(SpeciesFileError::UnknownKey {
+            file: file.to_owned(),
+            key,
+            why,
+        });
     }
     let desc: SpeciesDesc = from_lua_value(Value::Table(table), file)?;
     // Motion values out of range (a pivot with λ' ≤ 0, a turning axis off the body, NaN) are
     // refused here, naming the file and the field, rather than swum.
     desc.motion
         .validate()
-        .map_err(|e| format!("{file}: motion: {e}"))?;
+        .map_err(|source| SpeciesFileError::Motion {
+            file: file.to_owned(),
+            source,
+        })?;
     Ok(SpeciesFile { desc, decision_hz })
+}
+
+/// A data file's value that does not fit what it is read as (see [`from_lua_value`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{file}: {}{why}", if path.is_empty() { String::new() } else { format!("{path}: ") })]
+pub struct FieldError {
+    /// The file, as shown (`scripts/scenes/default.lua`).
+    pub file: String,
+    /// The field as written in Lua (`fish[2].count`, arrays counted from 1); empty for the value
+    /// as a whole.
+    pub path: String,
+    /// What is wrong and what was expected, in the designer's words.
+    pub why: String,
 }
 
 /// Reads a data file's value (a scene, a species) into `T`. Every error names `file`, the field
@@ -242,14 +327,12 @@ pub fn species_from_table(lua: &Lua, file: &str, t: Table) -> Result<SpeciesFile
 pub fn from_lua_value<T: serde::de::DeserializeOwned>(
     value: Value,
     file: &str,
-) -> Result<T, String> {
+) -> Result<T, FieldError> {
     serde_path_to_error::deserialize(mlua::serde::Deserializer::new(value)).map_err(|e| {
-        let path = lua_path(e.path());
-        let why = humanize_serde(&e.inner().to_string());
-        if path.is_empty() {
-            format!("{file}: {why}")
-        } else {
-            format!("{file}: {path}: {why}")
+        FieldError {
+            file: file.to_owned(),
+            path: lua_path(e.path()),
+            why: humanize_serde(&e.inner().to_string()),
         }
     })
 }
@@ -361,48 +444,114 @@ pub fn did_you_mean<'a>(name: &str, known: &'a [impl AsRef<str>]) -> Option<&'a 
         .map(|(k, _, _)| k)
 }
 
+/// A number of a scene out of its range (see [`validate_scene`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {problem}")]
+pub struct SceneValueError {
+    /// The field as written in Lua (`fish[2].speed`, `food_drops.region.min`).
+    pub field: String,
+    /// What is wrong with it.
+    pub problem: ValueProblem,
+}
+
+/// What is wrong with a scene's number (see [`SceneValueError`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ValueProblem {
+    /// A position or size with a NaN or an infinity.
+    #[error("{0:?} must be three finite numbers (world units)")]
+    NotFinite([f32; 3]),
+    /// A box whose min is above its max on some axis.
+    #[error("min {min:?} must not be above max {max:?} on any axis")]
+    MinAboveMax {
+        /// The box's min corner.
+        min: [f32; 3],
+        /// The box's max corner.
+        max: [f32; 3],
+    },
+    /// The tank has no room on some axis.
+    #[error("min must be below max on every axis")]
+    NoRoom,
+    /// Not a number > 0.
+    #[error("{value} is out of range: expected a number > 0 ({unit})")]
+    NotPositive {
+        /// The value given.
+        value: f32,
+        /// Its unit (`seconds`, `world units`).
+        unit: &'static str,
+    },
+    /// Not a number ≥ 0.
+    #[error("{value} is out of range: expected a number ≥ 0 ({unit})")]
+    Negative {
+        /// The value given.
+        value: f32,
+        /// Its unit.
+        unit: &'static str,
+    },
+    /// More fish than one group may ask for.
+    #[error("{0} is out of range: expected 0 to {MAX_FISH_PER_GROUP} fish")]
+    TooManyFish(u32),
+    /// An angle that is NaN or infinite.
+    #[error("{0} must be a finite angle (radians)")]
+    NotAnAngle(f32),
+    /// `params` that is not a table.
+    #[error("expected a table, got {0}")]
+    NotATable(serde_json::Value),
+}
+
 /// Checks the numbers of a scene against their ranges; the error names the field (as
 /// [`from_lua_value`] does) and the range in world units and seconds.
-pub fn validate_scene(desc: &SceneDesc) -> Result<(), String> {
-    fn finite3(v: &[f32; 3], field: &str) -> Result<(), String> {
+pub fn validate_scene(desc: &SceneDesc) -> Result<(), SceneValueError> {
+    fn bad(field: impl Into<String>, problem: ValueProblem) -> SceneValueError {
+        SceneValueError {
+            field: field.into(),
+            problem,
+        }
+    }
+    fn finite3(v: &[f32; 3], field: &str) -> Result<(), SceneValueError> {
         if v.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
-            Err(format!(
-                "{field}: {v:?} must be three finite numbers (world units)"
-            ))
+            Err(bad(field, ValueProblem::NotFinite(*v)))
         }
     }
-    fn boxed(b: &BoxDesc, field: &str) -> Result<(), String> {
+    fn boxed(b: &BoxDesc, field: &str) -> Result<(), SceneValueError> {
         finite3(&b.min, &format!("{field}.min"))?;
         finite3(&b.max, &format!("{field}.max"))?;
         if (0..3).any(|i| b.min[i] > b.max[i]) {
-            return Err(format!(
-                "{field}: min {:?} must not be above max {:?} on any axis",
-                b.min, b.max
+            return Err(bad(
+                field,
+                ValueProblem::MinAboveMax {
+                    min: b.min,
+                    max: b.max,
+                },
             ));
         }
         Ok(())
     }
-    fn positive(v: f32, field: &str, unit: &str) -> Result<(), String> {
+    fn positive(v: f32, field: &str, unit: &'static str) -> Result<(), SceneValueError> {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(format!(
-                "{field}: {v} is out of range: expected a number > 0 ({unit})"
-            ))
+            Err(bad(field, ValueProblem::NotPositive { value: v, unit }))
+        }
+    }
+    fn not_negative(v: f32, field: &str, unit: &'static str) -> Result<(), SceneValueError> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(bad(field, ValueProblem::Negative { value: v, unit }))
         }
     }
     boxed(&desc.tank, "tank")?;
     if (0..3).any(|i| desc.tank.min[i] >= desc.tank.max[i]) {
-        return Err("tank: min must be below max on every axis".into());
+        return Err(bad("tank", ValueProblem::NoRoom));
     }
     for (g, group) in desc.fish.iter().enumerate() {
         let f = format!("fish[{}]", g + 1);
         if group.count > MAX_FISH_PER_GROUP {
-            return Err(format!(
-                "{f}.count: {} is out of range: expected 0 to {MAX_FISH_PER_GROUP} fish",
-                group.count
+            return Err(bad(
+                format!("{f}.count"),
+                ValueProblem::TooManyFish(group.count),
             ));
         }
         if let Some(p) = &group.pos {
@@ -414,43 +563,34 @@ pub fn validate_scene(desc: &SceneDesc) -> Result<(), String> {
         if let Some(h) = group.heading
             && !h.is_finite()
         {
-            return Err(format!("{f}.heading: {h} must be a finite angle (radians)"));
+            return Err(bad(format!("{f}.heading"), ValueProblem::NotAnAngle(h)));
         }
-        if let Some(v) = group.speed
-            && !(v.is_finite() && v >= 0.0)
-        {
-            return Err(format!(
-                "{f}.speed: {v} is out of range: expected a number ≥ 0 (world units per second)"
-            ));
+        if let Some(v) = group.speed {
+            not_negative(v, &format!("{f}.speed"), "world units per second")?;
         }
         if let Some(p) = &group.params
             && !p.is_object()
             && !p.is_array()
         {
-            return Err(format!("{f}.params: expected a table, got {p}"));
+            return Err(bad(
+                format!("{f}.params"),
+                ValueProblem::NotATable(p.clone()),
+            ));
         }
     }
     for (i, p) in desc.food.iter().enumerate() {
         finite3(p, &format!("food[{}]", i + 1))?;
     }
-    if let Some(v) = desc.food_sink_speed
-        && !(v.is_finite() && v >= 0.0)
-    {
-        return Err(format!(
-            "food_sink_speed: {v} is out of range: expected a number ≥ 0 (world units per second)"
-        ));
+    if let Some(v) = desc.food_sink_speed {
+        not_negative(v, "food_sink_speed", "world units per second")?;
     }
     if let Some(l) = desc.food_lifetime {
         positive(l, "food_lifetime", "seconds")?;
     }
     if let Some(d) = &desc.food_drops {
         positive(d.every, "food_drops.every", "seconds")?;
-        if let Some(start) = d.start
-            && !(start.is_finite() && start >= 0.0)
-        {
-            return Err(format!(
-                "food_drops.start: {start} is out of range: expected a number ≥ 0 (seconds)"
-            ));
+        if let Some(start) = d.start {
+            not_negative(start, "food_drops.start", "seconds")?;
         }
         if let Some(r) = &d.region {
             boxed(r, "food_drops.region")?;
@@ -481,8 +621,12 @@ pub const MAX_FISH_PER_GROUP: u32 = 200_000;
 
 /// Keys of a species file that no species field has: every key of `t` (recursing into nested
 /// tables that are objects in `known`) missing from `known`, the JSON form of a full description.
-/// Returns the first as "path: unknown key …".
-fn unknown_species_key(t: &Table, known: &serde_json::Value, path: &str) -> Option<String> {
+/// Returns the first as its path and "unknown key …".
+fn unknown_species_key(
+    t: &Table,
+    known: &serde_json::Value,
+    path: &str,
+) -> Option<(String, String)> {
     let serde_json::Value::Object(fields) = known else {
         return None;
     };
@@ -501,7 +645,7 @@ fn unknown_species_key(t: &Table, known: &serde_json::Value, path: &str) -> Opti
         match fields.get(&k) {
             None => {
                 let names: Vec<&str> = fields.keys().map(String::as_str).collect();
-                return Some(format!("{here}: {}", unknown_name("key", &k, &names)));
+                return Some((here, unknown_name("key", &k, &names)));
             }
             Some(sub @ serde_json::Value::Object(_)) => {
                 if let Ok(Value::Table(inner)) = t.raw_get::<Value>(k.as_str())

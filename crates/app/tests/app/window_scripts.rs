@@ -123,7 +123,8 @@ fn the_console_evaluates_lua_in_the_selected_fishs_context() {
         .scene
         .sim()
         .eval_fish(fish, "os.execute('true')")
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("execute"), "{err}");
 }
 
@@ -310,11 +311,13 @@ fn a_logpoint_prints_its_message_where_the_line_runs_without_pausing() {
                 message: "x".into(),
             }],
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("where a statement starts"), "{e}");
     let e = sim
         .set_logpoints("behaviors/nowhere.lua", vec![])
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no such script"), "{e}");
 }
 

@@ -51,6 +51,65 @@ pub enum RigError {
     },
 }
 
+/// Why a texture of the input was not copied into the rigged file. Not fatal: the rig goes on
+/// with a warning naming the texture, and the material keeps its factors.
+#[derive(Debug, thiserror::Error)]
+enum TextureCopyError {
+    /// The material names a texture the file does not have.
+    #[error("texture {0} does not exist")]
+    NoTexture(usize),
+    /// The image is of a kind shoal does not copy (see `image_problem`).
+    #[error("image {image}: {problem}")]
+    Unsupported {
+        /// The image's index.
+        image: usize,
+        /// What is wrong with it.
+        problem: &'static str,
+    },
+    /// The image's bytes could not be read.
+    #[error("image {image}: {source}")]
+    Image {
+        /// The image's index.
+        image: usize,
+        /// Why.
+        source: ImageReadError,
+    },
+}
+
+/// Why an image's bytes could not be read for copying.
+#[derive(Debug, thiserror::Error)]
+enum ImageReadError {
+    /// Images embedded as data URIs are left out.
+    #[error("data-URI images are not copied")]
+    DataUri,
+    /// The image file beside the glTF could not be read.
+    #[error("{}: {source}", path.display())]
+    Read {
+        /// The image file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Neither the file nor its name says PNG or JPEG.
+    #[error("{uri}: unknown image type")]
+    UnknownType {
+        /// The image's URI.
+        uri: String,
+    },
+    /// The glTF's buffers could not be loaded.
+    #[error(transparent)]
+    Buffers(#[from] gltf::Error),
+    /// The image's buffer view points at a buffer the file does not have.
+    #[error("image buffer missing")]
+    NoBuffer,
+    /// The buffer view's offset and length overflow.
+    #[error("bad view")]
+    BadView,
+    /// The buffer view reaches past its buffer.
+    #[error("image view out of bounds")]
+    OutOfBounds,
+}
+
 /// Which axis the body lies along.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Axis {
@@ -678,24 +737,31 @@ impl TextureCopier<'_> {
         new
     }
 
-    fn copy_texture(&mut self, old: usize) -> Result<usize, String> {
+    fn copy_texture(&mut self, old: usize) -> Result<usize, TextureCopyError> {
         let tex = self
             .gltf
             .document
             .textures()
             .nth(old)
-            .ok_or_else(|| format!("texture {old} does not exist"))?;
+            .ok_or(TextureCopyError::NoTexture(old))?;
         let image = tex.source();
         if let Some(problem) =
             crate::skin::material::image_problem(self.gltf.document.as_json(), image.index())
         {
-            return Err(format!("image {}: {problem}", image.index()));
+            return Err(TextureCopyError::Unsupported {
+                image: image.index(),
+                problem,
+            });
         }
         let source = match self.image_of.get(&image.index()) {
             Some(&i) => i,
             None => {
-                let (data, mime) = read_image(self.scene, self.gltf, &image)
-                    .map_err(|e| format!("image {}: {e}", image.index()))?;
+                let (data, mime) = read_image(self.scene, self.gltf, &image).map_err(|source| {
+                    TextureCopyError::Image {
+                        image: image.index(),
+                        source,
+                    }
+                })?;
                 self.images.push((data, mime));
                 self.image_of.insert(image.index(), self.images.len() - 1);
                 self.images.len() - 1
@@ -728,32 +794,39 @@ fn read_image(
     scene: &GltfScene,
     gltf: &gltf::Gltf,
     image: &gltf::Image,
-) -> Result<(Vec<u8>, String), String> {
+) -> Result<(Vec<u8>, String), ImageReadError> {
     match image.source() {
         gltf::image::Source::Uri { uri, mime_type } => {
             if uri.starts_with("data:") {
-                return Err("data-URI images are not copied".into());
+                return Err(ImageReadError::DataUri);
             }
             let decoded = crate::skin::material::percent_decode(uri);
             let base = scene.path.parent().unwrap_or(Path::new("."));
             let file = base.join(&decoded);
-            let data = std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))?;
+            let data = std::fs::read(&file).map_err(|source| ImageReadError::Read {
+                path: file.clone(),
+                source,
+            })?;
             let mime = mime_type.map(str::to_string).or_else(|| mime_of(&decoded));
-            let mime = mime.ok_or_else(|| format!("{uri}: unknown image type"))?;
+            let mime = mime.ok_or_else(|| ImageReadError::UnknownType {
+                uri: uri.to_owned(),
+            })?;
             Ok((data, mime))
         }
         gltf::image::Source::View { view, mime_type } => {
             let base = scene.path.parent();
-            let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())
-                .map_err(|e| e.to_string())?;
+            let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())?;
             let buf = buffers
                 .get(view.buffer().index())
-                .ok_or("image buffer missing")?;
-            let end = view.offset().checked_add(view.length()).ok_or("bad view")?;
+                .ok_or(ImageReadError::NoBuffer)?;
+            let end = view
+                .offset()
+                .checked_add(view.length())
+                .ok_or(ImageReadError::BadView)?;
             let data = buf
                 .0
                 .get(view.offset()..end)
-                .ok_or("image view out of bounds")?;
+                .ok_or(ImageReadError::OutOfBounds)?;
             Ok((data.to_vec(), mime_type.to_string()))
         }
     }

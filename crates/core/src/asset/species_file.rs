@@ -17,7 +17,7 @@ use std::path::Path;
 
 use crate::motion::MotionParams;
 use crate::skin::FishModel;
-use crate::species::{SpeciesDesc, SpeciesRig};
+use crate::species::{SpeciesDesc, SpeciesError, SpeciesRig};
 
 /// Length / cross-section ratio at and above which the body is treated as eel-like.
 pub const ANGUILLIFORM_RATIO: f32 = 8.0;
@@ -39,6 +39,19 @@ pub struct SpeciesSuggestion {
     pub swimming_mode: &'static str,
 }
 
+/// Why no species could be suggested for a model.
+#[derive(Debug, thiserror::Error)]
+pub enum SuggestError {
+    /// The model has no `spine_*` joints: it was not rigged by `shoal asset rig`.
+    #[error(
+        "the model has no joints named spine_1, spine_2, …; rig it first with `shoal asset rig`"
+    )]
+    NotRigged,
+    /// The suggested description does not bind to the model.
+    #[error(transparent)]
+    Bind(#[from] SpeciesError),
+}
+
 /// The model's `spine_<n>` joints (as `shoal asset rig` names them), in order of `n`: the
 /// driven joints, head to tail.
 pub fn spine_joints(model: &FishModel) -> Vec<String> {
@@ -55,19 +68,20 @@ pub fn spine_joints(model: &FishModel) -> Vec<String> {
 /// Suggests a species for `model`. `asset` is the path the file will name (relative to the
 /// assets folder). Fails when the model has no `spine_*` joints (it was not rigged by
 /// `shoal asset rig`) or its rig cannot be bound.
-pub fn suggest(name: &str, asset: &str, model: &FishModel) -> Result<SpeciesSuggestion, String> {
+pub fn suggest(
+    name: &str,
+    asset: &str,
+    model: &FishModel,
+) -> Result<SpeciesSuggestion, SuggestError> {
     let spines = spine_joints(model);
     if spines.is_empty() {
-        return Err(
-            "the model has no joints named spine_1, spine_2, …; rig it first with `shoal asset rig`"
-                .into(),
-        );
+        return Err(SuggestError::NotRigged);
     }
     let mut desc = SpeciesDesc::black_porgy();
     desc.name = name.to_string();
     desc.asset = asset.to_string();
     desc.vertebral_joints = spines;
-    let rig = SpeciesRig::bind(&desc, model).map_err(|e| e.to_string())?;
+    let rig = SpeciesRig::bind(&desc, model)?;
     // Cross-section: the largest extent across the body (up, and sideways).
     let side = rig.model_forward.cross(rig.model_up).normalize_or_zero();
     let extent = |axis: glam::Vec3| {

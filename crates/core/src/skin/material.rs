@@ -671,19 +671,44 @@ impl Material {
     }
 }
 
-fn decode(tex: &SceneTexture) -> Result<TextureImage, String> {
+/// Why a material's texture is not drawn (a warning: the material falls back to its factors).
+#[derive(Debug, thiserror::Error)]
+enum DecodeError {
+    /// The image file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The image file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The glTF already said why its image cannot be had (see [`ImageSource::Unreadable`]).
+    #[error("{0}")]
+    Unreadable(String),
+    /// The bytes are no image the `image` crate reads.
+    #[error("cannot decode: {0}")]
+    Decode(#[source] image::ImageError),
+    /// The image has no pixels.
+    #[error("the image is empty")]
+    Empty,
+}
+
+fn decode(tex: &SceneTexture) -> Result<TextureImage, DecodeError> {
     let bytes: Arc<[u8]> = match &tex.source {
         ImageSource::Bytes(b) => b.clone(),
         ImageSource::File(f) => std::fs::read(f)
-            .map_err(|e| format!("cannot read {}: {e}", f.display()))?
+            .map_err(|source| DecodeError::Read {
+                path: f.clone(),
+                source,
+            })?
             .into(),
-        ImageSource::Unreadable(why) => return Err(why.clone()),
+        ImageSource::Unreadable(why) => return Err(DecodeError::Unreadable(why.clone())),
     };
-    let img = image::load_from_memory(&bytes).map_err(|e| format!("cannot decode: {e}"))?;
+    let img = image::load_from_memory(&bytes).map_err(DecodeError::Decode)?;
     let mut rgba = img.to_rgba8();
     let (w, h) = rgba.dimensions();
     if w == 0 || h == 0 {
-        return Err("the image is empty".into());
+        return Err(DecodeError::Empty);
     }
     let largest = w.max(h);
     if largest > MAX_TEXTURE_SIDE {

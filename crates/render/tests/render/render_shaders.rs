@@ -114,24 +114,46 @@ fn broken_shader_is_reported_and_previous_pipeline_keeps_drawing() {
 #[test]
 fn watcher_notices_a_saved_wgsl_file() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("fish.wgsl");
+    // The watcher reports paths as it watches them.
+    let base = dir.path().canonicalize().unwrap();
+    let path = base.join("fish.wgsl");
     std::fs::write(&path, "// v1").unwrap();
-    let watcher = ShaderWatcher::new(dir.path()).unwrap();
-    std::thread::sleep(Duration::from_millis(200));
-    assert!(!watcher.changed());
+    let watcher = ShaderWatcher::new(&base).unwrap();
     std::fs::write(&path, "// v2").unwrap();
-    let start = Instant::now();
-    let mut seen = false;
-    while start.elapsed() < Duration::from_secs(5) {
-        if watcher.changed() {
-            seen = true;
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(50));
+    // A second file saved after it is the marker that every event of the first save has come in
+    // (the watcher hands them over in the order they happened).
+    let first = base.join("a_marker.wgsl");
+    std::fs::write(&first, "// marker").unwrap();
+    let saved = saves_until(&watcher, &first);
+    assert_eq!(
+        saved,
+        [first.clone(), path.clone()],
+        "the save is reported, once"
+    );
+    // Reading the files back (as a reload does) is not a change: by the time the next marker's
+    // save is reported, the read's events have come in too, and none names fish.wgsl.
+    let _ = ShaderSources::load_dir(&base).unwrap();
+    let second = base.join("b_marker.wgsl");
+    std::fs::write(&second, "// marker").unwrap();
+    let saved = saves_until(&watcher, &second);
+    assert_eq!(saved, [second], "a read must not count as a save");
+}
+
+/// Every `.wgsl` file the watcher reports saved until it reports `marker` (sorted, each once);
+/// fails if that takes a minute.
+fn saves_until(watcher: &ShaderWatcher, marker: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut saved = Vec::new();
+    while !saved.iter().any(|p| p == marker) {
+        assert!(
+            Instant::now() < deadline,
+            "{} was not reported saved (so far: {saved:?})",
+            marker.display()
+        );
+        saved.extend(watcher.saved());
+        std::thread::sleep(Duration::from_millis(20));
     }
-    assert!(seen, "no change reported for {}", path.display());
-    // Reading the files back (as a reload does) is not a change.
-    let _ = ShaderSources::load_dir(dir.path()).unwrap();
-    std::thread::sleep(Duration::from_millis(600));
-    assert!(!watcher.changed(), "a read must not count as a save");
+    saved.sort();
+    saved.dedup();
+    saved
 }

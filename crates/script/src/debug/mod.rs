@@ -82,6 +82,82 @@ pub enum DapError {
     Io(#[from] std::io::Error),
 }
 
+/// Why a DAP request got an error response (the session goes on). The message is what the
+/// client shows.
+#[derive(Debug, thiserror::Error)]
+pub enum RequestError {
+    /// A well-framed message whose body is not JSON.
+    #[error("the message is not JSON: {0}")]
+    NotJson(#[source] serde_json::Error),
+    /// The framing broke: this is the last response before the connection closes.
+    #[error("{0}; closing the connection")]
+    Closing(String),
+    /// JSON, but not a request.
+    #[error("expected a request: {{\"seq\": N, \"type\": \"request\", \"command\": …}}")]
+    NotARequest,
+    /// A request shoal does not answer.
+    #[error(
+        "unknown request `{0}` (shoal answers initialize, attach/launch, setBreakpoints, \
+         configurationDone, threads, stackTrace, scopes, variables, evaluate, continue, next, \
+         stepIn, stepOut, pause, disconnect)"
+    )]
+    Unknown(String),
+    /// A step asked for while no decision is stopped.
+    #[error("the aquarium is running: steps start from a stopped decision")]
+    NotStopped,
+    /// A request about the stopped state while none is stopped.
+    #[error(
+        "`{0}`: the aquarium is running; stack, variables and evaluation are there while it is \
+         stopped (a breakpoint, a step or pause)"
+    )]
+    Running(String),
+    /// The stopped decision went on before it could be asked.
+    #[error("the stopped decision is gone")]
+    Gone,
+    /// The stopped decision did not answer in time.
+    #[error("the stopped decision did not answer")]
+    NoAnswer,
+    /// A request the stopped decision does not answer.
+    #[error("`{0}` is not answered by a stopped decision")]
+    NotForStopped(String),
+    /// A required argument is missing or of the wrong type.
+    #[error("`{name}` ({kind}) is missing")]
+    Missing {
+        /// The argument.
+        name: &'static str,
+        /// What it should be (`a number`).
+        kind: &'static str,
+    },
+    /// `setBreakpoints` without `source.path`.
+    #[error("setBreakpoints: `source.path` (the script's file path) is missing")]
+    NoSourcePath,
+    /// `setBreakpoints` for a file that cannot be read.
+    #[error("setBreakpoints: {path}: {source}")]
+    Source {
+        /// The path as the client gave it.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// No such frame on the stopped stack.
+    #[error("no frame {id} (there are {count})")]
+    NoFrame {
+        /// The frame id asked for.
+        id: u64,
+        /// Frames on the stack.
+        count: usize,
+    },
+    /// No such `variablesReference`.
+    #[error("no variables reference {0}")]
+    NoReference(usize),
+    /// Reading a frame's locals or upvalues failed.
+    #[error("{0}")]
+    Inspect(mlua::Error),
+    /// Evaluating an expression failed.
+    #[error(transparent)]
+    Eval(#[from] crate::error::EvalError),
+}
+
 /// Resolves `--dap ADDR` (`host:port`, or a port alone for the loopback address). Anyone who
 /// can reach the server can run Lua in the aquarium, so an address that is not loopback is
 /// refused unless `allow_remote` (`--dap-allow-remote`).
@@ -140,21 +216,22 @@ pub enum HitCondition {
 
 impl HitCondition {
     /// Parses a `hitCondition`; the error says what is expected.
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, HitConditionError> {
         let t = text.trim();
         let (op, n) = ["==", ">=", "<=", ">", "<", "%", "="]
             .iter()
             .find_map(|op| t.strip_prefix(op).map(|rest| (*op, rest)))
             .unwrap_or(("==", t));
-        let n: u64 = n.trim().parse().map_err(|_| {
-            format!("hit condition `{text}`: expected a count like `3`, `>= 3` or `% 2`")
-        })?;
+        let n: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| HitConditionError::NotACount(text.to_owned()))?;
         Ok(match op {
             ">=" => Self::Ge(n),
             ">" => Self::Gt(n),
             "<=" => Self::Le(n),
             "<" => Self::Lt(n),
-            "%" if n == 0 => return Err(format!("hit condition `{text}`: `% 0` never stops")),
+            "%" if n == 0 => return Err(HitConditionError::EveryZero(text.to_owned())),
             "%" => Self::Every(n),
             _ => Self::Eq(n),
         })
@@ -171,6 +248,17 @@ impl HitCondition {
             Self::Every(n) => hits.is_multiple_of(n),
         }
     }
+}
+
+/// Why a `hitCondition` was not understood (the breakpoint is answered unverified, with this).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum HitConditionError {
+    /// Not a count with an optional operator.
+    #[error("hit condition `{0}`: expected a count like `3`, `>= 3` or `% 2`")]
+    NotACount(String),
+    /// `% 0`.
+    #[error("hit condition `{0}`: `% 0` never stops")]
+    EveryZero(String),
 }
 
 /// One breakpoint of a file, as the client set it.
@@ -215,7 +303,7 @@ enum ToPaused {
     Request {
         command: String,
         args: Value,
-        reply: Sender<Result<Value, String>>,
+        reply: Sender<Result<Value, RequestError>>,
     },
     /// Go on (after setting up any step).
     Resume,

@@ -14,7 +14,8 @@ use mlua::debug::{Debug, DebugEvent};
 use mlua::{Lua, MultiValue, Table, Value, VmState, ffi};
 use serde_json::{Value as Json, json};
 
-use super::{ActiveCall, Debugger, StepMode, ToPaused, lock};
+use super::{ActiveCall, Debugger, RequestError, StepMode, ToPaused, lock};
+use crate::error::EvalError;
 use crate::sandbox::ScriptRoot;
 use shoal_core::world::FishId;
 
@@ -295,13 +296,13 @@ struct Session<'a> {
 }
 
 impl Session<'_> {
-    fn answer(&mut self, command: &str, args: &Json) -> Result<Json, String> {
+    fn answer(&mut self, command: &str, args: &Json) -> Result<Json, RequestError> {
         match command {
             "stackTrace" => Ok(self.stack_trace(args)),
             "scopes" => self.scopes(args),
             "variables" => self.variables(args),
             "evaluate" => self.evaluate(args),
-            other => Err(format!("`{other}` is not answered by a stopped decision")),
+            other => Err(RequestError::NotForStopped(other.to_owned())),
         }
     }
 
@@ -339,14 +340,18 @@ impl Session<'_> {
         json!({"stackFrames": frames, "totalFrames": self.frames.len()})
     }
 
-    fn frame(&self, args: &Json) -> Result<&Frame, String> {
-        let id = args["frameId"]
-            .as_u64()
-            .ok_or("`frameId` (a number) is missing")?;
+    fn frame(&self, args: &Json) -> Result<&Frame, RequestError> {
+        let id = args["frameId"].as_u64().ok_or(RequestError::Missing {
+            name: "frameId",
+            kind: "a number",
+        })?;
         (id as usize)
             .checked_sub(1)
             .and_then(|i| self.frames.get(i))
-            .ok_or_else(|| format!("no frame {id} (there are {})", self.frames.len()))
+            .ok_or(RequestError::NoFrame {
+                id,
+                count: self.frames.len(),
+            })
     }
 
     fn new_ref(&mut self, r: Ref) -> usize {
@@ -360,7 +365,7 @@ impl Session<'_> {
         tables.raw_get::<Option<Table>>(fish.index).ok().flatten()
     }
 
-    fn scopes(&mut self, args: &Json) -> Result<Json, String> {
+    fn scopes(&mut self, args: &Json) -> Result<Json, RequestError> {
         let level = self.frame(args)?.level;
         let locals = self.new_ref(Ref::Locals(level));
         let upvalues = self.new_ref(Ref::Upvalues(level));
@@ -379,19 +384,22 @@ impl Session<'_> {
         Ok(json!({"scopes": scopes}))
     }
 
-    fn variables(&mut self, args: &Json) -> Result<Json, String> {
+    fn variables(&mut self, args: &Json) -> Result<Json, RequestError> {
         let r = args["variablesReference"]
             .as_u64()
-            .ok_or("`variablesReference` (a number) is missing")? as usize;
+            .ok_or(RequestError::Missing {
+                name: "variablesReference",
+                kind: "a number",
+            })? as usize;
         let entries = match r.checked_sub(1).and_then(|i| self.refs.get(i)) {
-            Some(Ref::Locals(level)) => locals(self.lua, *level).map_err(|e| e.to_string())?,
+            Some(Ref::Locals(level)) => locals(self.lua, *level).map_err(RequestError::Inspect)?,
             Some(Ref::Upvalues(level)) => upvalues(self.lua, *level)
-                .map_err(|e| e.to_string())?
+                .map_err(RequestError::Inspect)?
                 .into_iter()
                 .filter(|(n, _)| n != "_ENV")
                 .collect(),
             Some(Ref::Value(t)) => table_entries(t),
-            None => return Err(format!("no variables reference {r}")),
+            None => return Err(RequestError::NoReference(r)),
         };
         let variables: Vec<Json> = entries
             .into_iter()
@@ -409,10 +417,11 @@ impl Session<'_> {
         json!({"name": name, "value": value, "type": ty, "variablesReference": r})
     }
 
-    fn evaluate(&mut self, args: &Json) -> Result<Json, String> {
-        let expr = args["expression"]
-            .as_str()
-            .ok_or("`expression` (a string) is missing")?;
+    fn evaluate(&mut self, args: &Json) -> Result<Json, RequestError> {
+        let expr = args["expression"].as_str().ok_or(RequestError::Missing {
+            name: "expression",
+            kind: "a string",
+        })?;
         let level = match args.get("frameId") {
             Some(id) if !id.is_null() => Some(self.frame(args)?.level),
             _ => None,
@@ -551,7 +560,7 @@ fn upvalues(lua: &Lua, level: usize) -> mlua::Result<Vec<(String, Value)>> {
 
 /// Evaluates `code` in the frame at hook level `level`, with the deciding fish as `fish` if the
 /// frame has none.
-fn eval_here(lua: &Lua, level: Option<usize>, code: &str) -> Result<Value, String> {
+fn eval_here(lua: &Lua, level: Option<usize>, code: &str) -> Result<Value, EvalError> {
     let fish = lua.app_data_ref::<ActiveCall>().and_then(|c| {
         let tables: Table = lua.named_registry_value(crate::host::FISH_KEY).ok()?;
         tables.raw_get::<Option<Table>>(c.fish.index).ok().flatten()
@@ -569,8 +578,8 @@ fn eval_with(
     level: Option<usize>,
     fish: Option<Table>,
     code: &str,
-) -> Result<Value, String> {
-    let err = |e: mlua::Error| crate::error::describe(&e);
+) -> Result<Value, EvalError> {
+    let err = EvalError::Setup;
     let env = lua.create_table().map_err(err)?;
     let mut fallback = None;
     if let Some(level) = level {
@@ -606,7 +615,7 @@ fn eval_with(
     };
     let f = compile(&format!("return {code}"))
         .or_else(|_| compile(code))
-        .map_err(err)?;
+        .map_err(EvalError::Syntax)?;
     let budget = lua
         .app_data_ref::<ActiveCall>()
         .map(|c| (Arc::clone(&c.budget), c.eval_instructions));
@@ -621,7 +630,7 @@ fn eval_with(
     if let (Some((b, _)), Some(saved)) = (&budget, saved) {
         b.restore(saved);
     }
-    let values = result.map_err(err)?;
+    let values = result.map_err(EvalError::Runtime)?;
     Ok(values.into_iter().next().unwrap_or(Value::Nil))
 }
 

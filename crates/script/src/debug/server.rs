@@ -12,7 +12,7 @@ use std::time::Duration;
 use serde_json::{Value, json};
 
 use super::wire::{self, Incoming};
-use super::{Breakpoint, DapError, Debugger, HitCondition, StepMode, ToPaused, lock};
+use super::{Breakpoint, DapError, Debugger, HitCondition, RequestError, StepMode, ToPaused, lock};
 
 /// How long a forwarded request waits for the stopped decision (only a hung evaluation takes
 /// long; the per-load budget stops those first).
@@ -59,14 +59,14 @@ fn session(d: &Arc<Debugger>, stream: TcpStream) -> Result<(), DapError> {
     loop {
         match wire::read_message(&mut reader) {
             Ok(None) => return Ok(()),
-            Ok(Some(Incoming::Malformed(why))) => respond(d, 0, "", Err(why)),
+            Ok(Some(Incoming::Malformed(e))) => respond(d, 0, "", Err(RequestError::NotJson(e))),
             Ok(Some(Incoming::Message(msg))) => {
                 if handle(d, &msg) == Flow::Disconnect {
                     return Ok(());
                 }
             }
             Err(DapError::Framing(why)) => {
-                respond(d, 0, "", Err(format!("{why}; closing the connection")));
+                respond(d, 0, "", Err(RequestError::Closing(why.clone())));
                 return Err(DapError::Framing(why));
             }
             Err(e) => return Err(e),
@@ -74,7 +74,7 @@ fn session(d: &Arc<Debugger>, stream: TcpStream) -> Result<(), DapError> {
     }
 }
 
-fn respond(d: &Debugger, request_seq: i64, command: &str, result: Result<Value, String>) {
+fn respond(d: &Debugger, request_seq: i64, command: &str, result: Result<Value, RequestError>) {
     let mut msg = json!({
         "type": "response",
         "request_seq": request_seq,
@@ -84,7 +84,8 @@ fn respond(d: &Debugger, request_seq: i64, command: &str, result: Result<Value, 
     match result {
         Ok(Value::Null) => {}
         Ok(body) => msg["body"] = body,
-        Err(why) => {
+        Err(e) => {
+            let why = e.to_string();
             msg["message"] = json!(why);
             msg["body"] = json!({"error": {"id": 1, "format": why, "showUser": true}});
         }
@@ -102,10 +103,7 @@ fn handle(d: &Arc<Debugger>, msg: &Value) -> Flow {
                 d,
                 seq,
                 msg["command"].as_str().unwrap_or(""),
-                Err(
-                    "expected a request: {\"seq\": N, \"type\": \"request\", \"command\": …}"
-                        .into(),
-                ),
+                Err(RequestError::NotARequest),
             );
             return Flow::Go;
         }
@@ -144,11 +142,7 @@ fn handle(d: &Arc<Debugger>, msg: &Value) -> Flow {
             respond(d, seq, command, Ok(Value::Null));
             return Flow::Disconnect;
         }
-        other => Err(format!(
-            "unknown request `{other}` (shoal answers initialize, attach/launch, setBreakpoints, \
-             configurationDone, threads, stackTrace, scopes, variables, evaluate, continue, next, \
-             stepIn, stepOut, pause, disconnect)"
-        )),
+        other => Err(RequestError::Unknown(other.to_owned())),
     };
     respond(d, seq, command, result);
     Flow::Go
@@ -165,21 +159,18 @@ fn capabilities() -> Value {
     })
 }
 
-fn step(d: &Debugger, mode: StepMode) -> Result<Value, String> {
+fn step(d: &Debugger, mode: StepMode) -> Result<Value, RequestError> {
     if !d.is_paused() {
-        return Err("the aquarium is running: steps start from a stopped decision".into());
+        return Err(RequestError::NotStopped);
     }
     d.resume(Some(mode));
     Ok(Value::Null)
 }
 
 /// Hands a request to the stopped decision and waits for its answer.
-fn forward(d: &Debugger, command: &str, args: Value) -> Result<Value, String> {
+fn forward(d: &Debugger, command: &str, args: Value) -> Result<Value, RequestError> {
     if !d.is_paused() {
-        return Err(format!(
-            "`{command}`: the aquarium is running; stack, variables and evaluation are there \
-             while it is stopped (a breakpoint, a step or pause)"
-        ));
+        return Err(RequestError::Running(command.to_owned()));
     }
     let (reply, answer) = std::sync::mpsc::channel();
     d.to_paused
@@ -188,23 +179,25 @@ fn forward(d: &Debugger, command: &str, args: Value) -> Result<Value, String> {
             args,
             reply,
         })
-        .map_err(|_| "the stopped decision is gone".to_owned())?;
+        .map_err(|_| RequestError::Gone)?;
     answer
         .recv_timeout(ANSWER_TIMEOUT)
-        .map_err(|_| "the stopped decision did not answer".to_owned())?
+        .map_err(|_| RequestError::NoAnswer)?
 }
 
 /// `setBreakpoints`: replaces a file's breakpoints. Each comes back verified, or not with why
 /// (a line past the end, an unreadable hit condition).
-fn set_breakpoints(d: &Debugger, args: &Value) -> Result<Value, String> {
+fn set_breakpoints(d: &Debugger, args: &Value) -> Result<Value, RequestError> {
     let path = args["source"]["path"]
         .as_str()
-        .ok_or("setBreakpoints: `source.path` (the script's file path) is missing")?;
-    let real = Path::new(path)
-        .canonicalize()
-        .map_err(|e| format!("setBreakpoints: {path}: {e}"))?;
+        .ok_or(RequestError::NoSourcePath)?;
+    let unreadable = |source| RequestError::Source {
+        path: path.to_owned(),
+        source,
+    };
+    let real = Path::new(path).canonicalize().map_err(unreadable)?;
     let num_lines = std::fs::read_to_string(&real)
-        .map_err(|e| format!("setBreakpoints: {path}: {e}"))?
+        .map_err(unreadable)?
         .lines()
         .count();
     let requested: Vec<Value> = match &args["breakpoints"] {
@@ -227,7 +220,7 @@ fn set_breakpoints(d: &Debugger, args: &Value) -> Result<Value, String> {
         let problem = if line == 0 || line > num_lines {
             Some(format!("line {line}: {path} has {num_lines} lines"))
         } else if let Some(Err(why)) = &hit {
-            Some(why.clone())
+            Some(why.to_string())
         } else {
             None
         };

@@ -18,7 +18,7 @@ pub enum Incoming {
     /// A JSON value (not yet checked to be a request).
     Message(Value),
     /// A well-framed message whose body is not JSON: answered with an error, the session goes on.
-    Malformed(String),
+    Malformed(serde_json::Error),
 }
 
 /// Reads the next message; `Ok(None)` at the end of the stream. An error means the framing itself
@@ -72,7 +72,7 @@ pub fn read_message(r: &mut impl BufRead) -> Result<Option<Incoming>, DapError> 
     r.read_exact(&mut body)?;
     Ok(Some(match serde_json::from_slice::<Value>(&body) {
         Ok(v) => Incoming::Message(v),
-        Err(e) => Incoming::Malformed(format!("the message is not JSON: {e}")),
+        Err(e) => Incoming::Malformed(e),
     }))
 }
 

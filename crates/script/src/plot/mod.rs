@@ -31,6 +31,14 @@ pub enum PlotError {
     /// The motion to draw could not be played.
     #[error(transparent)]
     Motion(#[from] shoal_core::motion::MotionError),
+    /// Drawing a figure into its PNG, or writing it, failed.
+    #[error("{}: {source}", path.display())]
+    Figure {
+        /// The PNG.
+        path: PathBuf,
+        /// plotters' error.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
 }
 
 impl PlotError {
@@ -39,6 +47,16 @@ impl PlotError {
         Self::Write {
             path: path.to_path_buf(),
             why: e.to_string(),
+        }
+    }
+}
+
+impl PlotError {
+    /// Drawing into or writing `path` failed with plotters' error `e`.
+    pub(crate) fn figure(path: &Path, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Self::Figure {
+            path: path.to_path_buf(),
+            source: Box::new(e),
         }
     }
 }

@@ -6,7 +6,9 @@ use std::time::Duration;
 use mlua::{Table, Value};
 
 use super::{ModuleStats, Simulation};
+use crate::error::EvalError;
 use crate::log::{LogEntry, LogLevel};
+use crate::logpoints::SetLogpointsError;
 use crate::profiler::{self, Frame, FunctionProfile, StackProfile};
 use shoal_core::world::FishId;
 
@@ -244,9 +246,9 @@ impl Simulation {
 
     /// Evaluates Lua in fish `id`'s context (its table as `fish`), in its lane: see
     /// [`crate::ScriptHost::eval_fish`].
-    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
+    pub fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, EvalError> {
         if !self.sim.world().is_alive(id) {
-            return Err(format!("fish #{} is not in the tank", id.index));
+            return Err(EvalError::NotInTank(id));
         }
         self.lane_of(id).host.eval_fish(id, code)
     }
@@ -261,7 +263,7 @@ impl Simulation {
         &mut self,
         file: &str,
         points: Vec<crate::logpoints::Logpoint>,
-    ) -> Result<(), String> {
+    ) -> Result<(), SetLogpointsError> {
         let root = self.host().root().clone();
         let rel = file
             .strip_prefix(&format!("{}/", root.display))
@@ -269,22 +271,32 @@ impl Simulation {
         let path = root.dir.join(rel);
         let real = path
             .canonicalize()
-            .map_err(|_| format!("{file}: no such script under {}", root.dir.display()))?;
+            .map_err(|_| SetLogpointsError::NoSuchScript {
+                file: file.to_owned(),
+                dir: root.dir.clone(),
+            })?;
         if !real.starts_with(&root.dir) {
-            return Err(format!("{file}: not inside the scripts directory"));
+            return Err(SetLogpointsError::OutsideScripts {
+                file: file.to_owned(),
+            });
         }
         let name = root.display_of(&real);
-        let text = std::fs::read_to_string(&real).map_err(|e| format!("{name}: {e}"))?;
-        let injected =
-            crate::logpoints::inject(&text, &points).map_err(|e| format!("{name}: {e}"))?;
+        let text = std::fs::read_to_string(&real).map_err(|source| SetLogpointsError::Read {
+            file: name.clone(),
+            source,
+        })?;
+        let injected = crate::logpoints::inject(&text, &points).map_err(|source| {
+            SetLogpointsError::Logpoint {
+                file: name.clone(),
+                source,
+            }
+        })?;
         if self.host().check_compiles(&name, &text).is_ok() {
             self.host().check_compiles(&name, &injected).map_err(|_| {
-                let lines: Vec<String> = points.iter().map(|p| p.line.to_string()).collect();
-                format!(
-                    "{name}: a logpoint must sit on a line where a statement starts (line {} \
-                     continues one, or its message is not Lua)",
-                    lines.join(", ")
-                )
+                SetLogpointsError::NotAStatement {
+                    file: name.clone(),
+                    lines: points.iter().map(|p| p.line).collect(),
+                }
             })?;
         }
         for lane in &mut self.sim.behavior.lanes {

@@ -205,7 +205,7 @@ impl Lane {
                         held_ns = debug::end_decision(dbg, host);
                     }
                     if let Err(e) = &outcome {
-                        dbg.script_error(e);
+                        dbg.script_error(&e.to_string());
                     }
                 }
                 *stopped_ns += held_ns;

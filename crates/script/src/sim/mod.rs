@@ -553,10 +553,10 @@ fn read_lua_file(host: &ScriptHost, path: &Path) -> Result<Value, ScriptError> {
 
 fn read_scene(host: &ScriptHost, path: &Path, display: &str) -> Result<SceneDesc, ScriptError> {
     let v = read_lua_file(host, path)?;
-    let desc: SceneDesc = super::scene::from_lua_value(v, display).map_err(ScriptError::Invalid)?;
-    super::scene::validate_scene(&desc).map_err(|why| ScriptError::Data {
+    let desc: SceneDesc = super::scene::from_lua_value(v, display)?;
+    super::scene::validate_scene(&desc).map_err(|e| ScriptError::Scene {
         file: display.to_owned(),
-        why,
+        source: Box::new(e),
     })?;
     // Names that must exist: each group's species and behaviour.
     for (g, group) in desc.fish.iter().enumerate() {
@@ -635,5 +635,5 @@ fn read_species(host: &ScriptHost, path: &Path) -> Result<SpeciesFile, ScriptErr
             why: "a species file must return a table".into(),
         });
     };
-    species_from_table(host.lua(), &display, t).map_err(ScriptError::Invalid)
+    Ok(species_from_table(host.lua(), &display, t)?)
 }

@@ -252,9 +252,14 @@ pub fn shard_seeds(seeds: u64, shard: Option<(u32, u32)>) -> Vec<u64> {
         .collect()
 }
 
+/// `--shard` given something other than `i/n` with 1 ≤ i ≤ n.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("--shard {0}: expected i/n with 1 ≤ i ≤ n, such as 2/4")]
+pub struct ShardError(pub String);
+
 /// Parses `i/n` (1 ≤ i ≤ n).
-pub fn parse_shard(text: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("--shard {text}: expected i/n with 1 ≤ i ≤ n, such as 2/4");
+pub fn parse_shard(text: &str) -> Result<(u32, u32), ShardError> {
+    let bad = || ShardError(text.to_owned());
     let (i, n) = text.split_once('/').ok_or_else(bad)?;
     let (i, n): (u32, u32) = (
         i.trim().parse().map_err(|_| bad())?,
@@ -375,35 +380,70 @@ pub fn summarize(a: &[RunMeasures], b: &[RunMeasures]) -> Vec<MeasureSummary> {
         .collect()
 }
 
+/// Why shards could not be merged (see [`merge`]). Each names the shard.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MergeError {
+    /// Nothing to merge.
+    #[error("--merge needs at least one shard's JSON")]
+    NoShards,
+    /// A shard of another comparison format.
+    #[error("{name}: comparison format {found} (this shoal reads {FORMAT})")]
+    Format {
+        /// The shard, as named on the command line.
+        name: String,
+        /// Its format.
+        found: u32,
+    },
+    /// A shard whose scene, length or scripts differ from the first's.
+    #[error(
+        "{name} is not a shard of the same experiment as {first}: the scene, the seconds or the \
+         scripts of A or B differ"
+    )]
+    OtherExperiment {
+        /// The shard.
+        name: String,
+        /// The first shard, which the others must match.
+        first: String,
+    },
+    /// Two shards ran the same seed.
+    #[error("{name}: seed {seed} is already in another shard (shards must not overlap)")]
+    SeedTwice {
+        /// The shard.
+        name: String,
+        /// The seed.
+        seed: u64,
+    },
+}
+
 /// Merges shards of one experiment (same scene, length and scripts; no seed twice) into one
 /// comparison with its summary recomputed over every seed.
-pub fn merge(parts: Vec<(String, Comparison)>) -> Result<Comparison, String> {
+pub fn merge(parts: Vec<(String, Comparison)>) -> Result<Comparison, MergeError> {
     let mut parts = parts.into_iter();
     let Some((first_name, mut all)) = parts.next() else {
-        return Err("--merge needs at least one shard's JSON".into());
+        return Err(MergeError::NoShards);
     };
     if all.format != FORMAT {
-        return Err(format!(
-            "{first_name}: comparison format {} (this shoal reads {FORMAT})",
-            all.format
-        ));
+        return Err(MergeError::Format {
+            name: first_name,
+            found: all.format,
+        });
     }
     for (name, part) in parts {
         if part.format != FORMAT {
-            return Err(format!(
-                "{name}: comparison format {} (this shoal reads {FORMAT})",
-                part.format
-            ));
+            return Err(MergeError::Format {
+                name,
+                found: part.format,
+            });
         }
         let same = part.scene == all.scene
             && part.seconds == all.seconds
             && part.a.scripts == all.a.scripts
             && part.b.scripts == all.b.scripts;
         if !same {
-            return Err(format!(
-                "{name} is not a shard of the same experiment as {first_name}: the scene, the \
-                 seconds or the scripts of A or B differ"
-            ));
+            return Err(MergeError::OtherExperiment {
+                name,
+                first: first_name,
+            });
         }
         for (mine, theirs) in [
             (&mut all.a.runs, part.a.runs),
@@ -411,10 +451,7 @@ pub fn merge(parts: Vec<(String, Comparison)>) -> Result<Comparison, String> {
         ] {
             for r in theirs {
                 if mine.iter().any(|m| m.seed == r.seed) {
-                    return Err(format!(
-                        "{name}: seed {} is already in another shard (shards must not overlap)",
-                        r.seed
-                    ));
+                    return Err(MergeError::SeedTwice { name, seed: r.seed });
                 }
                 mine.push(r);
             }

@@ -7,9 +7,30 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::Simulation;
+use crate::{ScriptError, Simulation};
 use shoal_core::motion::MotionRequest;
-use shoal_core::world::{FishId, FoodPhysics};
+use shoal_core::world::{FishId, FoodPhysics, WorldError};
+
+/// Why an input was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    /// The simulation refused it (an unknown species or behaviour, a tank out of range).
+    #[error(transparent)]
+    Script(#[from] ScriptError),
+    /// The world refused it (a motion request out of range, a fish that is gone).
+    #[error(transparent)]
+    World(#[from] WorldError),
+}
+
+/// A recorded input that a replay could not apply.
+#[derive(Debug, thiserror::Error)]
+#[error("the recorded input at tick {tick}: {source}")]
+pub struct RecordedInputError {
+    /// The tick it was recorded at.
+    pub tick: u64,
+    /// Why it was refused.
+    pub source: InputError,
+}
 
 /// One action on the world from outside the scripts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -99,12 +120,9 @@ pub enum Applied {
 }
 
 /// Applies `input` to `sim`; the message of an error names what was refused.
-pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, String> {
+pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, InputError> {
     match input {
-        Input::Tank { min, max } => sim
-            .set_tank(*min, *max)
-            .map(|()| Applied::Done)
-            .map_err(|e| e.to_string()),
+        Input::Tank { min, max } => Ok(sim.set_tank(*min, *max).map(|()| Applied::Done)?),
         Input::Spawn {
             species,
             pos,
@@ -112,10 +130,9 @@ pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, String> {
             pitch,
             speed,
             behavior,
-        } => sim
+        } => Ok(sim
             .spawn(species, *pos, *heading, *pitch, *speed, behavior.as_deref())
-            .map(Applied::Fish)
-            .map_err(|e| e.to_string()),
+            .map(Applied::Fish)?),
         Input::FoodPhysics {
             sink_speed,
             lifetime,
@@ -140,10 +157,10 @@ pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, String> {
                 index: *index,
                 generation: *generation,
             };
-            sim.world_mut()
+            Ok(sim
+                .world_mut()
                 .request(id, *request, true)
-                .map(|_| Applied::Done)
-                .map_err(|e| e.to_string())
+                .map(|_| Applied::Done)?)
         }
         Input::SetBehavior {
             index,
@@ -162,10 +179,14 @@ pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, String> {
 }
 
 /// Applies every input of `inputs` (sorted by tick) at `tick`.
-pub fn apply_at(sim: &mut Simulation, inputs: &[TimedInput], tick: u64) -> Result<(), String> {
+pub fn apply_at(
+    sim: &mut Simulation,
+    inputs: &[TimedInput],
+    tick: u64,
+) -> Result<(), RecordedInputError> {
     let from = inputs.partition_point(|i| i.tick < tick);
     for i in inputs[from..].iter().take_while(|i| i.tick == tick) {
-        apply(sim, &i.input).map_err(|e| format!("the recorded input at tick {tick}: {e}"))?;
+        apply(sim, &i.input).map_err(|source| RecordedInputError { tick, source })?;
     }
     Ok(())
 }

@@ -46,6 +46,9 @@ pub enum TimelineError {
     /// Something about the request.
     #[error("{0}")]
     Invalid(String),
+    /// A recorded input no longer applies.
+    #[error(transparent)]
+    Input(#[from] inputs::RecordedInputError),
 }
 
 /// Every fish's pose now, in the world's dense order.
@@ -121,7 +124,7 @@ fn apply_inputs(sim: &mut Simulation, inputs: &[inputs::TimedInput]) -> Result<(
         return Ok(());
     }
     let tick = sim.world().tick_count();
-    inputs::apply_at(sim, inputs, tick).map_err(TimelineError::Invalid)
+    Ok(inputs::apply_at(sim, inputs, tick)?)
 }
 
 /// Records `spec.seconds` of the scene.

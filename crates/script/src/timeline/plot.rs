@@ -8,7 +8,7 @@ use plotters::prelude::*;
 
 use super::RunDiff;
 use super::run_file::Run;
-use crate::plot::{fonts_work, top_view_axes};
+use crate::plot::{PlotError, fonts_work, top_view_axes};
 
 pub(super) const BACKGROUND: RGBColor = RGBColor(250, 250, 247);
 const WATER: RGBColor = RGBColor(214, 232, 240);
@@ -40,8 +40,8 @@ fn paths(run: &Run, n: usize) -> HashMap<(u32, u32), Vec<(f32, f32)>> {
 
 /// Draws `a` (ghosts) and `b` (colour) from above into a PNG at `path`; the fish that diverged
 /// get colours, the others are drawn thin.
-pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), PlotError> {
+    let err = |e| PlotError::figure(path, e);
     let text = fonts_work();
     let [min, max] = b.header.tank;
     let (w, h) = ((max[0] - min[0]).max(1e-3), (max[2] - min[2]).max(1e-3));
@@ -50,7 +50,7 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), String> {
     let plot_h = ((plot_w as f32) * (h / w)).clamp(250.0, 1000.0) as u32;
     let root =
         BitMapBackend::new(path, (plot_w + axes + 20, plot_h + axes + 60)).into_drawing_area();
-    root.fill(&BACKGROUND).map_err(|e| err(&e))?;
+    root.fill(&BACKGROUND).map_err(err)?;
     let mut builder = ChartBuilder::on(&root);
     builder.margin(16);
     if text {
@@ -67,16 +67,16 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), String> {
     }
     let mut chart = builder
         .build_cartesian_2d(min[0]..max[0], max[2]..min[2])
-        .map_err(|e| err(&e))?;
+        .map_err(err)?;
     if text {
-        top_view_axes(&mut chart).map_err(|e| err(&e))?;
+        top_view_axes(&mut chart).map_err(err)?;
     }
     let area = chart.plotting_area();
     let tank = [(min[0], min[2]), (max[0], max[2])];
     area.draw(&Rectangle::new(tank, WATER.mix(0.6).filled()))
-        .map_err(|e| err(&e))?;
+        .map_err(err)?;
     area.draw(&Rectangle::new(tank, TANK_EDGE.stroke_width(3)))
-        .map_err(|e| err(&e))?;
+        .map_err(err)?;
     let n = a.frames.len().min(b.frames.len());
     let (pa, pb) = (paths(a, n), paths(b, n));
     let mut keys: Vec<_> = pb.keys().copied().collect();
@@ -98,31 +98,30 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), String> {
         let Some(t) = diverged(k) else {
             // The same in both runs: one thin line.
             area.draw(&PathElement::new(points.clone(), shared))
-                .map_err(|e| err(&e))?;
+                .map_err(err)?;
             continue;
         };
         // Shared up to the divergence, then the first run as a grey ghost and the second in
         // colour, from a ring where they part to a dot where they end.
         let at = ((t * b.header.tick_hz).round() as usize).min(points.len().saturating_sub(1));
         area.draw(&PathElement::new(points[..=at].to_vec(), shared))
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         if let Some(ghost) = pa.get(k) {
             let from = at.min(ghost.len().saturating_sub(1));
             area.draw(&PathElement::new(
                 ghost[from..].to_vec(),
                 GHOST.stroke_width(3),
             ))
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         }
         let c = COLORS[i % COLORS.len()];
         area.draw(&PathElement::new(points[at..].to_vec(), c.stroke_width(2)))
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         area.draw(&Circle::new(points[at], 6, c.stroke_width(2)))
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
         if let Some(&last) = points.last() {
-            area.draw(&Circle::new(last, 5, c.filled()))
-                .map_err(|e| err(&e))?;
+            area.draw(&Circle::new(last, 5, c.filled())).map_err(err)?;
         }
     }
-    root.present().map_err(|e| err(&e))
+    root.present().map_err(err)
 }

@@ -164,12 +164,12 @@ pub enum RunFileError {
         why: String,
     },
     /// The frames are not valid.
-    #[error("{path}: bad frames: {why}")]
+    #[error("{path}: bad frames: {source}")]
     Frames {
         /// The file.
         path: PathBuf,
         /// What is wrong.
-        why: String,
+        source: FramesError,
     },
 }
 
@@ -276,28 +276,47 @@ impl Run {
                 why: format!("tick_hz is {}, expected a positive number", header.tick_hz),
             });
         }
-        let frames = parse_frames(frames).map_err(|why| RunFileError::Frames {
+        let frames = parse_frames(frames).map_err(|source| RunFileError::Frames {
             path: path_buf(),
-            why,
+            source,
         })?;
         Ok(Run { header, frames })
     }
 }
 
-fn parse_frames(mut b: &[u8]) -> Result<Vec<Vec<Pose>>, String> {
+/// What is wrong with a recording's frames (see [`RunFileError::Frames`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FramesError {
+    /// The bytes end before a frame's fish count.
+    #[error("frame {0} has no fish count")]
+    NoCount(usize),
+    /// A frame counts more fish than there are bytes left.
+    #[error("frame {frame} says {fish} fish, more than the bytes left")]
+    TooManyFish {
+        /// The frame.
+        frame: usize,
+        /// The fish it says it has.
+        fish: usize,
+    },
+    /// No frame at all.
+    #[error("no frames")]
+    None,
+}
+
+fn parse_frames(mut b: &[u8]) -> Result<Vec<Vec<Pose>>, FramesError> {
     let mut frames = Vec::new();
     let word = |b: &[u8], i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
     while !b.is_empty() {
         if b.len() < 4 {
-            return Err(format!("frame {} has no fish count", frames.len()));
+            return Err(FramesError::NoCount(frames.len()));
         }
         let n = word(b, 0) as usize;
         let need = n.checked_mul(POSE_BYTES).and_then(|x| x.checked_add(4));
         let Some(need) = need.filter(|&need| need <= b.len()) else {
-            return Err(format!(
-                "frame {} says {n} fish, more than the bytes left",
-                frames.len()
-            ));
+            return Err(FramesError::TooManyFish {
+                frame: frames.len(),
+                fish: n,
+            });
         };
         let mut frame = Vec::with_capacity(n);
         for k in 0..n {
@@ -314,7 +333,7 @@ fn parse_frames(mut b: &[u8]) -> Result<Vec<Vec<Pose>>, String> {
         b = &b[need..];
     }
     if frames.is_empty() {
-        return Err("no frames".into());
+        return Err(FramesError::None);
     }
     Ok(frames)
 }

@@ -30,11 +30,17 @@ fn the_console_evaluates_in_the_fishs_context_within_the_sandbox() {
     );
     assert_eq!(sim.eval_fish(id, "fish.memory.probe + 1").unwrap(), 42);
 
-    let err = sim.eval_fish(id, "fish.memory.(").unwrap_err();
+    let err = sim.eval_fish(id, "fish.memory.(").unwrap_err().to_string();
     assert!(err.contains("console (fish #"), "{err}");
-    let err = sim.eval_fish(id, "os.execute('true')").unwrap_err();
+    let err = sim
+        .eval_fish(id, "os.execute('true')")
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("execute"), "{err}");
-    let err = sim.eval_fish(id, "while true do end").unwrap_err();
+    let err = sim
+        .eval_fish(id, "while true do end")
+        .unwrap_err()
+        .to_string();
     assert!(
         err.to_lowercase().contains("budget") || err.contains("limit"),
         "{err}"
@@ -46,6 +52,7 @@ fn the_console_evaluates_in_the_fishs_context_within_the_sandbox() {
     assert!(
         sim.eval_fish(id, "1")
             .unwrap_err()
+            .to_string()
             .contains("not in the tank")
     );
 }

@@ -16,7 +16,7 @@ use glam::Vec3;
 use shoal_core::world::FishId;
 use shoal_script::api;
 use shoal_script::host::{ModuleIndex, ScriptHost};
-use shoal_script::{Limits, Simulation};
+use shoal_script::{DecisionError, Limits, Simulation};
 
 /// Far more than any bounded attack takes, even in a debug build on a busy machine.
 const DEADLINE: Duration = Duration::from_secs(60);
@@ -47,7 +47,7 @@ fn host(root: &Path, limits: Limits) -> ScriptHost {
     h
 }
 
-fn run(host: &mut ScriptHost, m: ModuleIndex, i: u32) -> Result<(), String> {
+fn run(host: &mut ScriptHost, m: ModuleIndex, i: u32) -> Result<(), DecisionError> {
     let t = host.fish_table(fish(i), "porgy", "test").unwrap();
     host.run(m, fish(i), &t, 0.0)
 }
@@ -55,7 +55,7 @@ fn run(host: &mut ScriptHost, m: ModuleIndex, i: u32) -> Result<(), String> {
 /// Runs `attack` (file `behaviors/attack.lua`) once for fish 0 and `fine.lua` (which counts its
 /// decisions) for fish 1, on a thread, under `limits`; returns the attack's result, how long
 /// it took and fish 1's memory. Fails if the attack is not stopped within [`DEADLINE`].
-fn attack(src: &str, limits: Limits) -> (Result<(), String>, Duration, serde_json::Value) {
+fn attack(src: &str, limits: Limits) -> (Result<(), DecisionError>, Duration, serde_json::Value) {
     let src = src.to_owned();
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
@@ -87,8 +87,8 @@ fn attack(src: &str, limits: Limits) -> (Result<(), String>, Duration, serde_jso
     out
 }
 
-fn assert_stopped_at(r: &Result<(), String>, file_line: &str, why: &str) {
-    let err = r.as_ref().expect_err("the attack must fail");
+fn assert_stopped_at(r: &Result<(), DecisionError>, file_line: &str, why: &str) {
+    let err = r.as_ref().expect_err("the attack must fail").to_string();
     assert!(
         err.starts_with(&format!("scripts/behaviors/attack.lua:{file_line}: "))
             && err.contains(why),
@@ -169,13 +169,13 @@ fn test_string_metatable_is_protected() {
     let p2 = h.module("poison2", 0.0).unwrap();
     let v = h.module("victim", 0.0).unwrap();
     assert_eq!(
-        run(&mut h, p, 0),
-        Err("scripts/behaviors/poison.lua:3: attempt to index a boolean value".into())
+        run(&mut h, p, 0).unwrap_err().to_string(),
+        "scripts/behaviors/poison.lua:3: attempt to index a boolean value"
     );
     assert_eq!(h.memory_json(fish(0)), serde_json::json!({"mt": "false"}));
     assert_eq!(
-        run(&mut h, p2, 2),
-        Err("scripts/behaviors/poison2.lua:2: bad argument #1 to 'setmetatable' (table expected, got boolean)".into())
+        run(&mut h, p2, 2).unwrap_err().to_string(),
+        "scripts/behaviors/poison2.lua:2: bad argument #1 to 'setmetatable' (table expected, got boolean)"
     );
     run(&mut h, v, 1).unwrap();
     assert_eq!(
@@ -350,7 +350,7 @@ fn test_doubling_gsub_is_stopped() {
         "return { tick = function(fish)\n  local s = 'x'\n  while true do s = s:gsub('.', '%0%0') end\nend }\n",
         Limits::default(),
     );
-    let err = r.unwrap_err();
+    let err = r.unwrap_err().to_string();
     assert!(
         err.starts_with("scripts/behaviors/attack.lua:3: ")
             && (err.contains("time limit exceeded") || err.contains("memory")),
@@ -365,7 +365,7 @@ fn test_memory_bomb_in_a_loop_is_stopped() {
         "return { tick = function(fish)\n  local t = {}\n  while true do t[#t + 1] = string.rep('x', 1e5) .. #t end\nend }\n",
         Limits::default(),
     );
-    let err = r.unwrap_err();
+    let err = r.unwrap_err().to_string();
     assert!(
         err.starts_with("scripts/behaviors/attack.lua:3: ")
             && (err.contains("time limit exceeded") || err.contains("memory limit exceeded")),
@@ -401,7 +401,7 @@ fn test_repeating_nothing_returns_at_once() {
         "return { tick = function(fish)\n  assert(string.rep('', math.maxinteger) == '')\n  assert(('').rep('', math.maxinteger, '') == '')\n  string.rep('', 2^62, 'x')\nend }\n",
         Limits::default(),
     );
-    let err = r.unwrap_err();
+    let err = r.unwrap_err().to_string();
     assert!(
         err.starts_with("scripts/behaviors/attack.lua") && err.contains("not enough memory")
             || err.contains("too large"),
@@ -439,7 +439,7 @@ fn test_huge_moves_and_chunks_are_refused() {
     assert!(
         match &r {
             Ok(()) => true,
-            Err(e) => e.contains("time limit exceeded"),
+            Err(e) => e.to_string().contains("time limit exceeded"),
         },
         "{r:?}"
     );

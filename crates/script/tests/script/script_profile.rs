@@ -256,7 +256,7 @@ fn sampling_a_metered_call_leaves_its_instruction_count_exact() {
         }
         h.meter().set_tag(Some(m));
         let t = h.fish_table(fish, "black_porgy", "counter").unwrap();
-        let err = h.run(m, fish, &t, 0.0).unwrap_err();
+        let err = h.run(m, fish, &t, 0.0).unwrap_err().to_string();
         assert!(
             err.starts_with("scripts/behaviors/counter.lua:3: instruction budget exceeded"),
             "{err}"

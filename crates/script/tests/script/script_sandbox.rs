@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use shoal_core::world::FishId;
 use shoal_script::host::{ModuleIndex, ScriptHost};
-use shoal_script::{Limits, LogLevel};
+use shoal_script::{DecisionError, Limits, LogLevel};
 
 /// A temporary `scripts/` with the given behaviour files.
 fn scripts(files: &[(&str, &str)]) -> (tempfile::TempDir, PathBuf) {
@@ -47,10 +47,12 @@ fn metered_from_start() -> Limits {
 /// Runs behaviour `name` once for fish 0 and returns its error.
 fn run_err(host: &mut ScriptHost, name: &str) -> String {
     let m = host.module(name, 0.0).expect("module loads");
-    run(host, m, 0).expect_err("the script must fail")
+    run(host, m, 0)
+        .expect_err("the script must fail")
+        .to_string()
 }
 
-fn run(host: &mut ScriptHost, m: ModuleIndex, i: u32) -> Result<(), String> {
+fn run(host: &mut ScriptHost, m: ModuleIndex, i: u32) -> Result<(), DecisionError> {
     let t = host.fish_table(fish(i), "porgy", "test").unwrap();
     host.run(m, fish(i), &t, 0.0)
 }
@@ -249,8 +251,8 @@ fn test_infinite_loop_is_stopped_and_other_fish_run() {
     for _ in 0..3 {
         // Unmetered for its first millisecond, then the watchdog turns the hook on.
         assert_eq!(
-            run(&mut h, spin, 0),
-            Err(format!("scripts/behaviors/spin.lua:3: {DEFAULT_BUDGET}"))
+            run(&mut h, spin, 0).unwrap_err().to_string(),
+            format!("scripts/behaviors/spin.lua:3: {DEFAULT_BUDGET}")
         );
         run(&mut h, fine, 1).unwrap();
     }
@@ -259,8 +261,8 @@ fn test_infinite_loop_is_stopped_and_other_fish_run() {
     let mut h = ScriptHost::new(&root, metered_from_start()).unwrap();
     let spin = h.module("spin", 0.0).unwrap();
     assert_eq!(
-        run(&mut h, spin, 0),
-        Err("scripts/behaviors/spin.lua:3: instruction budget exceeded (200000 instructions per call)".into())
+        run(&mut h, spin, 0).unwrap_err().to_string(),
+        "scripts/behaviors/spin.lua:3: instruction budget exceeded (200000 instructions per call)"
     );
 }
 
@@ -321,11 +323,8 @@ fn test_short_calls_run_without_the_hook() {
     .unwrap();
     let m = h.module("short", 0.0).unwrap();
     assert_eq!(
-        run(&mut h, m, 0),
-        Err(
-            "scripts/behaviors/short.lua:3: instruction budget exceeded (10 instructions per call)"
-                .into()
-        )
+        run(&mut h, m, 0).unwrap_err().to_string(),
+        "scripts/behaviors/short.lua:3: instruction budget exceeded (10 instructions per call)"
     );
 }
 
@@ -377,7 +376,7 @@ fn test_a_metered_call_leaves_the_next_one_unmetered() {
         .unwrap()
         .set("then_loop", true)
         .unwrap();
-    let err = run(&mut h, slow, 0).unwrap_err();
+    let err = run(&mut h, slow, 0).unwrap_err().to_string();
     assert!(
         err.starts_with("scripts/behaviors/slow.lua:5: instruction budget exceeded (100000"),
         "{err}"
@@ -415,8 +414,8 @@ fn test_budget_is_per_call() {
     let mut h = ScriptHost::new(&root, tight).unwrap();
     let m = h.module("busy", 0.0).unwrap();
     assert_eq!(
-        run(&mut h, m, 0),
-        Err("scripts/behaviors/busy.lua:3: instruction budget exceeded (50000 instructions per call)".into())
+        run(&mut h, m, 0).unwrap_err().to_string(),
+        "scripts/behaviors/busy.lua:3: instruction budget exceeded (50000 instructions per call)"
     );
 }
 
@@ -446,7 +445,7 @@ fn test_memory_bomb_is_an_error_not_a_crash() {
     let bomb = h.module("bomb", 0.0).unwrap();
     let fine = h.module("fine", 0.0).unwrap();
     for _ in 0..2 {
-        let err = run(&mut h, bomb, 0).unwrap_err();
+        let err = run(&mut h, bomb, 0).unwrap_err().to_string();
         assert!(
             err.starts_with("scripts/behaviors/bomb.lua:3: memory limit exceeded ("),
             "{err}"

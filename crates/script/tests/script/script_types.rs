@@ -78,7 +78,8 @@ fn test_api_outside_a_tick_is_an_error() {
     let h = host();
     let err = h
         .eval("scripts/console.lua", "local b = shoal.body()\nreturn b")
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert_eq!(
         err,
         "scripts/console.lua:1: shoal.body can only be called while a fish's behaviour runs (from tick, perceive, intend or behave)"

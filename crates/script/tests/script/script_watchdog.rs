@@ -60,7 +60,7 @@ fn test_states_beyond_the_watch_slots_are_metered_from_the_start() {
         };
         let m = h.module("spin", 0.0).unwrap();
         let t = h.fish_table(fish, "porgy", "test").unwrap();
-        let err = h.run(m, fish, &t, 0.0).unwrap_err();
+        let err = h.run(m, fish, &t, 0.0).unwrap_err().to_string();
         if err == exact {
             metered_from_start += 1;
         } else if cfg!(target_os = "linux") {

@@ -54,7 +54,7 @@ use super::Failure;
 use super::trace::{Sample, Trace};
 use crate::Simulation;
 use crate::log::LogEntry;
-use crate::timeline::inputs::{Applied, Input, TimedInput};
+use crate::timeline::inputs::{Applied, Input, InputError, TimedInput};
 use shoal_core::world::{FishId, FoodId};
 
 mod fish_handle;
@@ -81,11 +81,42 @@ struct TestState {
     record_runs: bool,
 }
 
+/// Why a test world cannot be written as a recording (`--trace`): said under the test, beside
+/// its trace.
+#[derive(Debug, Clone, thiserror::Error)]
+enum NoRecording {
+    /// The run did not keep the poses (no `--trace`).
+    #[error("no recording was kept (run with --trace)")]
+    NotKept,
+    /// The world was made without a scene and there is no empty tank scene to name.
+    #[error("the world has no scene file (no scripts/scenes/empty_tank.lua)")]
+    NoScene,
+    /// The world's scene is not a file under the scripts directory a replay could find.
+    #[error("its scene {scene} is not inside {}", scripts.display())]
+    SceneOutside {
+        /// The scene as the test named it.
+        scene: String,
+        /// The scripts directory.
+        scripts: PathBuf,
+    },
+}
+
+/// Why a recording of a test world was not written.
+#[derive(Debug, thiserror::Error)]
+enum RecordingError {
+    /// None could be made.
+    #[error(transparent)]
+    NotMade(#[from] NoRecording),
+    /// Writing it failed.
+    #[error(transparent)]
+    Write(#[from] crate::timeline::run_file::RunFileError),
+}
+
 /// What a `.shoalrun` of a test world needs: how the world was made, what the test did to it
 /// and when, and every tick's poses (kept only under `--trace`).
 struct TestRecording {
     /// The scene, relative to the scripts directory, or why the world cannot be recorded.
-    scene: Result<String, String>,
+    scene: Result<String, NoRecording>,
     seed: u64,
     scripts: std::collections::BTreeMap<String, crate::timeline::run_file::ScriptFile>,
     frames: Vec<Vec<crate::timeline::run_file::Pose>>,
@@ -122,7 +153,7 @@ fn cell_text(value: serde_json::Value) -> String {
 
 impl WorldState {
     /// Applies a test's action on the world and keeps it (with its tick) for a recording.
-    fn input(&mut self, input: Input) -> Result<Applied, String> {
+    fn input(&mut self, input: Input) -> Result<Applied, InputError> {
         let applied = crate::timeline::inputs::apply(&mut self.sim, &input)?;
         self.inputs.push(TimedInput {
             tick: self.sim.world().tick_count(),
@@ -132,12 +163,9 @@ impl WorldState {
     }
 
     /// The world as a recording (`.shoalrun`): `Err` says why it cannot be one.
-    fn to_run(&self) -> Result<crate::timeline::run_file::Run, String> {
+    fn to_run(&self) -> Result<crate::timeline::run_file::Run, NoRecording> {
         use crate::timeline::run_file::{Run, RunHeader};
-        let rec = self
-            .recording
-            .as_ref()
-            .ok_or("no recording was kept (run with --trace)")?;
+        let rec = self.recording.as_ref().ok_or(NoRecording::NotKept)?;
         let scene = rec.scene.clone()?;
         let mut frames = rec.frames.clone();
         if frames.is_empty() {

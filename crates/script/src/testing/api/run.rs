@@ -25,13 +25,30 @@ pub(super) fn test_lua() -> mlua::Result<Lua> {
     Ok(lua)
 }
 
-/// The tests a file declares, in order, with the Lua state they run in; an error message when the
-/// file does not load.
+/// The tests a file declares, in order, with the Lua state they run in.
 type Declared = (Lua, Vec<(String, mlua::Function)>);
 
-pub(super) fn load_tests(file: &Path, options: &RunOptions) -> Result<Declared, String> {
-    let source = std::fs::read_to_string(file).map_err(|e| format!("cannot read: {e}"))?;
-    let lua = test_lua().map_err(|e| format!("cannot create a Lua state: {e}"))?;
+/// Why a test file did not load (its one failure, under the file's name).
+#[derive(Debug, thiserror::Error)]
+pub(super) enum TestFileError {
+    /// The file could not be read.
+    #[error("cannot read: {0}")]
+    Read(#[source] std::io::Error),
+    /// No Lua state could be made for it.
+    #[error("cannot create a Lua state: {0}")]
+    State(#[source] mlua::Error),
+    /// `test` could not be made a global.
+    #[error("cannot register test(): {0}")]
+    Register(#[source] mlua::Error),
+    /// Running the file raised an error (a syntax error, an error at its top level); the
+    /// message is the first line of Lua's.
+    #[error("{}", first_line(&.0.to_string()))]
+    Run(mlua::Error),
+}
+
+pub(super) fn load_tests(file: &Path, options: &RunOptions) -> Result<Declared, TestFileError> {
+    let source = std::fs::read_to_string(file).map_err(TestFileError::Read)?;
+    let lua = test_lua().map_err(TestFileError::State)?;
     let declared: Cell<Vec<(String, mlua::Function)>> = Cell::new(Vec::new());
     let register = {
         let declared = declared.clone();
@@ -42,12 +59,12 @@ pub(super) fn load_tests(file: &Path, options: &RunOptions) -> Result<Declared, 
     };
     register
         .and_then(|f| lua.globals().set("test", f))
-        .map_err(|e| format!("cannot register test(): {e}"))?;
+        .map_err(TestFileError::Register)?;
     let chunk_name = format!("@{}", display_path(file, &options.root));
     lua.load(&source)
         .set_name(chunk_name)
         .exec()
-        .map_err(|e| first_line(&e.to_string()))?;
+        .map_err(TestFileError::Run)?;
     let tests = std::mem::take(&mut *declared.borrow_mut());
     Ok((lua, tests))
 }
@@ -64,14 +81,14 @@ pub fn test_names(file: &Path, options: &RunOptions) -> Vec<String> {
 pub fn run_file(file: &Path, options: &RunOptions) -> Vec<TestOutcome> {
     let (lua, tests) = match load_tests(file, options) {
         Ok(declared) => declared,
-        Err(message) => {
+        Err(e) => {
             return vec![TestOutcome {
                 file: file.to_path_buf(),
                 name: "(load)".into(),
                 failures: vec![Failure {
                     file: file.to_path_buf(),
                     line: None,
-                    message,
+                    message: e.to_string(),
                     sim_time: 0.0,
                 }],
                 sim_seconds: 0.0,
@@ -254,10 +271,11 @@ pub(super) fn run_one(
             }
             // The recording, to open the failing moment in the window (`shoal run --open`).
             let run_path = dir.join(format!("{base}.shoalrun"));
-            let written = world
+            let written: Result<(), super::RecordingError> = world
                 .borrow()
                 .to_run()
-                .and_then(|run| run.write(&run_path).map_err(|e| e.to_string()));
+                .map_err(Into::into)
+                .and_then(|run| Ok(run.write(&run_path)?));
             match written {
                 Ok(()) => trace_files.push(run_path),
                 Err(why) => output.push(ScriptLine {

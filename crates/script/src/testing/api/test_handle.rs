@@ -1,10 +1,10 @@
 //! `t`, the handle a test function receives: `t:world{…}` and the checks.
 
-use super::TestRecording;
 use super::{
     Cell, FOOD_PHYSICS_KEYS, TANK_KEYS, TestHandle, WORLD_KEYS, WorldHandle, WorldState,
     caller_line, check_keys, located, make_scratch, vec3_from,
 };
+use super::{NoRecording, TestRecording};
 use crate::Simulation;
 use crate::testing::Failure;
 use crate::timeline::inputs::Input;
@@ -20,7 +20,7 @@ fn recording_of(root: &Path, scene: Option<&str>, seed: u64) -> TestRecording {
         None if scripts_dir.join("scenes/empty_tank.lua").is_file() => {
             Ok("scenes/empty_tank.lua".to_owned())
         }
-        None => Err("the world has no scene file (no scripts/scenes/empty_tank.lua)".to_owned()),
+        None => Err(NoRecording::NoScene),
         Some(s) => [
             Path::new(s).to_path_buf(),
             root.join(s),
@@ -38,7 +38,10 @@ fn recording_of(root: &Path, scene: Option<&str>, seed: u64) -> TestRecording {
                     .join("/")
             })
         })
-        .ok_or_else(|| format!("its scene {s} is not inside {}", scripts_dir.display())),
+        .ok_or_else(|| NoRecording::SceneOutside {
+            scene: s.to_owned(),
+            scripts: scripts_dir.clone(),
+        }),
     };
     let scripts = crate::timeline::run_file::read_scripts(&scripts_dir).unwrap_or_default();
     TestRecording {
