@@ -572,7 +572,7 @@ pub fn reference_palette(
     root: &RootState,
     yaw: &[f32],
     out: &mut [Mat4],
-) -> Result<(), String> {
+) -> Result<(), ReferencePoseError> {
     let skeleton = &species.model.skeleton;
     let mut locals = vec![JointTransform::IDENTITY; skeleton.num_joints()];
     species.rig.pose(yaw, &mut locals);
@@ -583,9 +583,20 @@ pub fn reference_palette(
             &locals,
             &mut models,
         )
-        .run()
-        .map_err(|e| e.to_string())?;
-    crate::skin::palette(&models, &species.model.inverse_bind_poses, out).map_err(|e| e.to_string())
+        .run()?;
+    crate::skin::palette(&models, &species.model.inverse_bind_poses, out)?;
+    Ok(())
+}
+
+/// Why [`reference_palette`] could not pose a fish: the layer that refused, with its own error.
+#[derive(Debug, thiserror::Error)]
+pub enum ReferencePoseError {
+    /// Forward kinematics refused the skeleton or its local transforms.
+    #[error(transparent)]
+    Skeleton(#[from] crate::skeleton::SkeletonError),
+    /// Skinning refused the models or the inverse bind poses.
+    #[error(transparent)]
+    Skin(#[from] crate::skin::SkinError),
 }
 
 /// A fish's per-joint palette from its slots: `out[j] = slots[slot_of_joint[j]]` for every
