@@ -463,9 +463,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
                     .iter()
                     .map(|l| format!("{} (error {:.3})", l.num_triangles(), l.error))
                     .collect();
-                let shadow = renderer
-                    .mesh_shadow_level(id)
-                    .map_or(0, |l| l.num_triangles());
+                let shadow = renderer.mesh_shadow_level(id).map_or(String::new(), |l| {
+                    format!("{} (error {:.3})", l.num_triangles(), l.error)
+                });
                 println!(
                     "mesh: {} ({num_joints} joints), triangles per level of detail: {}; \
                      shadow: {shadow}",
