@@ -70,6 +70,12 @@ pub struct WorldState {
     pub(super) next_drop_s: f64,
     /// How pellets sink and how long they last.
     pub(super) food_physics: FoodPhysics,
+    /// Whether the world's last grid rebuild filled the crowd columns (see `index.rs`): set by
+    /// [`World::snapshot`] only (false in the live state). The crowd queries sum over the columns
+    /// in another order than over the fish arrays, so the sums round differently; a restored
+    /// world fills the columns exactly when the snapshot's world had them, or a replay from a
+    /// snapshot parts from its recording (70 of 10,000 fish did, one tick after the snapshot).
+    pub(super) crowd_columns: bool,
 }
 
 impl WorldState {
@@ -90,6 +96,7 @@ impl WorldState {
             food_drops: None,
             next_drop_s: f64::INFINITY,
             food_physics: FoodPhysics::default(),
+            crowd_columns: false,
         }
     }
 
@@ -157,7 +164,10 @@ pub fn random_point(rng: &mut Pcg32, min: Vec3, max: Vec3) -> Vec3 {
 impl World {
     /// A copy of the world's state (see [`WorldState`]).
     pub fn snapshot(&self) -> WorldState {
-        self.state.clone()
+        WorldState {
+            crowd_columns: self.index.crowd_columns.len() > 0,
+            ..self.state.clone()
+        }
     }
 
     /// Puts back a state taken by [`World::snapshot`] of this world (or of a world with the same
@@ -181,6 +191,11 @@ impl World {
             self.index.food_grid = fresh.index.food_grid;
         }
         self.index.food_changed();
+        // The columns exactly when the snapshot's world had them (see `WorldState::crowd_columns`).
+        let crowd_columns = std::mem::take(&mut self.state.crowd_columns);
+        self.index
+            .crowd_wanted
+            .store(crowd_columns, std::sync::atomic::Ordering::Relaxed);
         // The state may come from a world that left the body shapes to the GPU.
         self.pose.shapes_current = false;
         self.refresh_predators();
