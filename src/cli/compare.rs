@@ -33,9 +33,11 @@ pub struct Args {
     #[arg(long, required_unless_present = "merge", allow_negative_numbers = true)]
     pub seconds: Option<f64>,
     /// Run only this shard of the seeds (`i/n`, 1-based: seeds i, i+n, i+2n…); merge the
-    /// shards' `--json` outputs with `--merge`.
-    #[arg(long, value_parser = compare::parse_shard)]
-    pub shard: Option<(u32, u32)>,
+    /// shards' `--json` outputs with `--merge`. `auto` (or `auto/n`) takes the shard from the
+    /// scheduler running the command: a Slurm job array, GitLab CI's `parallel:`, a Kubernetes
+    /// Indexed Job (count from `auto/n`) or `SHOAL_SHARD=i/n`.
+    #[arg(long, value_parser = compare::parse_shard_arg)]
+    pub shard: Option<compare::ShardArg>,
     /// Merge the JSON of shards of one experiment instead of running one.
     #[arg(long, num_args = 1.., value_name = "SHARD.json", conflicts_with_all = ["a", "b", "seeds", "seconds", "shard", "scene"])]
     pub merge: Vec<PathBuf>,
@@ -113,11 +115,13 @@ fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
     }
     .resolve()?
     .root;
-    let seeds_here = compare::shard_seeds(seeds, args.shard);
-    let threads = rayon::current_num_threads();
-    let shard = args
+    let shard_of = args
         .shard
-        .map_or(String::new(), |(i, n)| format!(" (shard {i}/{n})"));
+        .map(|arg| compare::resolve_shard(arg, |name| std::env::var(name).ok()))
+        .transpose()?;
+    let seeds_here = compare::shard_seeds(seeds, shard_of);
+    let threads = rayon::current_num_threads();
+    let shard = shard_of.map_or(String::new(), |(i, n)| format!(" (shard {i}/{n})"));
     if !args.json {
         println!(
             "comparing A = {} and B = {} on {scene}: {} seeds{shard} × {seconds} s, {} runs on {threads} threads",
@@ -133,7 +137,7 @@ fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
         b: &b,
         scene: &scene,
         seeds,
-        shard: args.shard,
+        shard: shard_of,
         seconds,
     })?)
 }

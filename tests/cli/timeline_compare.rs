@@ -163,17 +163,67 @@ fn the_compare_command_as_a_designer_uses_it() {
     assert!(out.contains("2 seeds × 1 s, 4 runs"), "{out}");
     assert!(out.contains("school polarization"), "{out}");
     assert!(dir.path().join("c.png").is_file());
-    for shard in ["1/2", "2/2"] {
-        let (ok, out, err) = run(&[&base[..], &["--shard", shard, "--json"]].concat());
-        assert!(ok, "{err}");
-        let json: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // Shards as separate processes, as schedulers start them: `--shard auto` reads a Slurm
+    // array's index (0-based array here) for one and GitLab's parallel index for the other.
+    let shards: [(&str, &[(&str, &str)]); 2] = [
+        (
+            "1",
+            &[
+                ("SLURM_ARRAY_TASK_ID", "0"),
+                ("SLURM_ARRAY_TASK_MIN", "0"),
+                ("SLURM_ARRAY_TASK_COUNT", "2"),
+            ],
+        ),
+        ("2", &[("CI_NODE_INDEX", "2"), ("CI_NODE_TOTAL", "2")]),
+    ];
+    for (k, vars) in shards {
+        let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+            .args([&base[..], &["--shard", "auto", "--json"]].concat())
+            .envs(vars.iter().copied())
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        );
+        assert!(out.status.success(), "{stderr}");
+        let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
         assert_eq!(json["a"]["runs"].as_array().unwrap().len(), 1);
-        std::fs::write(dir.path().join(format!("s{}.json", &shard[..1])), out).unwrap();
+        assert_eq!(
+            json["shard"],
+            serde_json::json!([k.parse::<u32>().unwrap(), 2])
+        );
+        std::fs::write(dir.path().join(format!("s{k}.json")), stdout).unwrap();
     }
     let (ok, out, err) = run(&["compare", "--merge", "s1.json", "s2.json", "--json"]);
     assert!(ok, "{err}");
     let json: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(json["a"]["runs"].as_array().unwrap().len(), 2);
+    // Bit for bit the runs of the unsharded experiment (all but the CPU time per decision,
+    // which is measured, not simulated).
+    let (ok, whole, err) = run(&[&base[..], &["--json"]].concat());
+    assert!(ok, "{err}");
+    let whole: serde_json::Value = serde_json::from_str(&whole).unwrap();
+    let simulated = |v: &serde_json::Value| {
+        let mut runs = v.as_array().unwrap().clone();
+        for r in &mut runs {
+            r.as_object_mut().unwrap().remove("decision_us");
+        }
+        runs
+    };
+    for version in ["a", "b"] {
+        assert_eq!(
+            simulated(&json[version]["runs"]),
+            simulated(&whole[version]["runs"]),
+            "{version}"
+        );
+    }
+    let (ok, _, err) = run(&[&base[..], &["--shard", "auto"]].concat());
+    assert!(
+        !ok && err.contains("--shard auto: no scheduler's shard index"),
+        "{err}"
+    );
     assert!(
         json["summary"]
             .as_array()

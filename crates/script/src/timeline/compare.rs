@@ -252,14 +252,59 @@ pub fn shard_seeds(seeds: u64, shard: Option<(u32, u32)>) -> Vec<u64> {
         .collect()
 }
 
-/// `--shard` given something other than `i/n` with 1 ≤ i ≤ n.
+/// What `--shard` was given: a fixed `i/n`, or `auto` (optionally `auto/n`), resolved from the
+/// scheduler's environment when the command runs ([`resolve_shard`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShardArg {
+    /// `i/n`, 1 ≤ i ≤ n.
+    Fixed(u32, u32),
+    /// `auto` or `auto/n`: the index (and, without `/n`, the count) from the environment.
+    Auto(Option<u32>),
+}
+
+/// The schedulers' variables `--shard auto` reads, in the order tried: `SHOAL_SHARD` (`i/n`);
+/// a Slurm job array (`SLURM_ARRAY_TASK_ID`, `SLURM_ARRAY_TASK_MIN`, `SLURM_ARRAY_TASK_COUNT`);
+/// GitLab CI's `parallel:` (`CI_NODE_INDEX`, 1-based, `CI_NODE_TOTAL`); a Kubernetes Indexed
+/// Job (`JOB_COMPLETION_INDEX`, 0-based; the count is not in its environment: `--shard auto/n`).
+pub const SHARD_VARIABLES: [&str; 7] = [
+    "SHOAL_SHARD",
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_COUNT",
+    "CI_NODE_INDEX",
+    "CI_NODE_TOTAL",
+    "JOB_COMPLETION_INDEX",
+];
+
+/// `--shard` given something shoal cannot use.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("--shard {0}: expected i/n with 1 ≤ i ≤ n, such as 2/4")]
-pub struct ShardError(pub String);
+pub enum ShardError {
+    /// Not `i/n` with 1 ≤ i ≤ n, nor `auto` or `auto/n`.
+    #[error("--shard {0}: expected i/n with 1 ≤ i ≤ n, such as 2/4, or auto (auto/n)")]
+    Syntax(String),
+    /// `auto`, and none of the schedulers' variables is set.
+    #[error(
+        "--shard {0}: no scheduler's shard index in the environment (looked for SHOAL_SHARD, \
+         SLURM_ARRAY_TASK_ID, CI_NODE_INDEX, JOB_COMPLETION_INDEX)"
+    )]
+    NoScheduler(String),
+    /// A scheduler's variable holds something that is not a shard of the count.
+    #[error("--shard {arg}: {variable}={value} {why}")]
+    Variable {
+        /// What `--shard` was given.
+        arg: String,
+        /// The variable.
+        variable: &'static str,
+        /// Its value.
+        value: String,
+        /// What is wrong with it.
+        why: &'static str,
+    },
+}
 
 /// Parses `i/n` (1 ≤ i ≤ n).
 pub fn parse_shard(text: &str) -> Result<(u32, u32), ShardError> {
-    let bad = || ShardError(text.to_owned());
+    let bad = || ShardError::Syntax(text.to_owned());
     let (i, n) = text.split_once('/').ok_or_else(bad)?;
     let (i, n): (u32, u32) = (
         i.trim().parse().map_err(|_| bad())?,
@@ -269,6 +314,91 @@ pub fn parse_shard(text: &str) -> Result<(u32, u32), ShardError> {
         return Err(bad());
     }
     Ok((i, n))
+}
+
+/// Parses `--shard`: `i/n`, `auto` or `auto/n`.
+pub fn parse_shard_arg(text: &str) -> Result<ShardArg, ShardError> {
+    match text.trim().strip_prefix("auto") {
+        Some("") => Ok(ShardArg::Auto(None)),
+        Some(rest) => match rest.strip_prefix('/').map(|n| n.trim().parse::<u32>()) {
+            Some(Ok(n)) if n > 0 => Ok(ShardArg::Auto(Some(n))),
+            _ => Err(ShardError::Syntax(text.to_owned())),
+        },
+        None => parse_shard(text).map(|(i, n)| ShardArg::Fixed(i, n)),
+    }
+}
+
+/// The shard `arg` names, reading the schedulers' variables through `env` (see
+/// [`SHARD_VARIABLES`]); `auto/n` takes its count from `n`, over any in the environment.
+pub fn resolve_shard(
+    arg: ShardArg,
+    env: impl Fn(&str) -> Option<String>,
+) -> Result<(u32, u32), ShardError> {
+    let count = match arg {
+        ShardArg::Fixed(i, n) => return Ok((i, n)),
+        ShardArg::Auto(count) => count,
+    };
+    let name = match count {
+        Some(n) => format!("auto/{n}"),
+        None => "auto".to_owned(),
+    };
+    let number = |variable: &'static str| -> Result<Option<u32>, ShardError> {
+        env(variable)
+            .map(|value| {
+                value
+                    .trim()
+                    .parse::<u32>()
+                    .map_err(|_| ShardError::Variable {
+                        arg: name.clone(),
+                        variable,
+                        value: value.clone(),
+                        why: "is not a whole number",
+                    })
+            })
+            .transpose()
+    };
+    let check = |i: u32, n: Option<u32>, variable: &'static str| {
+        let n = count.or(n).ok_or(ShardError::Variable {
+            arg: name.clone(),
+            variable,
+            value: i.to_string(),
+            why: "gives the index but not the count: use --shard auto/N",
+        })?;
+        if i == 0 || i > n {
+            return Err(ShardError::Variable {
+                arg: name.clone(),
+                variable,
+                value: env(variable).unwrap_or_default(),
+                why: "is not a shard of the count",
+            });
+        }
+        Ok((i, n))
+    };
+    if let Some(value) = env("SHOAL_SHARD") {
+        let (i, n) = parse_shard(&value).map_err(|_| ShardError::Variable {
+            arg: name.clone(),
+            variable: "SHOAL_SHARD",
+            value: value.clone(),
+            why: "is not i/n with 1 ≤ i ≤ n",
+        })?;
+        return check(i, Some(n), "SHOAL_SHARD");
+    }
+    if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        // Arrays may start anywhere (--array=0-7 or 1-8): the shard is the id's place in it.
+        let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(1).min(id);
+        return check(
+            id - min + 1,
+            number("SLURM_ARRAY_TASK_COUNT")?,
+            "SLURM_ARRAY_TASK_ID",
+        );
+    }
+    if let Some(i) = number("CI_NODE_INDEX")? {
+        return check(i, number("CI_NODE_TOTAL")?, "CI_NODE_INDEX");
+    }
+    if let Some(i) = number("JOB_COMPLETION_INDEX")? {
+        return check(i + 1, None, "JOB_COMPLETION_INDEX");
+    }
+    Err(ShardError::NoScheduler(name))
 }
 
 /// Runs the experiment: every (version, seed) run on its own core.
@@ -608,6 +738,68 @@ fn school_sample(world: &World) -> (Option<f64>, Option<f64>) {
 
 #[cfg(test)]
 mod tests {
+    /// `--shard auto` as each scheduler runs it: the index (and count) from its variables,
+    /// 0- or 1-based as it numbers them; one line naming the variable for each thing wrong.
+    #[test]
+    fn auto_shards_read_each_schedulers_variables() {
+        let with = |vars: &[(&str, &str)]| {
+            let vars: Vec<(String, String)> = vars
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), (*v).to_owned()))
+                .collect();
+            move |name: &str| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone())
+        };
+        let auto = ShardArg::Auto(None);
+        let slurm = with(&[
+            ("SLURM_ARRAY_TASK_ID", "3"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_COUNT", "8"),
+        ]);
+        assert_eq!(resolve_shard(auto, slurm), Ok((4, 8)));
+        let slurm_1 = with(&[
+            ("SLURM_ARRAY_TASK_ID", "8"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_COUNT", "8"),
+        ]);
+        assert_eq!(resolve_shard(auto, slurm_1), Ok((8, 8)));
+        let gitlab = with(&[("CI_NODE_INDEX", "2"), ("CI_NODE_TOTAL", "5")]);
+        assert_eq!(resolve_shard(auto, gitlab), Ok((2, 5)));
+        let k8s = with(&[("JOB_COMPLETION_INDEX", "0")]);
+        assert_eq!(resolve_shard(ShardArg::Auto(Some(4)), &k8s), Ok((1, 4)));
+        let e = resolve_shard(auto, &k8s).unwrap_err().to_string();
+        assert!(
+            e.contains("JOB_COMPLETION_INDEX") && e.contains("auto/N"),
+            "{e}"
+        );
+        assert_eq!(
+            resolve_shard(auto, with(&[("SHOAL_SHARD", "3/4")])),
+            Ok((3, 4))
+        );
+        assert_eq!(resolve_shard(ShardArg::Fixed(2, 3), with(&[])), Ok((2, 3)));
+        let e = resolve_shard(auto, with(&[])).unwrap_err().to_string();
+        assert!(
+            e.contains("--shard auto: no scheduler") && e.contains("SLURM_ARRAY_TASK_ID"),
+            "{e}"
+        );
+        let e = resolve_shard(
+            auto,
+            with(&[("CI_NODE_INDEX", "6"), ("CI_NODE_TOTAL", "5")]),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("CI_NODE_INDEX=6") && e.contains("not a shard"),
+            "{e}"
+        );
+        let e = resolve_shard(auto, with(&[("SLURM_ARRAY_TASK_ID", "x")]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("SLURM_ARRAY_TASK_ID=x is not a whole number"),
+            "{e}"
+        );
+    }
+
     use super::*;
 
     #[test]
@@ -634,6 +826,12 @@ mod tests {
         assert_eq!(sorted, (1..=10).collect::<Vec<_>>());
         assert_eq!(shard_seeds(10, Some((2, 3))), vec![2, 5, 8]);
         assert_eq!(parse_shard("2/4"), Ok((2, 4)));
+        assert_eq!(parse_shard_arg("2/4"), Ok(ShardArg::Fixed(2, 4)));
+        assert_eq!(parse_shard_arg("auto"), Ok(ShardArg::Auto(None)));
+        assert_eq!(parse_shard_arg("auto/8"), Ok(ShardArg::Auto(Some(8))));
+        for bad in ["auto/0", "auto/x", "autox", "auto8"] {
+            assert!(parse_shard_arg(bad).is_err(), "{bad}");
+        }
         for bad in ["0/4", "5/4", "2", "a/b", "1/0"] {
             assert!(parse_shard(bad).is_err(), "{bad}");
         }
