@@ -16,19 +16,40 @@ if (!file || times.length === 0 || times.some((t) => !Number.isFinite(t))) {
   process.exit(2);
 }
 
-/** Loads `file` with GLTFLoader, resolving a .gltf's external buffers from disk. */
-export async function load(file) {
+/**
+ * `file` as GLB bytes: a .glb as it is; a .gltf with its one external buffer packed in (three.js
+ * fetches external buffers through browser APIs node lacks).
+ */
+function glbBytes(file) {
   const bytes = fs.readFileSync(file);
-  let data = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-  const manager = new THREE.LoadingManager();
-  // A .gltf names its .bin by URI: hand three.js the file's bytes as a data URI.
-  manager.setURLModifier((url) => {
-    if (url.startsWith("data:")) return url;
-    const full = path.resolve(path.dirname(file), decodeURIComponent(url));
-    const b64 = fs.readFileSync(full).toString("base64");
-    return `data:application/octet-stream;base64,${b64}`;
-  });
-  const loader = new GLTFLoader(manager);
+  if (!file.endsWith(".gltf")) return bytes;
+  const json = JSON.parse(bytes.toString("utf8"));
+  if ((json.buffers ?? []).length !== 1 || !json.buffers[0].uri) {
+    throw new Error("a .gltf with exactly one external buffer is expected");
+  }
+  const bin = fs.readFileSync(path.resolve(path.dirname(file), decodeURIComponent(json.buffers[0].uri)));
+  delete json.buffers[0].uri;
+  const pad = (b, fill) => Buffer.concat([b, Buffer.alloc((4 - (b.length % 4)) % 4, fill)]);
+  const text = pad(Buffer.from(JSON.stringify(json)), 0x20);
+  const data = pad(bin, 0);
+  const header = Buffer.alloc(12);
+  header.write("glTF", 0);
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(12 + 8 + text.length + 8 + data.length, 8);
+  const chunk = (len, type) => {
+    const c = Buffer.alloc(8);
+    c.writeUInt32LE(len, 0);
+    c.write(type, 4);
+    return c;
+  };
+  return Buffer.concat([header, chunk(text.length, "JSON"), text, chunk(data.length, "BIN\0"), data]);
+}
+
+/** Loads `file` with GLTFLoader. */
+export async function load(file) {
+  const bytes = glbBytes(file);
+  const data = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
+  const loader = new GLTFLoader();
   return new Promise((resolve, reject) => loader.parse(data, "", resolve, reject));
 }
 

@@ -306,7 +306,9 @@ pub fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
                     )
                 })
                 .collect();
-            println!("      {}", joints.join("  "));
+            for line in joints.chunks(4) {
+                println!("      {}", line.join("  "));
+            }
         }
     }
     Ok(ExitCode::SUCCESS)

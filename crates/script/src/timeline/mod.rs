@@ -47,6 +47,10 @@ pub enum TimelineError {
     /// Something about the request.
     #[error("{0}")]
     Invalid(String),
+    /// The recording's own scripts (written to a temporary directory to run again) or the
+    /// species they name failed to load; the message names them as `recording:PATH`.
+    #[error("{0}")]
+    RecordedScripts(String),
 }
 
 /// Every fish's pose now, in the world's dense order.
@@ -282,6 +286,22 @@ pub fn replay_recorded(
         seed: run.header.seed,
         lanes: run.header.lanes,
         seconds: 0.0,
+    })
+    .map_err(|e| match e {
+        // Name the recorded scripts as the recording's, not by the temporary directory.
+        TimelineError::Script(e) => {
+            let mut text = e.to_string();
+            let dir = old.path();
+            let mut names = vec![format!("{}/", dir.display())];
+            if let Some(name) = dir.file_name() {
+                names.push(format!("{}/", name.to_string_lossy()));
+            }
+            for n in names {
+                text = text.replace(&n, "recording:");
+            }
+            TimelineError::RecordedScripts(text)
+        }
+        e => e,
     })?;
     let inputs = &run.header.inputs;
     // Inputs of tick 0 (a test's tank and first spawns) come before the first frame.
