@@ -75,7 +75,7 @@ gltf.scene.traverse((o) => {
 const centre = box.getCenter(new THREE.Vector3());
 const radius = box.getSize(new THREE.Vector3()).length() / 2;
 const camera = new THREE.PerspectiveCamera(40, W / H, 1, 1e5);
-camera.position.copy(centre).add(new THREE.Vector3(0.35, 0.45, 1).normalize().multiplyScalar(radius * 2.2));
+camera.position.copy(centre).add(new THREE.Vector3(0.35, 0.45, 1).normalize().multiplyScalar(radius * 1.5));
 camera.lookAt(centre);
 camera.updateMatrixWorld(true);
 const light = new THREE.Vector3(0.3, 1, 0.5).normalize();

@@ -99,7 +99,7 @@ impl Progress {
             Stage::Replay => "running the recording again: tick",
             Stage::Write => "writing fish",
         };
-        let pct = if total == 0 { 100 } else { done * 100 / total };
+        let pct = (done * 100).checked_div(total).unwrap_or(100);
         let mut err = std::io::stderr().lock();
         if self.tty {
             let _ = write!(err, "\r{what} {done}/{total} ({pct} %)   ");

@@ -493,9 +493,9 @@ impl SchoolAnimation<'_> {
                 animated_rest[j] = Some(k);
             }
             let driven = s.rig.driven_joints.len();
-            for j in 0..n {
+            for (j, animated) in animated_rest.iter().enumerate() {
                 let rest = skel.rest_locals()[j];
-                let rotation = match animated_rest[j] {
+                let rotation = match *animated {
                     Some(k) if keys > 0 => f.joint_rotations[k],
                     _ => rest.rotation,
                 };

@@ -260,6 +260,9 @@ fn sample_of(
     })
 }
 
+/// A fish of a recording: slot index and generation.
+type FishKey = (u32, u32);
+
 fn ticks_in(run: &Run, s: f64) -> usize {
     (s * run.header.tick_hz).round() as usize
 }
@@ -467,7 +470,7 @@ pub fn export(
     let mut track_of: HashMap<(u32, u32), usize> = HashMap::new();
     let mut first_last: Vec<(usize, usize)> = Vec::new();
     let mut samples_prev: HashMap<(u32, u32), Sample> = HashMap::new();
-    let mut pending: Vec<(usize, Vec<((u32, u32), Sample)>)> = Vec::new();
+    let mut pending: Vec<(usize, Vec<(FishKey, Sample)>)> = Vec::new();
     let mut worst: Option<(f32, f64, String)> = None;
     let mut locals = Vec::new();
     let mut checked = false;
@@ -494,9 +497,24 @@ pub fn export(
                     m.positions.len() * 80 + m.indices.len() * 4
                 })
                 .sum();
-            // Tracks, the binary buffer, and the packed file: three copies of the keys.
+            let joints = (0..world.num_species())
+                .map(|s| {
+                    world
+                        .species(SpeciesId(s as u16))
+                        .model
+                        .skeleton
+                        .num_joints()
+                })
+                .max()
+                .unwrap_or(0);
+            // Three copies of the keys (the tracks, the binary buffer, the packed file), the
+            // document's JSON tree (about 2 KiB per node of a fish, calibrated on 1,000
+            // porgies), the meshes, and the running simulation (its state, plus a base for the
+            // Lua lanes, palettes and code).
             let estimate = 3 * (keys.len() * n_fish * key_bytes(driven) + mesh_bytes) as u64
-                + (n_fish * 2048) as u64;
+                + (n_fish * (joints + 4) * 2048) as u64
+                + world.state().approx_bytes() as u64
+                + (64 << 20);
             if estimate > spec.memory_limit {
                 refused = Some(ExportError::TooLarge {
                     fish: n_fish,
