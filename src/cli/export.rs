@@ -20,7 +20,7 @@ use shoal_script::timeline::run_file::Run;
 /// Arguments of `shoal export`.
 #[derive(Debug, clap::Args)]
 pub struct ExportArgs {
-    /// The recording (`shoal record`, `shoal run --record`).
+    /// The recording (`shoal record`, `shoal replay`, or a failing behaviour test's `--trace`).
     pub run: PathBuf,
     /// The file to write: `.glb` (one binary file) or `.gltf` (JSON, with a `.bin` beside it).
     #[arg(long)]
