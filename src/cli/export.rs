@@ -283,12 +283,12 @@ pub fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(m) = &ins.at {
         println!(
-            "  at {:.3} s (tick {}): root, heading and pitch (degrees), then each joint's world position",
+            "  at {:.3} s (tick {}): where each fish is (its head end), heading and pitch (degrees), then each joint's world position",
             m.t_s, m.tick
         );
         for f in &m.fish {
             println!(
-                "    {:<8} root ({:.2}, {:.2}, {:.2})  heading {:.1}  pitch {:.1}",
+                "    {:<8} at ({:.2}, {:.2}, {:.2})  heading {:.1}  pitch {:.1}",
                 f.id,
                 f.pos[0],
                 f.pos[1],
