@@ -10,6 +10,7 @@ pub mod bench_history;
 pub mod bench_peer;
 pub mod check;
 pub mod compare;
+pub mod export;
 pub mod kinematics;
 pub mod motion;
 pub mod plot;
@@ -61,6 +62,10 @@ pub enum Command {
     /// An A/B experiment: two versions of the scripts over many seeds, with the measures a
     /// designer tunes for, their 95 % intervals and which differences are significant.
     Compare(compare::Args),
+    /// Export a recording as glTF skeletal animation (Blender, Unreal, Unity, Godot, three.js).
+    Export(export::ExportArgs),
+    /// What a recording holds and, at a time, every fish's root and joint positions.
+    Inspect(export::InspectArgs),
 }
 
 /// `--dap [ADDR]` and `--dap-allow-remote` of `shoal run` and `shoal test`: debug the scripts
@@ -243,6 +248,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Replay(args)) => timeline::replay(args),
         Some(Command::Diff(args)) => timeline::diff(args),
         Some(Command::Compare(args)) => compare::run(args),
+        Some(Command::Export(args)) => export::run_export(args),
+        Some(Command::Inspect(args)) => export::run_inspect(args),
     }
 }
 

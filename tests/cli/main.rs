@@ -9,6 +9,7 @@ mod behavior_suite;
 mod bench_peer;
 mod common;
 mod dap;
+mod export;
 mod motion_cli;
 mod motion_kinematics;
 mod motion_plot;

@@ -175,9 +175,47 @@ impl GlbBuilder {
         a
     }
 
+    /// SCALAR float keyframe times (an animation sampler's input), with the min/max glTF
+    /// requires there; no buffer-view target (animation data is not a vertex attribute).
+    pub fn key_times(&mut self, times: &[f32]) -> usize {
+        let bytes: Vec<u8> = times.iter().flat_map(|t| t.to_le_bytes()).collect();
+        let view = self.view(&bytes, None);
+        let a = self.accessor(view, FLOAT, times.len(), "SCALAR");
+        let min = times.iter().copied().fold(f32::INFINITY, f32::min);
+        let max = times.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        self.accessors[a]["min"] = json!([min]);
+        self.accessors[a]["max"] = json!([max]);
+        a
+    }
+
+    /// Float keyframe values (an animation sampler's output): `data` holds `count` elements of
+    /// `ty` (`"VEC3"`, `"VEC4"`…) back to back; no buffer-view target.
+    pub fn key_values(&mut self, data: &[f32], count: usize, ty: &str) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let view = self.view(&bytes, None);
+        self.accessor(view, FLOAT, count, ty)
+    }
+
+    /// Bytes of binary data so far.
+    pub fn bin_len(&self) -> usize {
+        self.bin.len()
+    }
+
     /// Raw bytes as a buffer view (an embedded image); returns the view index.
     pub fn image_view(&mut self, bytes: &[u8]) -> usize {
         self.view(bytes, None)
+    }
+
+    /// Finishes the document as a `.gltf` JSON text and its binary buffer, which the JSON
+    /// names by `bin_uri` (a file beside it).
+    pub fn finish_gltf(mut self, mut root: Value, bin_uri: &str) -> (Vec<u8>, Vec<u8>) {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        root["buffers"] = json!([{"byteLength": self.bin.len(), "uri": bin_uri}]);
+        root["bufferViews"] = Value::Array(self.views);
+        root["accessors"] = Value::Array(self.accessors);
+        (serde_json::to_vec(&root).unwrap_or_default(), self.bin)
     }
 
     /// Finishes the file: fills `buffers`, `bufferViews` and `accessors` into `root` and writes

@@ -6,6 +6,7 @@
 //! validator with no errors or warnings; `assets/black_porgy.glb` and `assets/eel.glb` are
 //! committed, and a test regenerates them and compares bytes.
 
+pub mod animation;
 mod fish;
 mod glb;
 pub mod preview;

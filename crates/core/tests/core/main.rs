@@ -3,6 +3,7 @@
 //! One test binary for the crate: each file below was a binary of its own, and each binary
 //! linked the whole dependency tree again.
 
+mod asset_animation;
 mod asset_rig;
 mod asset_weights;
 mod common;

@@ -15,6 +15,7 @@
 
 pub mod compare;
 pub mod compare_plot;
+pub mod export;
 pub mod inputs;
 pub mod plot;
 pub mod run_file;
@@ -49,6 +50,10 @@ pub enum TimelineError {
     /// A recorded input no longer applies.
     #[error(transparent)]
     Input(#[from] inputs::RecordedInputError),
+    /// The recording's own scripts (written to a temporary directory to run again) or the
+    /// species they name failed to load; the message names them as `recording:PATH`.
+    #[error("{0}")]
+    RecordedScripts(String),
 }
 
 /// Every fish's pose now, in the world's dense order.
@@ -230,33 +235,16 @@ pub fn resume(
             run.seconds()
         )));
     }
-    let old = tempfile::tempdir().map_err(|source| TimelineError::Io {
-        path: std::env::temp_dir(),
-        source,
-    })?;
-    write_scripts(old.path(), &run.header.scripts)?;
-    let load_with = |scripts: &Path| {
-        load(&RecordSpec {
-            root,
-            scripts,
-            scene: &run.header.scene,
-            seed: run.header.seed,
-            lanes: run.header.lanes,
-            seconds: 0.0,
-        })
-    };
-    let mut past = load_with(old.path())?;
-    let inputs = &run.header.inputs;
-    // Inputs of tick 0 (a test's tank and first spawns) come before the first frame.
-    apply_inputs(&mut past, inputs)?;
-    check_frame(run, 0, &poses(past.world()))?;
-    for k in 1..=at {
-        past.step();
-        check_frame(run, k, &poses(past.world()))?;
-        apply_inputs(&mut past, inputs)?;
-    }
+    let (past, _old) = replay_recorded(run, root, at, |_, _| Ok(()))?;
     let snapshot = past.snapshot()?;
-    let mut now = load_with(scripts)?;
+    let mut now = load(&RecordSpec {
+        root,
+        scripts,
+        scene: &run.header.scene,
+        seed: run.header.seed,
+        lanes: run.header.lanes,
+        seconds: 0.0,
+    })?;
     // Species a test spawned load on first use: load the same ones, in the same order, so
     // the state's species ids mean the same.
     let w = past.world();
@@ -271,6 +259,65 @@ pub fn resume(
     drop(past);
     now.restore(&snapshot)?;
     Ok((now, at))
+}
+
+/// Runs `run` again with its own scripts (written to a temporary directory, returned with the
+/// simulation so that it outlives it) from tick 0 to tick `last`, checking each frame against
+/// the recording and calling `visit(k, sim)` at each tick `k` once the simulation stands there
+/// (its inputs of that tick not yet applied, as when the frame was recorded).
+pub fn replay_recorded(
+    run: &Run,
+    root: &Path,
+    last: usize,
+    mut visit: impl FnMut(usize, &Simulation) -> Result<(), TimelineError>,
+) -> Result<(Simulation, tempfile::TempDir), TimelineError> {
+    let total = run.frames.len() - 1;
+    if last > total {
+        return Err(TimelineError::Invalid(format!(
+            "tick {last} is after the end of the recording (tick {total})"
+        )));
+    }
+    let old = tempfile::tempdir().map_err(|source| TimelineError::Io {
+        path: std::env::temp_dir(),
+        source,
+    })?;
+    write_scripts(old.path(), &run.header.scripts)?;
+    let mut past = load(&RecordSpec {
+        root,
+        scripts: old.path(),
+        scene: &run.header.scene,
+        seed: run.header.seed,
+        lanes: run.header.lanes,
+        seconds: 0.0,
+    })
+    .map_err(|e| match e {
+        // Name the recorded scripts as the recording's, not by the temporary directory.
+        TimelineError::Script(e) => {
+            let mut text = e.to_string();
+            let dir = old.path();
+            let mut names = vec![format!("{}/", dir.display())];
+            if let Some(name) = dir.file_name() {
+                names.push(format!("{}/", name.to_string_lossy()));
+            }
+            for n in names {
+                text = text.replace(&n, "recording:");
+            }
+            TimelineError::RecordedScripts(text)
+        }
+        e => e,
+    })?;
+    let inputs = &run.header.inputs;
+    // Inputs of tick 0 (a test's tank and first spawns) come before the first frame.
+    apply_inputs(&mut past, inputs)?;
+    check_frame(run, 0, &poses(past.world()))?;
+    visit(0, &past)?;
+    for k in 1..=last {
+        past.step();
+        check_frame(run, k, &poses(past.world()))?;
+        visit(k, &past)?;
+        apply_inputs(&mut past, inputs)?;
+    }
+    Ok((past, old))
 }
 
 fn same_frame(a: &[Pose], b: &[Pose]) -> bool {
