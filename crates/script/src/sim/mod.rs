@@ -552,7 +552,16 @@ fn read_lua_file(host: &ScriptHost, path: &Path) -> Result<Value, ScriptError> {
 }
 
 fn read_scene(host: &ScriptHost, path: &Path, display: &str) -> Result<SceneDesc, ScriptError> {
-    let v = read_lua_file(host, path)?;
+    scene_from_value(host, read_lua_file(host, path)?, display)
+}
+
+/// A scene file's value read and checked as the simulation does (types, ranges, that its species
+/// and behaviours exist); `display` names the file in messages.
+pub(crate) fn scene_from_value(
+    host: &ScriptHost,
+    v: Value,
+    display: &str,
+) -> Result<SceneDesc, ScriptError> {
     let desc: SceneDesc = super::scene::from_lua_value(v, display).map_err(ScriptError::Invalid)?;
     super::scene::validate_scene(&desc).map_err(|why| ScriptError::Data {
         file: display.to_owned(),
@@ -629,7 +638,17 @@ fn check_name(
 
 fn read_species(host: &ScriptHost, path: &Path) -> Result<SpeciesFile, ScriptError> {
     let display = host.root().display_of(path);
-    let Value::Table(t) = read_lua_file(host, path)? else {
+    species_from_value(host, read_lua_file(host, path)?, &display)
+}
+
+/// A species file's value read and checked as the simulation does; `display` names the file.
+pub(crate) fn species_from_value(
+    host: &ScriptHost,
+    v: Value,
+    display: &str,
+) -> Result<SpeciesFile, ScriptError> {
+    let display = display.to_owned();
+    let Value::Table(t) = v else {
         return Err(ScriptError::Data {
             file: display,
             why: "a species file must return a table".into(),
