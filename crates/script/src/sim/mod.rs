@@ -421,6 +421,17 @@ impl Simulation {
         Ok(id)
     }
 
+    /// The file species `i` was read from (`None` for a species built in Rust): where the
+    /// panel saves its tuned values.
+    pub fn species_file(&self, i: usize) -> Option<&Path> {
+        self.sim
+            .behavior
+            .species
+            .get(i)
+            .map(|s| s.path.as_path())
+            .filter(|p| !p.as_os_str().is_empty())
+    }
+
     /// Adds a species built in Rust (not from a file) whose fish decide `decision_hz` times per
     /// second. It is not hot-reloaded.
     pub fn add_species(&mut self, species: Species, decision_hz: f64) -> SpeciesId {
