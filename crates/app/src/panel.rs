@@ -422,7 +422,8 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
     let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
     ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
     for (value, range, label) in sliders {
-        ui.add(egui::Slider::new(value, range).text(label));
+        let slider = ui.add(egui::Slider::new(value, range).text(label));
+        st.trace_widget(ui, label, &slider);
     }
     p.turn_angle = deg.to_radians();
     if p != before {
@@ -458,7 +459,9 @@ fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             ui.monospace(format!("motion.{key}: {saved} → {tuned}"));
         }
         ui.horizontal_wrapped(|ui| {
-            if ui.button("save to species file").clicked() {
+            let save = ui.button("save to species file");
+            st.trace_widget(ui, "save to species file", &save);
+            if save.clicked() {
                 let outcome = st.tuned.save(sp, &file, false, false);
                 report_save(st, &name, outcome);
             }
