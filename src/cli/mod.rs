@@ -16,6 +16,7 @@ pub mod motion;
 pub mod plot;
 pub mod render;
 pub mod run;
+pub mod set;
 pub mod skin;
 pub mod test;
 pub mod timeline;
@@ -48,6 +49,8 @@ pub enum Command {
     Asset(asset::Args),
     /// Run Lua behaviour tests headless.
     Test(test::Args),
+    /// Write values into a species or scene file, changing only those literals.
+    Set(set::Args),
     /// Check the Lua scripts' types (emmylua_check with the shipped definitions).
     Check(check::Args),
     /// Benchmarks: simulation and rendering.
@@ -243,6 +246,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(Command::Asset(args)) => asset::run(args),
         Some(Command::Test(args)) => test::run(args),
         Some(Command::Check(args)) => check::run(args),
+        Some(Command::Set(args)) => set::run(args),
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Record(args)) => timeline::record(args),
         Some(Command::Replay(args)) => timeline::replay(args),

@@ -15,6 +15,7 @@ mod motion_kinematics;
 mod motion_plot;
 mod render_cli;
 mod script_check;
+mod set_cli;
 mod skin_cli;
 mod test_cli;
 mod timeline;

@@ -459,3 +459,91 @@ fn the_window_fits_a_small_screen() {
         "the pause button at {x},{y}"
     );
 }
+
+/// The real window, tuned and saved like a user: `xdotool` drags the speed slider (the window
+/// prints where it is with `SHOAL_UI_TRACE`) and clicks "save to species file"; the porgy's file
+/// then has exactly one line more, the `motion` table with the speed the slider shows.
+#[test]
+fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scripts = dir.path().join("scripts");
+    crate::common::copy_dir(&shoal_core::source_root().join("scripts"), &scripts);
+    let scene = scripts.join("scenes/few.lua");
+    std::fs::write(
+        &scene,
+        "return {\n  tank = { min = {-400, 0, -250}, max = {400, 300, 250} },\n  fish = {\n    \
+         { species = \"black_porgy\", count = 2, pos = {0, 150, 0}, heading = 0 },\n  },\n}\n",
+    )
+    .unwrap();
+    let porgy = scripts.join("species/black_porgy.lua");
+    let before = std::fs::read_to_string(&porgy).unwrap();
+    let mut w = TracedWindow::start(&[
+        "run",
+        "--frames",
+        "100000",
+        "--scripts",
+        scripts.to_str().unwrap(),
+        "--scene",
+        scene.to_str().unwrap(),
+    ]);
+    let label = "s (speed, units/s)";
+    w.button(label);
+    w.frames(3);
+    // The traced line gives the slider's centre and size; its rail starts at the left edge.
+    let line = w
+        .seen
+        .iter()
+        .rev()
+        .find(|l| l.starts_with(&format!("ui: button {label:?} at ")))
+        .cloned()
+        .unwrap();
+    let (x, y) = w.button(label);
+    let width: f32 = line
+        .split(" size ")
+        .nth(1)
+        .and_then(|s| s.split('x').next())
+        .and_then(|s| s.parse().ok())
+        .expect("size");
+    let left = x.parse::<f32>().unwrap() - width / 2.0;
+    let (from, to) = (format!("{:.0}", left + 4.0), format!("{:.0}", left + 45.0));
+    w.xdotool(&["mousemove", &from, &y]);
+    w.frames(2);
+    w.xdotool(&["mousedown", "1"]);
+    w.frames(2);
+    w.xdotool(&["mousemove", &to, &y]);
+    w.frames(2);
+    w.xdotool(&["mouseup", "1"]);
+    w.frames(2);
+    // The new button is below the fold of the 760-pixel window: scroll the panel down to it
+    // (the window prints it again where it lands).
+    w.button("save to species file");
+    w.xdotool(&["mousemove", &x, "400"]);
+    w.frames(2);
+    w.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
+    w.frames(10);
+    w.click_button("save to species file");
+    let mut after = before.clone();
+    for _ in 0..200 {
+        w.frames(1);
+        after = std::fs::read_to_string(&porgy).unwrap();
+        if after != before {
+            break;
+        }
+    }
+    let last = "(staggered over the 60 Hz tick)\n";
+    let (head, tail) = after.split_at(after.find(last).expect("the last field") + last.len());
+    let inserted = tail
+        .strip_suffix("}\nreturn species\n")
+        .expect("the end of the file");
+    assert_eq!(
+        format!("{head}}}\nreturn species\n"),
+        before,
+        "nothing else changed"
+    );
+    let s: f32 = inserted
+        .strip_prefix("  motion = { s = ")
+        .and_then(|r| r.strip_suffix(" },\n"))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("one motion line: {inserted:?}"));
+    assert!(s > 0.0 && s < 200.0 && s != 50.0, "the dragged speed {s}");
+}

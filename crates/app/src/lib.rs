@@ -26,6 +26,7 @@ pub mod scripts_panel;
 pub mod sim;
 mod split;
 mod timeline;
+mod tuned;
 mod ui_state;
 mod widgets;
 mod window;

@@ -5,6 +5,7 @@ use std::collections::VecDeque;
 
 use super::scene::DynScene;
 use super::timeline::{Divergence, clock};
+use super::tuned::{Ask, Keep, SaveOutcome};
 use super::ui_state::{
     FrameTimes, MAX_FRAME_DT_S, UiState, drop_food, food_drop_for_panel, pace_ratio,
 };
@@ -386,6 +387,15 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
         ui.label("(this scene has no tunable motion)");
         return;
     };
+    let file = scene.sim().species_file(st.species);
+    if let Keep::Restore(tuned) = st.tuned.observe(st.species, p, file.as_ref()) {
+        // The file was reloaded under unsaved tuning: keep the tuning live until the designer
+        // answers the question below.
+        if let Err(e) = scene.set_motion_params(st.species, tuned) {
+            st.log(e.to_string());
+        }
+        p = tuned;
+    }
     let before = p;
     let mut deg = p.turn_angle.to_degrees();
     let sliders: [(&mut f32, std::ops::RangeInclusive<f32>, &str); 10] = [
@@ -412,12 +422,14 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
     let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
     ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
     for (value, range, label) in sliders {
-        ui.add(egui::Slider::new(value, range).text(label));
+        let slider = ui.add(egui::Slider::new(value, range).text(label));
+        st.trace_widget(ui, label, &slider);
     }
     p.turn_angle = deg.to_radians();
     if p != before {
-        if let Err(e) = scene.set_motion_params(st.species, p) {
-            st.log(e.to_string());
+        match scene.set_motion_params(st.species, p) {
+            Ok(()) => st.tuned.tune(st.species, p),
+            Err(e) => st.log(e.to_string()),
         }
         // The split tank's B gets the same parameters (a live tweak, not a script version).
         if let Some(split) = &mut st.split
@@ -426,6 +438,99 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
             st.log(format!("B: {e}"));
         }
     }
+    save_tuning(ui, scene, st);
+}
+
+/// The unsaved slider values of the shown species, "save to species file" and "revert", and the
+/// question a save may raise (an expression in the file; the file changed on disk).
+fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let sp = st.species;
+    let Some(file) = scene.sim().species_file(sp) else {
+        ui.label("(a built-in species: no file to save to)");
+        return;
+    };
+    let name = short_path(&file);
+    let changes = st.tuned.changes(sp);
+    if changes.is_empty() {
+        ui.label(format!("no unsaved changes ({name})"));
+    } else {
+        ui.colored_label(WARNING, format!("unsaved changes ({name}):"));
+        for (key, saved, tuned) in &changes {
+            ui.monospace(format!("motion.{key}: {saved} → {tuned}"));
+        }
+        ui.horizontal_wrapped(|ui| {
+            let save = ui.button("save to species file");
+            st.trace_widget(ui, "save to species file", &save);
+            if save.clicked() {
+                let outcome = st.tuned.save(sp, &file, false, false);
+                report_save(st, &name, outcome);
+            }
+            if ui.button("revert").clicked()
+                && let Some(saved) = st.tuned.saved(sp)
+            {
+                match scene.set_motion_params(sp, saved) {
+                    Ok(()) => st.tuned.discard(sp, Some(&file)),
+                    Err(e) => st.log(e.to_string()),
+                }
+            }
+        });
+    }
+    match st.tuned.ask.clone() {
+        Some(Ask::Expression { species, why }) if species == sp => {
+            ui.colored_label(WARNING, why);
+            ui.horizontal_wrapped(|ui| {
+                if ui.button("replace the expression").clicked() {
+                    let outcome = st.tuned.save(sp, &file, false, true);
+                    report_save(st, &name, outcome);
+                }
+                if ui.button("cancel").clicked() {
+                    st.tuned.ask = None;
+                }
+            });
+        }
+        Some(Ask::DiskChanged { species, .. }) if species == sp => {
+            ui.colored_label(
+                WARNING,
+                format!("{name} changed on disk while the panel had unsaved values for it"),
+            );
+            ui.horizontal_wrapped(|ui| {
+                if ui.button("save my values over it").clicked() {
+                    let outcome = st.tuned.save(sp, &file, true, false);
+                    report_save(st, &name, outcome);
+                }
+                if ui.button("take the file's values").clicked()
+                    && let Some(saved) = st.tuned.saved(sp)
+                {
+                    match scene.set_motion_params(sp, saved) {
+                        Ok(()) => st.tuned.discard(sp, Some(&file)),
+                        Err(e) => st.log(e.to_string()),
+                    }
+                }
+            });
+        }
+        _ => {}
+    }
+}
+
+/// The console line of a save.
+fn report_save(st: &mut UiState, name: &str, outcome: SaveOutcome) {
+    match outcome {
+        SaveOutcome::Saved(n) => st.log(format!("{name}: saved {n} value(s)")),
+        SaveOutcome::Failed(e) => st.log(format!("save refused: {e}")),
+        SaveOutcome::Asked | SaveOutcome::Nothing => {}
+    }
+}
+
+/// `species/black_porgy.lua` for a file under `scripts/species/`.
+fn short_path(file: &std::path::Path) -> String {
+    let mut parts: Vec<String> = file
+        .components()
+        .rev()
+        .take(2)
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    parts.reverse();
+    parts.join("/")
 }
 
 /// The debug overlay checkboxes.

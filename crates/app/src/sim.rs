@@ -152,6 +152,12 @@ pub trait SimView {
     fn watch(&mut self) -> Result<(), SimError> {
         Ok(())
     }
+    /// The file species `species` was read from, where the panel saves tuned values (`None`:
+    /// built in Rust).
+    fn species_file(&self, species: usize) -> Option<std::path::PathBuf> {
+        let _ = species;
+        None
+    }
     /// Applies edited scripts; one console line per reload event.
     fn poll_reload(&mut self) -> Vec<String> {
         Vec::new()
@@ -225,6 +231,9 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     }
     fn watch(&mut self) -> Result<(), SimError> {
         (**self).watch()
+    }
+    fn species_file(&self, species: usize) -> Option<std::path::PathBuf> {
+        (**self).species_file(species)
     }
     fn poll_reload(&mut self) -> Vec<String> {
         (**self).poll_reload()
@@ -318,6 +327,9 @@ impl SimView for Simulation {
     }
     fn watch(&mut self) -> Result<(), SimError> {
         Ok(Simulation::watch(self)?)
+    }
+    fn species_file(&self, species: usize) -> Option<std::path::PathBuf> {
+        Simulation::species_file(self, species).map(std::path::Path::to_path_buf)
     }
     fn poll_reload(&mut self) -> Vec<String> {
         Simulation::poll_reload(self)

@@ -31,6 +31,8 @@ pub(super) struct UiState {
     pub selected: Option<FishId>,
     /// Species shown in the panel's motion parameters (index in species order).
     pub species: usize,
+    /// The sliders' unsaved values and the question a save raised.
+    pub tuned: super::tuned::Tuned,
     pub paused: bool,
     pub step_once: bool,
     pub speed: f32,
@@ -88,6 +90,7 @@ impl UiState {
             follow: false,
             selected: None,
             species: 0,
+            tuned: Default::default(),
             paused: false,
             step_once: false,
             restart_requested: false,

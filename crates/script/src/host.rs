@@ -831,6 +831,14 @@ impl ScriptHost {
             .map_err(|e| ScriptError::Lua(self.after_error(&e)))
     }
 
+    /// [`Self::load_data_file`] for text not yet on disk, named `display` in messages.
+    pub fn load_data_source(&self, display: &str, source: &str) -> Result<Value, ScriptError> {
+        let f = sandbox::load_source(&self.lua, display, source)?;
+        let _metered = self.begin_load();
+        f.call::<Value>(())
+            .map_err(|e| ScriptError::Lua(self.after_error(&e)))
+    }
+
     /// Converts a Lua value to JSON through mlua's serde support (for species and scene data).
     pub fn from_lua<T: serde::de::DeserializeOwned>(&self, v: Value) -> mlua::Result<T> {
         self.lua.from_value(v)

@@ -30,6 +30,7 @@ pub mod api;
 pub mod budget;
 pub mod check;
 pub mod debug;
+pub mod edit;
 pub mod error;
 pub mod fish_state;
 pub mod host;

@@ -645,6 +645,21 @@ pub fn load_file(lua: &Lua, path: &Path) -> Result<Function, ScriptError> {
     load_in_family(lua, path, &cache)
 }
 
+/// [`load_file`] for text that is not (yet) on disk: `source` loads as the file `display` would,
+/// in a fresh sandboxed environment (the edited text of a data file, checked before it is saved).
+pub fn load_source(lua: &Lua, display: &str, source: &str) -> Result<Function, ScriptError> {
+    let cache = lua
+        .create_table()
+        .map_err(|e| ScriptError::Lua(describe(&e)))?;
+    let env = family_env(lua, &cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
+    lua.load(source)
+        .set_name(format!("@{display}"))
+        .set_mode(ChunkMode::Text)
+        .set_environment(env)
+        .into_function()
+        .map_err(|e| ScriptError::Lua(describe(&e)))
+}
+
 /// [`load_file`] in the family of `cache` (see `family_env`).
 fn load_in_family(lua: &Lua, path: &Path, cache: &Table) -> Result<Function, ScriptError> {
     let display = lua

@@ -462,3 +462,124 @@ return M
         "the panel stays at its 450 points: {panel:?}"
     );
 }
+
+/// The porgy file's last field line, after which the panel inserts a `motion` table.
+const PORGY_LAST: &str = "  decision_hz = 10,        -- behaviour decisions per second (staggered over the 60 Hz tick)\n";
+
+fn set_speed(h: &mut Harness<'static, Aquarium>, s: f64) -> f32 {
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "s (speed, units/s)")
+        .set_value_accesskit(s);
+    h.run();
+    h.state().scene.motion_params(0).unwrap().s
+}
+
+#[test]
+fn saving_a_tuned_slider_changes_exactly_that_literal_and_the_reload_changes_nothing() {
+    let scripts = scripts_with(&[]);
+    let porgy = scripts.path().join("species/black_porgy.lua");
+    let before = std::fs::read_to_string(&porgy).unwrap();
+    assert!(
+        before.contains(PORGY_LAST),
+        "the shipped porgy changed: update this test"
+    );
+    let mut h = harness(aquarium(scripts.path(), None, None));
+    h.run();
+    h.get_by_label("no unsaved changes (species/black_porgy.lua)");
+    let saved_s = h.state().scene.motion_params(0).unwrap().s;
+    let s = set_speed(&mut h, 70.0);
+    assert!((s - 70.0).abs() < 0.5, "the slider set {s}");
+    h.get_by_label(&format!("motion.s: {saved_s} → {s}"));
+    h.get_by_label("save to species file").click();
+    h.run();
+    let after = std::fs::read_to_string(&porgy).unwrap();
+    assert_eq!(
+        after,
+        before.replacen(
+            PORGY_LAST,
+            &format!("{PORGY_LAST}  motion = {{ s = {s} }},\n"),
+            1
+        )
+    );
+    h.get_by_label("no unsaved changes (species/black_porgy.lua)");
+    // The hot reload the save triggers finds nothing to change.
+    let live = h.state().scene.motion_params(0).unwrap();
+    let events = h.state_mut().scene.sim_mut().reload_changed(&[porgy]);
+    assert_eq!(events.len(), 1, "{events:?}");
+    assert!(
+        events[0].contains("reloaded species black_porgy"),
+        "{events:?}"
+    );
+    h.run();
+    assert_eq!(h.state().scene.motion_params(0).unwrap(), live);
+    h.get_by_label("no unsaved changes (species/black_porgy.lua)");
+    // "revert" after a further tweak goes back to the saved value exactly.
+    set_speed(&mut h, 90.0);
+    h.get_by_label("revert").click();
+    h.run();
+    assert_eq!(h.state().scene.motion_params(0).unwrap(), live);
+}
+
+#[test]
+fn a_file_changed_by_hand_under_unsaved_tuning_is_asked_about_not_overwritten() {
+    let scripts = scripts_with(&[]);
+    let porgy = scripts.path().join("species/black_porgy.lua");
+    let mut h = harness(aquarium(scripts.path(), None, None));
+    h.run();
+    let s = set_speed(&mut h, 80.0);
+    // The designer edits the file by hand meanwhile; the hot reload applies it.
+    let by_hand = std::fs::read_to_string(&porgy).unwrap().replacen(
+        PORGY_LAST,
+        &format!("{PORGY_LAST}  motion = {{ s = 40, omega = 9 }}, -- typed by hand\n"),
+        1,
+    );
+    std::fs::write(&porgy, &by_hand).unwrap();
+    h.state_mut()
+        .scene
+        .sim_mut()
+        .reload_changed(std::slice::from_ref(&porgy));
+    h.run();
+    h.run();
+    h.get_by_label(
+        "species/black_porgy.lua changed on disk while the panel had unsaved values for it",
+    );
+    assert_eq!(
+        h.state().scene.motion_params(0).unwrap().s,
+        s,
+        "the tuning stays live"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&porgy).unwrap(),
+        by_hand,
+        "nothing written yet"
+    );
+    h.get_by_label("save my values over it").click();
+    h.run();
+    assert_eq!(
+        std::fs::read_to_string(&porgy).unwrap(),
+        by_hand.replacen("{ s = 40,", &format!("{{ s = {s},"), 1),
+        "only the tuned literal changed; the hand edit's other value and comment stay"
+    );
+}
+
+#[test]
+fn a_value_written_as_an_expression_is_replaced_only_after_confirmation() {
+    let porgy_src = "return {\n  base = \"black_porgy\",\n  motion = {\n    s = 25 * 2,   -- two of the old speed\n  },\n}\n";
+    let scripts = scripts_with(&[("species/black_porgy.lua", porgy_src)]);
+    let porgy = scripts.path().join("species/black_porgy.lua");
+    let mut h = harness(aquarium(scripts.path(), None, None));
+    h.run();
+    let s = set_speed(&mut h, 60.0);
+    h.get_by_label("save to species file").click();
+    h.run();
+    assert_eq!(std::fs::read_to_string(&porgy).unwrap(), porgy_src);
+    h.get_by_label("cancel").click();
+    h.run();
+    h.get_by_label("save to species file").click();
+    h.run();
+    h.get_by_label("replace the expression").click();
+    h.run();
+    assert_eq!(
+        std::fs::read_to_string(&porgy).unwrap(),
+        porgy_src.replacen("s = 25 * 2,", &format!("s = {s} --[[was: 25 * 2]],"), 1)
+    );
+}

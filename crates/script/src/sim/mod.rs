@@ -421,6 +421,17 @@ impl Simulation {
         Ok(id)
     }
 
+    /// The file species `i` was read from (`None` for a species built in Rust): where the
+    /// panel saves its tuned values.
+    pub fn species_file(&self, i: usize) -> Option<&Path> {
+        self.sim
+            .behavior
+            .species
+            .get(i)
+            .map(|s| s.path.as_path())
+            .filter(|p| !p.as_os_str().is_empty())
+    }
+
     /// Adds a species built in Rust (not from a file) whose fish decide `decision_hz` times per
     /// second. It is not hot-reloaded.
     pub fn add_species(&mut self, species: Species, decision_hz: f64) -> SpeciesId {
@@ -552,7 +563,16 @@ fn read_lua_file(host: &ScriptHost, path: &Path) -> Result<Value, ScriptError> {
 }
 
 fn read_scene(host: &ScriptHost, path: &Path, display: &str) -> Result<SceneDesc, ScriptError> {
-    let v = read_lua_file(host, path)?;
+    scene_from_value(host, read_lua_file(host, path)?, display)
+}
+
+/// A scene file's value read and checked as the simulation does (types, ranges, that its species
+/// and behaviours exist); `display` names the file in messages.
+pub(crate) fn scene_from_value(
+    host: &ScriptHost,
+    v: Value,
+    display: &str,
+) -> Result<SceneDesc, ScriptError> {
     let desc: SceneDesc = super::scene::from_lua_value(v, display)?;
     super::scene::validate_scene(&desc).map_err(|e| ScriptError::Scene {
         file: display.to_owned(),
@@ -629,7 +649,17 @@ fn check_name(
 
 fn read_species(host: &ScriptHost, path: &Path) -> Result<SpeciesFile, ScriptError> {
     let display = host.root().display_of(path);
-    let Value::Table(t) = read_lua_file(host, path)? else {
+    species_from_value(host, read_lua_file(host, path)?, &display)
+}
+
+/// A species file's value read and checked as the simulation does; `display` names the file.
+pub(crate) fn species_from_value(
+    host: &ScriptHost,
+    v: Value,
+    display: &str,
+) -> Result<SpeciesFile, ScriptError> {
+    let display = display.to_owned();
+    let Value::Table(t) = v else {
         return Err(ScriptError::Data {
             file: display,
             why: "a species file must return a table".into(),
