@@ -177,8 +177,16 @@ pub const DEFAULT_PORGIES: usize = 40;
 /// A world of `fish` black porgies (the generated asset, `assets/black_porgy.glb`) at constant
 /// density, driven by the built-in Rust wander/school driver.
 pub fn porgy_sim(root: &Path, fish: usize, seed: u64) -> anyhow::Result<WanderPipeline> {
-    let assets = root.join("assets");
-    let species = Species::load(SpeciesDesc::black_porgy(), &assets)
+    let desc = SpeciesDesc::black_porgy();
+    // The model from the folder's own `assets/`, else the source tree's (as for Lua scenes).
+    let assets = [
+        root.join("assets"),
+        shoal_core::source_root().join("assets"),
+    ]
+    .into_iter()
+    .find(|dir| dir.join(&desc.asset).is_file())
+    .unwrap_or_else(|| root.join("assets"));
+    let species = Species::load(desc, &assets)
         .with_context(|| format!("loading the black porgy from `{}`", assets.display()))?;
     let world = bench_world(species, fish, seed)?;
     Ok(WanderPipeline::new(world, WanderDriver::default()))
@@ -204,6 +212,9 @@ pub fn load_scene(
         }
         let sim = Simulation::from_scene_with_scripts(root, &source.scripts, path, seed_or_1)
             .with_context(|| format!("loading scene `{}`", path.display()))?;
+        if let Some(line) = super::borrowed_models_line(&sim) {
+            println!("{line}");
+        }
         Ok(Box::new(sim))
     };
     let porgies = || -> anyhow::Result<Box<dyn SimView>> {
