@@ -380,8 +380,10 @@ fn sorted_pairs(t: &Table) -> Vec<(String, Value)> {
     v
 }
 
-/// A value in a few characters: numbers to 2 decimals, tables shallowly.
+/// A value in a few characters: numbers to 2 decimals, tables shallowly: a list in its order
+/// (`{250.00, 60.00, -120.00}`), then the named fields by name, at most 8 shown.
 fn short(v: &Value) -> String {
+    const SHOWN: usize = 8;
     match v {
         Value::Nil => "nil".into(),
         Value::Boolean(b) => b.to_string(),
@@ -389,22 +391,29 @@ fn short(v: &Value) -> String {
         Value::Number(n) => format!("{n:.2}"),
         Value::String(s) => s.to_string_lossy(),
         Value::Table(t) => {
-            let mut parts: Vec<String> = t
+            let item = |v: &Value| match v {
+                Value::Table(_) => "{…}".to_owned(),
+                other => short(other),
+            };
+            let len = t.raw_len();
+            let in_list =
+                |k: &Value| matches!(k, Value::Integer(i) if *i >= 1 && (*i as usize) <= len);
+            let mut parts: Vec<String> = (1..=len)
+                .take(SHOWN)
+                .map(|i| item(&t.raw_get::<Value>(i).unwrap_or(Value::Nil)))
+                .collect();
+            let mut named: Vec<String> = t
                 .pairs::<Value, Value>()
                 .flatten()
-                .take(8)
-                .map(|(k, v)| {
-                    let v = match &v {
-                        Value::Table(_) => "{…}".to_owned(),
-                        other => short(other),
-                    };
-                    match k {
-                        Value::Integer(_) => v,
-                        k => format!("{}={v}", short(&k)),
-                    }
-                })
+                .filter(|(k, _)| !in_list(k))
+                .map(|(k, v)| format!("{}={}", short(&k), item(&v)))
                 .collect();
-            parts.sort();
+            named.sort();
+            let total = len + named.len();
+            parts.extend(named.into_iter().take(SHOWN.saturating_sub(parts.len())));
+            if total > parts.len() {
+                parts.push("…".into());
+            }
             format!("{{{}}}", parts.join(", "))
         }
         other => other.type_name().to_owned(),
