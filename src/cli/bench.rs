@@ -64,7 +64,7 @@ pub struct SimArgs {
     #[arg(long, value_delimiter = ',', default_value = "1000,10000")]
     pub fish: Vec<usize>,
     /// Simulated seconds measured per fish count (after one second of warm-up).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub seconds: f64,
     /// Print JSON instead of a table.
     #[arg(long)]
