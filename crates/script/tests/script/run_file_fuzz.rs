@@ -64,6 +64,9 @@ fn with_header(bytes: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     join(&serde_json::to_vec(&header).unwrap(), &frames)
 }
 
+/// A change to a recording's header (as JSON).
+type HeaderEdit = Box<dyn Fn(&mut Value)>;
+
 #[test]
 fn every_header_field_is_checked_with_one_line_naming_it() {
     let bytes = recording().to_bytes();
@@ -72,7 +75,7 @@ fn every_header_field_is_checked_with_one_line_naming_it() {
     let (header, frames) = split(&bytes);
     Run::from_bytes(&join(&serde_json::to_vec(&header).unwrap(), &frames), path).unwrap();
     let forage_crc = header["scripts"]["behaviors/forage.lua"]["crc32"].clone();
-    let cases: Vec<(Box<dyn Fn(&mut Value)>, &str)> = vec![
+    let cases: Vec<(HeaderEdit, &str)> = vec![
         (
             Box::new(|h| h["lanes"] = json!(1_000_000_000u64)),
             "lanes: 1000000000 is out of range",
