@@ -179,6 +179,10 @@ pub trait SimView {
         let _ = (id, code);
         Err("this simulation runs no scripts".into())
     }
+    /// The Lua console's answer to `code` (see [`Simulation::console_eval`]).
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, String> {
+        self.eval_fish(id, code).map(|v| format!("= {v}"))
+    }
     /// Sets one script file's logpoints (see [`Simulation::set_logpoints`]).
     fn set_logpoints(
         &mut self,
@@ -242,6 +246,9 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         (**self).eval_fish(id, code)
     }
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, String> {
+        (**self).console_eval(id, code)
+    }
     fn set_logpoints(
         &mut self,
         file: &str,
@@ -270,6 +277,9 @@ impl SimView for Simulation {
     }
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, String> {
         Simulation::eval_fish(self, id, code)
+    }
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, String> {
+        Simulation::console_eval(self, id, code)
     }
     fn set_logpoints(
         &mut self,

@@ -251,6 +251,20 @@ impl Simulation {
         self.lane_of(id).host.eval_fish(id, code)
     }
 
+    /// The Lua console's answer to `code` run in fish `id`'s context: `= VALUE` for an
+    /// expression (`= nil` when it has none, as Lua says it), `ok` for a statement, which has
+    /// no value (not JSON's `null`).
+    pub fn console_eval(&self, id: FishId, code: &str) -> Result<String, String> {
+        let value = self.eval_fish(id, code)?;
+        Ok(if !self.lane_of(id).host.is_expression(code) {
+            "ok".to_owned()
+        } else if value.is_null() {
+            "= nil".to_owned()
+        } else {
+            format!("= {value}")
+        })
+    }
+
     /// Sets the logpoints of one script file (`behaviors/forage.lua`, relative to the scripts
     /// directory, or as the console names it, `scripts/behaviors/forage.lua`), replacing that
     /// file's earlier ones; an empty list removes them. The file is reloaded with the logpoints'

@@ -503,6 +503,19 @@ fn test_inspect_shows_lists_in_their_order() {
     assert_eq!(get("memory.mixed"), "{30, 10, a=1, b=2}");
 }
 
+/// The Lua console answers an expression with its value (`= nil` for none) and a statement
+/// with `ok`, not JSON's `= null` (issue 36).
+#[test]
+fn test_console_answers_statements_and_expressions_in_lua_terms() {
+    let (_d, mut sim) = probe("local M = {}\nfunction M.behave(fish) end\nreturn M\n");
+    let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
+    sim.step();
+    assert_eq!(sim.console_eval(id, "fish.memory.x = 5").unwrap(), "ok");
+    assert_eq!(sim.console_eval(id, "fish.memory.x * 2").unwrap(), "= 10");
+    assert_eq!(sim.console_eval(id, "fish.memory.nope").unwrap(), "= nil");
+    assert!(sim.console_eval(id, "fish.memory.nope.x").is_err());
+}
+
 #[test]
 fn test_stage_timings_are_recorded() {
     let (_d, mut sim) = probe("return { tick = function(fish) shoal.see() end }\n");
