@@ -126,12 +126,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 eprintln!("warning: {w}");
             }
             write(&rig.out, &rigged.glb)?;
+            // Two decimals without a `-0.00` for what is zero at that precision.
+            let shown = |v: f32| if v.abs() < 0.005 { 0.0 } else { v };
             println!(
-                "wrote {} ({} joints: {}; long axis {:?}, head at the {} end)",
+                "wrote {} ({} joints: {}; long axis ({:.2}, {:.2}, {:.2}), head at the {} end)",
                 rig.out.display(),
                 rigged.joint_names.len(),
                 rigged.joint_names.join(", "),
-                rigged.axis,
+                shown(rigged.axis.x),
+                shown(rigged.axis.y),
+                shown(rigged.axis.z),
                 if rigged.head_positive { "+" } else { "-" }
             );
         }

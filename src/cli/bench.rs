@@ -64,14 +64,15 @@ pub struct SimArgs {
     #[arg(long, value_delimiter = ',', default_value = "1000,10000")]
     pub fish: Vec<usize>,
     /// Simulated seconds measured per fish count (after one second of warm-up).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub seconds: f64,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Directory holding the species' assets.
-    #[arg(long, default_value = "assets")]
-    pub assets: PathBuf,
+    /// Directory holding the species' assets (Rust driver). Default: as for `shoal run`, the
+    /// models beside the scripts, else the working directory's, else the source tree's.
+    #[arg(long)]
+    pub assets: Option<PathBuf>,
     /// Seed of the scene.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -79,9 +80,11 @@ pub struct SimArgs {
     /// (the Rust stages alone).
     #[arg(long, value_enum, default_value_t = Driver::Lua)]
     pub driver: Driver,
-    /// Repository root holding `scripts/` and `assets/` (Lua driver).
-    #[arg(long, default_value = ".")]
-    pub root: PathBuf,
+    /// Repository root holding `scripts/` and `assets/` (Lua driver). Default: the scripts
+    /// found as `shoal run` finds them (`--scripts`, `SHOAL_SCRIPTS`, `./scripts`, the source
+    /// tree's), each model from beside them or else from the source tree.
+    #[arg(long, conflicts_with = "scripts")]
+    pub root: Option<PathBuf>,
     /// Also draw milliseconds per tick against fish count into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -139,13 +142,20 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--fish needs positive counts, e.g. --fish 1000,10000");
     }
     let ticks = (args.seconds * TICK_HZ).round().max(1.0) as usize;
+    let source = match &args.root {
+        Some(root) => super::ScriptSource::of_root(root),
+        None => args.scripts.resolve()?,
+    };
+    if !args.json {
+        println!("{source}");
+    }
     if let Some(scene) = &args.scene {
-        return run_scene_bench(&args, scene, ticks);
+        return run_scene_bench(&args, &source, scene, ticks);
     }
     let mut results: Vec<SimBenchResult> = Vec::new();
     let species = match args.driver {
         Driver::Rust => Some(
-            Species::load(SpeciesDesc::black_porgy(), &args.assets)
+            Species::load(SpeciesDesc::black_porgy(), &bench_assets(&args, &source))
                 .context("loading the benchmark species (is --assets right?)")?,
         ),
         Driver::Lua => None,
@@ -159,7 +169,7 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
                 measure(&mut sim, TICK_HZ as usize, ticks)
             }
             None => {
-                let mut sim = super::lua_sim(&args.root, fish, args.seed, args.lanes)?;
+                let mut sim = super::lua_sim(&source, fish, args.seed, args.lanes)?;
                 sim.world_mut().set_pose_mode(args.pose.mode());
                 let sampling = args.sample_functions.unwrap_or(false);
                 sim.set_function_sampling(sampling.then_some(SAMPLE_EVERY));
@@ -219,20 +229,29 @@ fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `shoal bench sim --scene S`: the scene's own fish and scripts, timed like the layouts.
-fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result<ExitCode> {
-    let source = if args.scripts.scripts.is_some() {
-        args.scripts.resolve()?
-    } else {
-        super::ScriptSource {
-            root: args.root.clone(),
-            scripts: args.root.join("scripts"),
-            why: "--root",
-        }
-    };
-    if !args.json {
-        println!("{source}");
+/// The Rust driver's models: `--assets`, else the porgy beside the scripts, else the source
+/// tree's.
+fn bench_assets(args: &SimArgs, source: &super::ScriptSource) -> PathBuf {
+    if let Some(dir) = &args.assets {
+        return dir.clone();
     }
+    let asset = SpeciesDesc::black_porgy().asset;
+    [
+        source.root.join("assets"),
+        shoal_core::source_root().join("assets"),
+    ]
+    .into_iter()
+    .find(|dir| dir.join(&asset).is_file())
+    .unwrap_or_else(|| source.root.join("assets"))
+}
+
+/// `shoal bench sim --scene S`: the scene's own fish and scripts, timed like the layouts.
+fn run_scene_bench(
+    args: &SimArgs,
+    source: &super::ScriptSource,
+    scene: &Path,
+    ticks: usize,
+) -> anyhow::Result<ExitCode> {
     // A bare name is a scene in `scripts/scenes/`, as for `shoal run` and `shoal render`.
     let named = super::render::named_scene(&source.scripts, scene);
     let scene = match &named {
@@ -245,6 +264,9 @@ fn run_scene_bench(args: &SimArgs, scene: &Path, ticks: usize) -> anyhow::Result
     let mut sim =
         Simulation::from_scene_with_scripts(&source.root, &source.scripts, scene, args.seed)
             .with_context(|| format!("loading scene `{}`", scene.display()))?;
+    if let Some(line) = super::borrowed_models_line(&sim).filter(|_| !args.json) {
+        println!("{line}");
+    }
     if let Some(n) = args.lanes {
         if n == 0 {
             anyhow::bail!("--lanes must be at least 1");

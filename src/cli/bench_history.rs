@@ -127,7 +127,7 @@ pub fn run(args: HistoryArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<CostRow> {
-    let mut sim = super::lua_sim(root, fish, 1, None)?;
+    let mut sim = super::lua_sim(&super::ScriptSource::of_root(root), fish, 1, None)?;
     let mut timeline = Timeline::new(shoal_app::DEFAULT_SPAN_S);
     let second = TICK_HZ as usize;
     for _ in 0..second {

@@ -410,7 +410,12 @@ pub fn run(args: PeerArgs) -> anyhow::Result<ExitCode> {
     }
     for &fish in &args.fish {
         for round in 1..=args.repeat {
-            let mut sim = super::lua_sim(&args.root, fish, args.seed, args.lanes)?;
+            let mut sim = super::lua_sim(
+                &super::ScriptSource::of_root(&args.root),
+                fish,
+                args.seed,
+                args.lanes,
+            )?;
             sim.world_mut().set_pose_mode(args.pose.mode());
             let lanes = sim.num_lanes();
             let shoal = measure(sim.pipeline_mut(), TICK_HZ as usize, ticks);

@@ -144,6 +144,17 @@ impl std::fmt::Display for ScriptSource {
     }
 }
 
+impl ScriptSource {
+    /// The scripts and models of the repository root `root` given with `--root`.
+    pub fn of_root(root: &std::path::Path) -> Self {
+        ScriptSource {
+            root: root.to_path_buf(),
+            scripts: root.join("scripts"),
+            why: "--root",
+        }
+    }
+}
+
 impl ScriptsArg {
     /// Resolves the scripts directory: `--scripts`/`SHOAL_SCRIPTS`, else `./scripts`, else the
     /// source tree's. An explicit directory that does not exist is an error.
@@ -205,6 +216,21 @@ fn assets_root(
         .flatten()
         .find(|r| r.join("assets").is_dir())
         .map_or(built, std::path::Path::to_path_buf)
+}
+
+/// The startup line for the models a simulation took from the source tree because the
+/// folder's own `assets/` lacks them: `models: black_porgy.glb, eel.glb from /src/assets (not
+/// in ./assets)`; nothing when every model is the folder's own.
+pub fn borrowed_models_line(sim: &shoal_script::Simulation) -> Option<String> {
+    let borrowed = sim.borrowed_models();
+    let first = borrowed.first()?;
+    let names: Vec<&str> = borrowed.iter().map(|b| b.asset.as_str()).collect();
+    Some(format!(
+        "models: {} from {} (not in {})",
+        names.join(", "),
+        first.dir.display(),
+        sim.assets_dir().display()
+    ))
 }
 
 /// An error and its causes on one line, `context: cause: cause`, leaving out a cause whose text
@@ -343,7 +369,7 @@ impl PoseArg {
 /// The constant-density bench school through the Lua simulation with the shipped behaviours
 /// ([`shoal_script::sim::bench_school`]); `--lanes` checked.
 pub(crate) fn lua_sim(
-    root: &std::path::Path,
+    source: &ScriptSource,
     fish: usize,
     seed: u64,
     lanes: Option<usize>,
@@ -352,6 +378,24 @@ pub(crate) fn lua_sim(
         anyhow::bail!("--lanes must be at least 1");
     }
     use anyhow::Context as _;
-    shoal_script::sim::bench_school(root, fish, seed, lanes)
-        .with_context(|| format!("loading the scripts under {}", root.display()))
+    shoal_script::sim::bench_school(&source.root, &source.scripts, fish, seed, lanes)
+        .with_context(|| format!("loading the scripts under {}", source.scripts.display()))
+}
+
+/// Whether `err` comes from writing to a pipe whose reader has gone (`shoal … | head -1`).
+pub fn is_closed_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// Whether a panic's message is the standard library's for a print into a closed pipe
+/// (`failed printing to stdout: Broken pipe (os error 32)`): `print!` panics where `write!`
+/// would return the error, and the message is all the hook is given.
+pub fn is_closed_pipe_panic(message: &str) -> bool {
+    let broken = std::io::Error::from(std::io::ErrorKind::BrokenPipe).to_string();
+    message.starts_with("failed printing to std")
+        && (message.contains(&broken) || message.contains("os error 32"))
 }

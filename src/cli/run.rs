@@ -204,6 +204,9 @@ fn run_split(args: &Args, source: &super::ScriptSource, spec: &str) -> anyhow::R
             .with_context(|| format!("loading scene `{scene}` of {which}"))
     };
     let a_sim = load(&source.scripts, "A")?;
+    if let Some(line) = super::borrowed_models_line(&a_sim) {
+        println!("{line}");
+    }
     let mut b_sim = load(&b.scripts, &format!("B ({})", b.label))?;
     b_sim.set_lanes(a_sim.num_lanes())?;
     let select = super::render::check_select(args.select, a_sim.world())?;

@@ -28,7 +28,7 @@ pub struct RecordArgs {
     #[arg(long)]
     pub lanes: Option<usize>,
     /// Seconds of simulated time to record.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub seconds: f64,
     /// The recording to write (`.shoalrun`).
     #[arg(long)]
@@ -44,10 +44,10 @@ pub struct ReplayArgs {
     /// The recording to replay.
     pub run: PathBuf,
     /// When the current scripts take over, seconds into the recording.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub from: f64,
     /// Seconds to run after that (default: to the end of the recording).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub seconds: Option<f64>,
     /// The new recording to write.
     #[arg(long)]

@@ -100,6 +100,12 @@ fn species_command_writes_a_loadable_species_and_refuses_to_overwrite() {
     assert!(text.contains("\"spine_1\", \"spine_2\""), "{text}");
     // The file's alphaCutoff of 1.0 would leave the filtered fins in ribbons: 0.5 is suggested.
     assert!(text.contains("alpha_cutoff = 0.5"), "{text}");
+    // Typed as the shipped species files are, so `shoal check` and an editor know its fields.
+    assert!(
+        text.contains("---@type shoal.SpeciesFile\nlocal species = {"),
+        "{text}"
+    );
+    assert!(text.trim_end().ends_with("return species"), "{text}");
 
     // A scene with the printed snippet loads the species and its fish swim.
     let snippet = stdout
@@ -147,4 +153,30 @@ fn species_command_writes_a_loadable_species_and_refuses_to_overwrite() {
     ]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--name"));
+}
+
+/// `shoal asset rig` says which way the fish lies in words a designer reads, not Rust's
+/// `Vec3(-1.0, -0.0, -0.0)`.
+#[test]
+fn rig_reports_the_long_axis_as_plain_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("red.glb");
+    let input = shoal_core::source_root().join("../shared/gltf-samples/RedFinnedFish/scene.gltf");
+    let out = shoal(&[
+        "asset",
+        "rig",
+        "--in",
+        input.to_str().unwrap(),
+        "--out",
+        out_path.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = stdout.lines().find(|l| l.contains("long axis")).unwrap();
+    assert!(!line.contains("Vec3") && !line.contains("-0.00"), "{line}");
+    assert!(line.contains("long axis ("), "{line}");
 }

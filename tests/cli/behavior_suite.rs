@@ -94,6 +94,29 @@ end)
     assert_eq!(a, b, "two runs of the same seeded test differ");
 }
 
+/// A failed `t:expect` with a message shows the designer's message, then the condition's value
+/// named as such: not "expected: intends to hide, got graze — got false" (issue 36).
+#[test]
+fn a_failed_expect_reads_as_the_designer_wrote_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "expect_test.lua",
+        "test(\"hides\", function(t)\n  local intention = \"graze\"\n  t:expect(intention == \"hide\", \"intends to hide, got \" .. intention)\n  t:expect(nil)\nend)\n",
+    );
+    let outcomes = testing::run_files(std::slice::from_ref(&file), &options(), |_| {});
+    let failures = &outcomes[0].failures;
+    assert_eq!(failures.len(), 2, "{failures:?}");
+    assert_eq!(
+        failures[0].message,
+        "intends to hide, got graze (t:expect's condition was false)"
+    );
+    assert_eq!(
+        failures[1].message,
+        "t:expect: the condition does not hold (it is nil)"
+    );
+}
+
 #[test]
 fn test_failure_names_file_line_expected_actual_and_time() {
     let dir = tempfile::tempdir().unwrap();

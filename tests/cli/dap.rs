@@ -559,3 +559,59 @@ fn copy_dir(from: &Path, to: &Path) {
         }
     }
 }
+
+/// Microsoft's own adapter test client (`@vscode/debugadapter-testsupport`, installed in
+/// `tools/` by `npm ci` as the glTF validator is) drives five sessions in a row, alternating
+/// `attach` and `launch`: a conditional breakpoint, a logpoint, stack, scopes, locals, evaluate,
+/// two `next`s, continue to `terminated`, disconnect. Each completes; every response comes
+/// before the events it causes (`tools/dap-session.mjs` checks the order on the wire); the
+/// connection is never reset under the client (issue 36).
+#[test]
+fn microsofts_test_client_completes_five_sessions_in_a_row() {
+    let tools = repo().join("tools");
+    assert!(
+        tools
+            .join("node_modules/@vscode/debugadapter-testsupport")
+            .is_dir(),
+        "the DAP test client is not installed: run `npm ci` in tools/ (needs node and npm)"
+    );
+    for session in 0..5 {
+        let mode = if session % 2 == 0 { "attach" } else { "launch" };
+        let shoal = Shoal::test(FORAGE_TEST, ONE_TEST);
+        let out = Command::new("node")
+            .arg(tools.join("dap-session.mjs"))
+            .arg(shoal.addr.port().to_string())
+            .arg(mode)
+            .arg(forage())
+            .output()
+            .expect("run node");
+        let text = String::from_utf8_lossy(&out.stdout);
+        let seen: Value = serde_json::from_str(text.trim()).unwrap_or_else(|e| {
+            panic!(
+                "session {session}: no report ({e}): {text}\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        });
+        assert_eq!(seen["ok"], true, "session {session} ({mode}): {seen}");
+        assert_eq!(seen["stoppedAt"], "forage.lua:19", "{seen}");
+        assert_eq!(
+            seen["evaluated"], "true",
+            "the condition, evaluated: {seen}"
+        );
+        assert_eq!(
+            seen["steps"],
+            json!(["step@forage.lua:20", "step@forage.lua:21"]),
+            "{seen}"
+        );
+        assert!(
+            seen["logpoint"]
+                .as_str()
+                .is_some_and(|l| l.starts_with("forage.lua:20: dt is ")),
+            "{seen}"
+        );
+        assert_eq!(seen["passed"], true, "{seen}");
+        assert_eq!(seen["socketErrors"], json!([]), "no ECONNRESET: {seen}");
+        let (ok, out) = shoal.finish();
+        assert!(ok, "session {session}: {out}");
+    }
+}

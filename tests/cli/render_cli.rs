@@ -335,3 +335,42 @@ fn follow_camera_and_overlays_show_one_fish_close_up() {
         differs(&wide)
     );
 }
+
+/// A negative number is read as the value it is and refused for what it is, not as an unknown
+/// option ("unexpected argument '-1' found"); a runaway fish count is refused before anything
+/// is built (issue 36).
+#[test]
+fn negative_seconds_and_huge_fish_counts_get_lines_that_say_why() {
+    for (args, expected) in [
+        (
+            &["render", "--seconds", "-1", "--out", "x.png"][..],
+            "--seconds -1 must be",
+        ),
+        (
+            &["record", "--seconds", "-1", "--out", "x.shoalrun"],
+            "seconds is -1",
+        ),
+        (&["bench", "sim", "--seconds", "-1"], "--seconds -1 must be"),
+        (
+            &[
+                "render", "--scene", "porgies", "--fish", "10000000", "--out", "x.png",
+            ],
+            "--fish 10000000: the porgies scene takes 1 to 100000 fish",
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_shoal"))
+            .current_dir(dir.path())
+            .env("SHOAL_SCRIPTS", shoal_core::source_root().join("scripts"))
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(
+            !stderr.contains("unexpected argument"),
+            "{args:?}: {stderr}"
+        );
+    }
+}

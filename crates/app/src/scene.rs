@@ -372,8 +372,10 @@ impl<S: SimView> WorldScene<S> {
         self.step_ms = start.elapsed().as_secs_f32() * 1e3;
     }
 
-    /// Applies edited scripts when hot reload is on.
-    fn poll_hot_reload(&mut self) {
+    /// Applies edited scripts when hot reload is on. Stepping does it first; a paused window
+    /// calls it every frame too, so that a save shows at once (its console line, a syntax
+    /// error, the scene-changed notice) rather than at the next play or step.
+    pub fn poll_hot_reload(&mut self) {
         if self.hot_reload {
             let events = self.sim.poll_reload();
             self.reloaded |= !events.is_empty();

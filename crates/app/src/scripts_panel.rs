@@ -775,8 +775,8 @@ fn repl(
     let code = st.repl_input.trim().to_owned();
     if run && !code.is_empty() {
         log.push(format!("> {code}  (fish #{})", fish.index));
-        log.push(match scene.sim().eval_fish(fish, &code) {
-            Ok(v) => format!("= {v}"),
+        log.push(match scene.sim().console_eval(fish, &code) {
+            Ok(answer) => answer,
             Err(e) => format!("error: {e}"),
         });
     }

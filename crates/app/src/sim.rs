@@ -196,6 +196,10 @@ pub trait SimView {
         let _ = (id, code);
         Err(SimError::NoScripts)
     }
+    /// The Lua console's answer to `code` (see [`Simulation::console_eval`]).
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, SimError> {
+        self.eval_fish(id, code).map(|v| format!("= {v}"))
+    }
     /// Sets one script file's logpoints (see [`Simulation::set_logpoints`]).
     fn set_logpoints(
         &mut self,
@@ -262,6 +266,9 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, SimError> {
         (**self).eval_fish(id, code)
     }
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, SimError> {
+        (**self).console_eval(id, code)
+    }
     fn set_logpoints(
         &mut self,
         file: &str,
@@ -290,6 +297,9 @@ impl SimView for Simulation {
     }
     fn eval_fish(&self, id: FishId, code: &str) -> Result<serde_json::Value, SimError> {
         Ok(Simulation::eval_fish(self, id, code)?)
+    }
+    fn console_eval(&self, id: FishId, code: &str) -> Result<String, SimError> {
+        Ok(Simulation::console_eval(self, id, code)?)
     }
     fn set_logpoints(
         &mut self,

@@ -322,6 +322,15 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         while ui.pace.len() > 120 {
             ui.pace.pop_front();
         }
+    } else {
+        // Paused: nothing runs, but a save is applied now (see `poll_hot_reload`).
+        scene.poll_hot_reload();
+        if let Some(split) = &mut ui.split {
+            split.scene.poll_hot_reload();
+            if split.scene.take_reloaded() {
+                split.refresh_changed();
+            }
+        }
     }
     // The split tank's B runs as many ticks as A just did (none after a seek: `seek` took it
     // to A's moment).

@@ -793,14 +793,23 @@ impl ScriptHost {
         let name = format!("console (fish #{})", id.index);
         // An expression first; if it does not parse as one, a statement.
         let as_expr = format!("return {code}");
-        let compiles = self
-            .lua
-            .load(as_expr.as_str())
+        let code = if self.is_expression(code) {
+            as_expr.as_str()
+        } else {
+            code
+        };
+        self.eval_in(env, &name, code)
+    }
+
+    /// Whether `code` parses as a Lua expression (`fish.memory.hunger`), not only as a
+    /// statement (`fish.memory.hunger = 1`): the console shows a value for the one, and only
+    /// that it ran for the other.
+    pub fn is_expression(&self, code: &str) -> bool {
+        self.lua
+            .load(format!("return {code}"))
             .set_mode(mlua::chunk::ChunkMode::Text)
             .into_function()
-            .is_ok();
-        let code = if compiles { as_expr.as_str() } else { code };
-        self.eval_in(env, &name, code)
+            .is_ok()
     }
 
     fn eval_in(&self, env: Table, name: &str, code: &str) -> Result<serde_json::Value, EvalError> {

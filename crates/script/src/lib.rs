@@ -54,4 +54,4 @@ pub use host::ScriptHost;
 pub use log::{LogEntry, LogLevel};
 pub use sandbox::Limits;
 pub use scene::SceneDesc;
-pub use sim::{ReloadEvent, SimSnapshot, Simulation, lane_index};
+pub use sim::{BorrowedModel, ReloadEvent, SimSnapshot, Simulation, lane_index};

@@ -122,7 +122,9 @@ fn message_args(message: &str) -> Result<String, LogpointError> {
                 message: message.to_owned(),
             });
         }
-        args.push(format!("({expr})"));
+        // Each expression is a closure (it still sees the line's locals and upvalues) followed
+        // by its text, so that one that fails fails inside the logpoint, not in the behaviour.
+        args.push(format!("function() return ({expr}) end, {expr:?}"));
         rest = &after[close + 1..];
     }
     if !rest.is_empty() || args.is_empty() {
@@ -178,20 +180,61 @@ pub fn source_for(lua: &Lua, path: &Path, source: Vec<u8>) -> Result<Vec<u8>, Lo
 }
 
 /// Installs the function the injected calls use: into the console, with the line's file:line,
-/// the deciding fish and the time.
+/// the deciding fish and the time. An expression that fails is the logpoint's failure, not the
+/// behaviour's: the logpoint prints nothing that time, and the console shows one warning for it
+/// (`file:line: logpoint {m.rock[1]} failed: …`, kept once however often it fails); the
+/// behaviour runs on and no error is counted against it.
 pub fn install(lua: &Lua, globals: &Table) -> mlua::Result<()> {
     globals.set(
         LOGPOINT_FN,
         lua.create_function(|lua, args: mlua::Variadic<Value>| {
-            let mut text = crate::budget::caller_location(lua);
-            text.push_str(" logpoint: ");
-            for v in args.iter() {
+            let location = crate::budget::caller_location(lua);
+            let mut text = format!("{location} logpoint: ");
+            let mut args = args.iter();
+            while let Some(v) = args.next() {
+                let v = match v {
+                    Value::Function(expr) => {
+                        let source = args
+                            .next()
+                            .and_then(|s| s.to_string().ok())
+                            .unwrap_or_default();
+                        match expr.call::<Value>(()) {
+                            Ok(v) => v,
+                            Err(e) => {
+                                logpoint_failed(lua, &location, &source, &e);
+                                return Ok(());
+                            }
+                        }
+                    }
+                    other => other.clone(),
+                };
                 text.push_str(&v.to_string().unwrap_or_else(|_| format!("{v:?}")));
             }
             console_line(lua, &text);
             Ok(())
         })?,
     )
+}
+
+/// The console's warning for a logpoint whose `{source}` failed (deduplicated by the log).
+fn logpoint_failed(lua: &Lua, location: &str, source: &str, err: &mlua::Error) {
+    let why = crate::error::describe(err);
+    // The error's own position is the logpoint's line, already named in front.
+    let why = why
+        .strip_prefix(location)
+        .map_or(why.as_str(), str::trim_start);
+    let text = format!(
+        "{location} logpoint {{{source}}} failed: {why} (the logpoint prints nothing while it \
+         fails; the behaviour is not affected)"
+    );
+    let (fish, time_s) = lua
+        .app_data_ref::<crate::api::Ctx>()
+        .map_or((None, 0.0), |c| {
+            (c.fish, c.world.as_ref().map_or(0.0, |w| w.time()))
+        });
+    if let Some(mut log) = lua.app_data_mut::<crate::log::ScriptLog>() {
+        log.push(crate::log::LogLevel::Warning, &text, fish, time_s);
+    }
 }
 
 /// Puts `text` in the script console as a print, with the deciding fish and the world's time
@@ -215,10 +258,13 @@ mod tests {
     fn a_message_becomes_text_and_expressions() {
         assert_eq!(
             message_args("hunger {m.hunger} at {fish.id}").unwrap(),
-            r#""hunger ", (m.hunger), " at ", (fish.id)"#
+            r#""hunger ", function() return (m.hunger) end, "m.hunger", " at ", function() return (fish.id) end, "fish.id""#
         );
         assert_eq!(message_args("plain").unwrap(), r#""plain""#);
-        assert_eq!(message_args("{x}").unwrap(), "(x)");
+        assert_eq!(
+            message_args("{x}").unwrap(),
+            r#"function() return (x) end, "x""#
+        );
         assert!(message_args("open {x").is_err());
         assert!(message_args("empty {}").is_err());
         // Quotes and backslashes stay text.
@@ -241,7 +287,7 @@ mod tests {
         .unwrap();
         assert_eq!(
             out,
-            "local a = 1\ndo __shoal_logpoint(\"a is \", (a)) end local b = a + 1\nreturn b"
+            "local a = 1\ndo __shoal_logpoint(\"a is \", function() return (a) end, \"a\") end local b = a + 1\nreturn b"
         );
         assert!(
             inject(

@@ -65,8 +65,76 @@ pub struct FishGroup {
     pub speed: Option<f32>,
     /// Any table of plain data (waypoints, a territory centre …) handed to each fish of the group
     /// as `fish.params`.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "finite_params")]
     pub params: Option<serde_json::Value>,
+}
+
+/// `params` read as JSON, refusing NaN and infinities with their field path
+/// (`fish[2].params.hide_at[3]`): JSON has no such numbers, so they would otherwise arrive in
+/// Lua as `null`, a userdata.
+fn finite_params<'de, D: serde::Deserializer<'de>>(
+    de: D,
+) -> Result<Option<serde_json::Value>, D::Error> {
+    Ok(Some(FiniteJson::deserialize(de)?.0))
+}
+
+/// A JSON value whose numbers are all finite.
+struct FiniteJson(serde_json::Value);
+
+impl<'de> Deserialize<'de> for FiniteJson {
+    fn deserialize<D: serde::Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
+        de.deserialize_any(FiniteJsonVisitor).map(FiniteJson)
+    }
+}
+
+struct FiniteJsonVisitor;
+
+impl<'de> serde::de::Visitor<'de> for FiniteJsonVisitor {
+    type Value = serde_json::Value;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("plain data (numbers, strings, booleans, tables)")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+        serde_json::Number::from_f64(v)
+            .map(serde_json::Value::Number)
+            .ok_or_else(|| E::custom(format!("{v} is not a finite number")))
+    }
+    fn visit_str<E>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+    fn visit_unit<E>(self) -> Result<Self::Value, E> {
+        Ok(serde_json::Value::Null)
+    }
+    fn visit_none<E>(self) -> Result<Self::Value, E> {
+        Ok(serde_json::Value::Null)
+    }
+    fn visit_some<D: serde::Deserializer<'de>>(self, de: D) -> Result<Self::Value, D::Error> {
+        FiniteJson::deserialize(de).map(|v| v.0)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut items = Vec::new();
+        while let Some(FiniteJson(v)) = seq.next_element()? {
+            items.push(v);
+        }
+        Ok(serde_json::Value::Array(items))
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut out = serde_json::Map::new();
+        while let Some((k, FiniteJson(v))) = map.next_entry::<String, FiniteJson>()? {
+            out.insert(k, v);
+        }
+        Ok(serde_json::Value::Object(out))
+    }
 }
 
 fn one() -> u32 {

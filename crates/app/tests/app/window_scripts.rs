@@ -384,3 +384,66 @@ fn sampling_functions_lists_the_hot_function_with_its_file_and_line() {
     sorted.sort();
     assert_eq!(names, sorted);
 }
+
+/// Frames of a paused window until `done` holds (the file watcher reports within a quarter
+/// second; the deadline only stops a broken build from hanging).
+fn frames_until(h: &mut Harness<'static, Aquarium>, done: impl Fn(&Aquarium) -> bool) -> bool {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while std::time::Instant::now() < deadline {
+        h.state_mut().advance(DT);
+        h.run();
+        if done(h.state()) {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    false
+}
+
+/// Saving while paused reloads at once: the console says so, a syntax error shows, and an
+/// edited scene file brings up its notice, all without playing or stepping (issue 36, finding 6).
+#[test]
+fn saving_while_paused_reloads_at_once() {
+    let (_dir, root) = common::scratch_repo();
+    let sim = Simulation::from_scene(&root, Path::new("scenes/default.lua"), 5).unwrap();
+    let mut aq = Aquarium::new(Box::new(sim), AppOptions::default());
+    aq.scene.enable_hot_reload().unwrap();
+    let mut h = harness(aq);
+    play(&mut h, 10);
+    h.get_by_label("pause").click();
+    h.run();
+    assert!(h.state().paused());
+    let paused_at = h.state().scene.world().time();
+
+    let forage = root.join("scripts/behaviors/forage.lua");
+    let good = std::fs::read_to_string(&forage).unwrap();
+    std::fs::write(&forage, format!("{good}\n-- tuned\n")).unwrap();
+    assert!(
+        frames_until(&mut h, |aq| aq
+            .console()
+            .any(|l| l.contains("forage") && l.contains("reloaded"))),
+        "a save while paused is reloaded and said: {:?}",
+        h.state().console().collect::<Vec<_>>()
+    );
+    std::fs::write(&forage, "local M = {\nreturn M\n").unwrap();
+    assert!(
+        frames_until(&mut h, |aq| aq
+            .console()
+            .any(|l| l.contains("forage.lua:") && l.contains("expected"))),
+        "a syntax error saved while paused shows: {:?}",
+        h.state().console().collect::<Vec<_>>()
+    );
+    let scene = root.join("scripts/scenes/default.lua");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, format!("{text}\n-- edited\n")).unwrap();
+    assert!(frames_until(&mut h, |aq| aq.scene.scene_changed()));
+    h.run();
+    h.get_by_label("the scene file changed");
+    h.get_by_label("restart scene");
+    assert!(h.state().paused());
+    assert_eq!(
+        h.state().scene.world().time(),
+        paused_at,
+        "nothing ran while paused"
+    );
+}

@@ -178,7 +178,8 @@ impl SpeciesSuggestion {
              -- Its body is {ratio:.1} times as long as it is deep or wide, so it swims {mode}\n\
              -- (between the deep black porgy, ratio ≈ 2, and the slender eel, ≈ 12). Every value\n\
              -- is a suggestion: edit and save, and live fish pick it up.\n\
-             return {{\n  \
+             ---@type shoal.SpeciesFile\n\
+             local species = {{\n  \
                base = {base:?},             -- senses and drives of the nearer built-in species\n  \
                name = {name:?},\n  \
                asset = {asset:?},   -- relative to assets/\n  \
@@ -198,7 +199,8 @@ impl SpeciesSuggestion {
                max_speed = {max_speed},\n\
              {cutoff}  \
                decision_hz = 10,\n\
-             }}\n",
+             }}\n\
+             return species\n",
             name = d.name,
             model = model.display(),
             ratio = self.slenderness,

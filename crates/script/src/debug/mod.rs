@@ -496,13 +496,24 @@ impl Debugger {
     }
 
     /// Tells the client the run is over (`terminated`, then `exited` with `exit_code`) and lets
-    /// any stopped decision go on.
+    /// any stopped decision go on. Then waits (at most [`GOODBYE_WAIT`]) for the client to send
+    /// its `disconnect` and leave: a process that exits with the client's last request unread
+    /// resets the connection under it (`ECONNRESET` after `terminated`).
     pub fn finish(&self, exit_code: i32) {
         self.send_event("exited", json!({"exitCode": exit_code}));
         self.send_event("terminated", json!({}));
         self.clear();
+        // The server thread drops `out` when the session ends, then notifies `configured_cv`
+        // (under `configured`): checked under that lock, no wake-up is lost.
+        let guard = lock(&self.configured);
+        let _ = self
+            .configured_cv
+            .wait_timeout_while(guard, GOODBYE_WAIT, |_| lock(&self.out).is_some());
     }
 }
+
+/// How long [`Debugger::finish`] waits for the client to disconnect.
+pub const GOODBYE_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
 
 /// Whether `path` is a behaviour module's own file (`…/behaviors/NAME.lua`), not a library.
 fn is_behavior_file(path: &Path) -> bool {

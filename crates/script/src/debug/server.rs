@@ -121,22 +121,40 @@ fn handle(d: &Arc<Debugger>, msg: &Value) -> Flow {
         "launch" | "attach" => Ok(Value::Null),
         "setBreakpoints" => set_breakpoints(d, &args),
         "setExceptionBreakpoints" => Ok(json!({"breakpoints": []})),
+        // The protocol's order: a request's response first, then the events it causes
+        // (`stopped`, `terminated`…). Each request that lets the aquarium run answers before
+        // it lets go, or its events could overtake the answer and leave the client waiting
+        // for it (Microsoft's test client hung so after `next`).
         "configurationDone" => {
+            respond(d, seq, command, Ok(Value::Null));
             d.set_configured();
-            Ok(Value::Null)
+            return Flow::Go;
         }
         "threads" => Ok(json!({"threads": [{"id": 1, "name": "aquarium"}]})),
         "stackTrace" | "scopes" | "variables" | "evaluate" => forward(d, command, args),
         "continue" => {
+            respond(d, seq, command, Ok(json!({"allThreadsContinued": true})));
             d.resume(None);
-            Ok(json!({"allThreadsContinued": true}))
+            return Flow::Go;
         }
-        "next" => step(d, StepMode::Over),
-        "stepIn" => step(d, StepMode::In),
-        "stepOut" => step(d, StepMode::Out),
+        "next" | "stepIn" | "stepOut" => {
+            let mode = match command {
+                "next" => StepMode::Over,
+                "stepIn" => StepMode::In,
+                _ => StepMode::Out,
+            };
+            if !d.is_paused() {
+                Err(RequestError::NotStopped)
+            } else {
+                respond(d, seq, command, Ok(Value::Null));
+                d.resume(Some(mode));
+                return Flow::Go;
+            }
+        }
         "pause" => {
+            respond(d, seq, command, Ok(Value::Null));
             d.request_pause();
-            Ok(Value::Null)
+            return Flow::Go;
         }
         "disconnect" | "terminate" => {
             respond(d, seq, command, Ok(Value::Null));
@@ -157,14 +175,6 @@ fn capabilities() -> Value {
         "supportsEvaluateForHovers": true,
         "supportsTerminateRequest": true,
     })
-}
-
-fn step(d: &Debugger, mode: StepMode) -> Result<Value, RequestError> {
-    if !d.is_paused() {
-        return Err(RequestError::NotStopped);
-    }
-    d.resume(Some(mode));
-    Ok(Value::Null)
 }
 
 /// Hands a request to the stopped decision and waits for its answer.

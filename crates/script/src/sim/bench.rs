@@ -12,14 +12,16 @@ use crate::ScriptError;
 /// The constant-density bench tank populated through the Lua simulation with the shipped
 /// behaviours, as `shoal bench sim` and `bench peer` measure it: per 100 fish, 89 black porgies
 /// schooling, 10 foraging and one barracuda hunting, `lanes` Lua states (default: one per CPU
-/// thread).
+/// thread). The scripts come from `scripts_dir`, the models from `root`'s `assets/` (else the
+/// source tree's).
 pub fn bench_school(
     root: &Path,
+    scripts_dir: &Path,
     fish: usize,
     seed: u64,
     lanes: Option<usize>,
 ) -> Result<Simulation, ScriptError> {
-    let mut sim = Simulation::empty(root, seed)?;
+    let mut sim = Simulation::empty_with_scripts(root, scripts_dir, seed)?;
     if let Some(n) = lanes {
         sim.set_lanes(n)?;
     }

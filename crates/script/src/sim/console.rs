@@ -253,6 +253,20 @@ impl Simulation {
         self.lane_of(id).host.eval_fish(id, code)
     }
 
+    /// The Lua console's answer to `code` run in fish `id`'s context: `= VALUE` for an
+    /// expression (`= nil` when it has none, as Lua says it), `ok` for a statement, which has
+    /// no value (not JSON's `null`).
+    pub fn console_eval(&self, id: FishId, code: &str) -> Result<String, EvalError> {
+        let value = self.eval_fish(id, code)?;
+        Ok(if !self.lane_of(id).host.is_expression(code) {
+            "ok".to_owned()
+        } else if value.is_null() {
+            "= nil".to_owned()
+        } else {
+            format!("= {value}")
+        })
+    }
+
     /// Sets the logpoints of one script file (`behaviors/forage.lua`, relative to the scripts
     /// directory, or as the console names it, `scripts/behaviors/forage.lua`), replacing that
     /// file's earlier ones; an empty list removes them. The file is reloaded with the logpoints'
@@ -392,8 +406,10 @@ fn sorted_pairs(t: &Table) -> Vec<(String, Value)> {
     v
 }
 
-/// A value in a few characters: numbers to 2 decimals, tables shallowly.
+/// A value in a few characters: numbers to 2 decimals, tables shallowly: a list in its order
+/// (`{250.00, 60.00, -120.00}`), then the named fields by name, at most 8 shown.
 fn short(v: &Value) -> String {
+    const SHOWN: usize = 8;
     match v {
         Value::Nil => "nil".into(),
         Value::Boolean(b) => b.to_string(),
@@ -401,22 +417,29 @@ fn short(v: &Value) -> String {
         Value::Number(n) => format!("{n:.2}"),
         Value::String(s) => s.to_string_lossy(),
         Value::Table(t) => {
-            let mut parts: Vec<String> = t
+            let item = |v: &Value| match v {
+                Value::Table(_) => "{…}".to_owned(),
+                other => short(other),
+            };
+            let len = t.raw_len();
+            let in_list =
+                |k: &Value| matches!(k, Value::Integer(i) if *i >= 1 && (*i as usize) <= len);
+            let mut parts: Vec<String> = (1..=len)
+                .take(SHOWN)
+                .map(|i| item(&t.raw_get::<Value>(i).unwrap_or(Value::Nil)))
+                .collect();
+            let mut named: Vec<String> = t
                 .pairs::<Value, Value>()
                 .flatten()
-                .take(8)
-                .map(|(k, v)| {
-                    let v = match &v {
-                        Value::Table(_) => "{…}".to_owned(),
-                        other => short(other),
-                    };
-                    match k {
-                        Value::Integer(_) => v,
-                        k => format!("{}={v}", short(&k)),
-                    }
-                })
+                .filter(|(k, _)| !in_list(k))
+                .map(|(k, v)| format!("{}={}", short(&k), item(&v)))
                 .collect();
-            parts.sort();
+            named.sort();
+            let total = len + named.len();
+            parts.extend(named.into_iter().take(SHOWN.saturating_sub(parts.len())));
+            if total > parts.len() {
+                parts.push("…".into());
+            }
             format!("{{{}}}", parts.join(", "))
         }
         other => other.type_name().to_owned(),

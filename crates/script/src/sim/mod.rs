@@ -55,6 +55,7 @@ pub use console::{FLAME_STACKS, ModuleProfile, SAMPLE_EVERY};
 use lanes::Lane;
 pub use lanes::{ModuleStats, Scripts, default_lanes, lane_index};
 pub use reload::ReloadEvent;
+
 pub use snapshot::SimSnapshot;
 
 /// A species the simulation loaded from `scripts/species/`.
@@ -74,6 +75,12 @@ pub struct Simulation {
     /// The repository root the assets are found under.
     root: PathBuf,
     assets_dir: PathBuf,
+    /// Where a model missing from `assets_dir` is taken from: the source tree's `assets/`
+    /// (none when that is `assets_dir`). A designer's own folder with one model of theirs in
+    /// `assets/` still swims the shipped species.
+    asset_fallback: Option<PathBuf>,
+    /// The models taken from `asset_fallback`, in the order first loaded.
+    borrowed_models: Vec<BorrowedModel>,
     scene_path: Option<PathBuf>,
     scene: Option<SceneDesc>,
     seed: u64,
@@ -86,6 +93,26 @@ pub struct Simulation {
     profile_since_s: f64,
     /// How often the lanes' Lua stacks are sampled (see [`Simulation::set_function_sampling`]).
     sample_every: Option<std::time::Duration>,
+}
+
+/// A model a simulation took from the source tree's `assets/` because its own models
+/// directory lacks it (see [`Simulation::borrowed_models`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BorrowedModel {
+    /// The species file's `asset`, e.g. `black_porgy.glb`.
+    pub asset: String,
+    /// The directory it was loaded from.
+    pub dir: PathBuf,
+}
+
+/// The source tree's `assets/`, unless that is `assets_dir` itself.
+fn asset_fallback(assets_dir: &Path) -> Option<PathBuf> {
+    let source = shoal_core::source_root().join("assets");
+    let same = match (assets_dir.canonicalize(), source.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => assets_dir == source,
+    };
+    (!same && source.is_dir()).then_some(source)
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
@@ -155,11 +182,21 @@ impl Simulation {
     /// An empty tank (`scripts/scenes/empty_tank.lua` if it exists, else 20 × 8 × 12 body
     /// lengths of a black porgy) with no fish; species load on first [`Simulation::spawn`].
     pub fn empty(root: &Path, seed: u64) -> Result<Self, ScriptError> {
-        let empty = root.join("scripts/scenes/empty_tank.lua");
+        Self::empty_with_scripts(root, &root.join("scripts"), seed)
+    }
+
+    /// [`Simulation::empty`] with the scripts from `scripts_dir` (its
+    /// `scenes/empty_tank.lua` when it has one) and the models under `root`.
+    pub fn empty_with_scripts(
+        root: &Path,
+        scripts_dir: &Path,
+        seed: u64,
+    ) -> Result<Self, ScriptError> {
+        let empty = scripts_dir.join("scenes/empty_tank.lua");
         if empty.is_file() {
-            return Self::from_scene(root, &empty, seed);
+            return Self::from_scene_with_scripts(root, scripts_dir, &empty, seed);
         }
-        let scripts_dir = root.join("scripts");
+        let scripts_dir = scripts_dir.to_path_buf();
         let host = ScriptHost::new(&scripts_dir, Limits::default())?;
         let desc = SceneDesc {
             tank: BoxDesc {
@@ -276,6 +313,8 @@ impl Simulation {
             sim: Pipeline::new(world, scripts),
             scripts_dir,
             root: root.to_path_buf(),
+            asset_fallback: asset_fallback(&assets_dir),
+            borrowed_models: Default::default(),
             assets_dir,
             scene_path: None,
             scene: None,
@@ -453,16 +492,46 @@ impl Simulation {
         id
     }
 
-    fn load_species(&self, path: &Path) -> Result<(Species, u64), ScriptError> {
+    fn load_species(&mut self, path: &Path) -> Result<(Species, u64), ScriptError> {
         let file = read_species(self.host(), path)?;
         let period = (TICK_HZ / file.decision_hz).round().max(1.0) as u64;
         let display = self.host().root().display_of(path);
-        let species =
-            Species::load(file.desc, &self.assets_dir).map_err(|source| ScriptError::World {
-                context: display,
-                source,
-            })?;
+        let dir = match &self.asset_fallback {
+            Some(fallback)
+                if !self.assets_dir.join(&file.desc.asset).is_file()
+                    && fallback.join(&file.desc.asset).is_file() =>
+            {
+                if !self
+                    .borrowed_models
+                    .iter()
+                    .any(|b| b.asset == file.desc.asset)
+                {
+                    self.borrowed_models.push(BorrowedModel {
+                        asset: file.desc.asset.clone(),
+                        dir: fallback.clone(),
+                    });
+                }
+                fallback
+            }
+            _ => &self.assets_dir,
+        };
+        let species = Species::load(file.desc, dir).map_err(|source| ScriptError::World {
+            context: display,
+            source,
+        })?;
         Ok((species, period))
+    }
+
+    /// The models directory this simulation looks in first (`assets/` beside the scripts, or
+    /// the scene's `assets`).
+    pub fn assets_dir(&self) -> &Path {
+        &self.assets_dir
+    }
+
+    /// The models that were not in [`Simulation::assets_dir`] and came from the source tree's
+    /// `assets/` instead, in the order first loaded.
+    pub fn borrowed_models(&self) -> &[BorrowedModel] {
+        &self.borrowed_models
     }
 
     /// Spawns a fish of species `species` (loaded on first use) at `pos`.

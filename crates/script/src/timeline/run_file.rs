@@ -265,20 +265,23 @@ impl Run {
         if crc32fast::hash(&bytes[..body_end]) != crc {
             return Err(RunFileError::Corrupt { path: path_buf() });
         }
+        // The field's path in front of serde's reason: `tank[1][2]: number out of range`.
         let header: RunHeader =
-            serde_json::from_slice(header).map_err(|e| RunFileError::Header {
-                path: path_buf(),
-                why: e.to_string(),
-            })?;
-        if !(header.tick_hz.is_finite() && header.tick_hz > 0.0) {
-            return Err(RunFileError::Header {
-                path: path_buf(),
-                why: format!("tick_hz is {}, expected a positive number", header.tick_hz),
-            });
-        }
+            serde_path_to_error::deserialize(&mut serde_json::Deserializer::from_slice(header))
+                .map_err(|e| RunFileError::Header {
+                    path: path_buf(),
+                    why: match e.path().to_string().as_str() {
+                        "." => e.inner().to_string(),
+                        field => format!("{field}: {}", e.inner()),
+                    },
+                })?;
         let frames = parse_frames(frames).map_err(|source| RunFileError::Frames {
             path: path_buf(),
             source,
+        })?;
+        check_header(&header, frames.len()).map_err(|why| RunFileError::Header {
+            path: path_buf(),
+            why,
         })?;
         Ok(Run { header, frames })
     }
@@ -301,6 +304,154 @@ pub enum FramesError {
     /// No frame at all.
     #[error("no frames")]
     None,
+}
+
+/// The most script lanes a recording may ask for: a lane is a whole Lua state, and shoal
+/// itself runs at most one per thread (16 by default). A file asking for more is refused
+/// before any state is built.
+pub const MAX_LANES: usize = 256;
+
+/// Whether `rel` (a recording's script or scene path) stays inside the scripts directory: a
+/// relative `/`-separated path without `..`, empty or odd parts.
+fn inside_scripts(rel: &str) -> bool {
+    !rel.is_empty()
+        && !rel.starts_with('/')
+        && !rel.contains('\\')
+        && !rel.contains('\0')
+        && !rel.contains(':')
+        && rel
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
+}
+
+/// Checks every header field against what shoal can run, so that a mutated or hand-edited
+/// recording (its checksum recomputed) is refused with one line naming the field instead of
+/// reaching the simulation: `lanes: 1000000000 is out of range: expected 1 to 256`.
+/// `num_frames` is the number of frames the file holds.
+fn check_header(h: &RunHeader, num_frames: usize) -> Result<(), String> {
+    if !(1..=MAX_LANES).contains(&h.lanes) {
+        return Err(format!(
+            "lanes: {} is out of range: expected 1 to {MAX_LANES} script lanes",
+            h.lanes
+        ));
+    }
+    let tick_hz = shoal_core::world::TICK_HZ;
+    if h.tick_hz != tick_hz {
+        return Err(format!(
+            "tick_hz: {:?} is not shoal's tick rate ({tick_hz} ticks a second), the only one it \
+             runs and replays",
+            h.tick_hz
+        ));
+    }
+    let [min, max] = h.tank;
+    for (corner, v) in [("min", min), ("max", max)] {
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            return Err(format!("tank.{corner}: {x} is not a finite number"));
+        }
+    }
+    if (0..3).any(|i| min[i] >= max[i]) {
+        return Err(format!(
+            "tank: min {min:?} must be below max {max:?} on every axis"
+        ));
+    }
+    if h.scripts.is_empty() {
+        return Err("scripts: none; a recording keeps every script it ran".into());
+    }
+    for (rel, file) in &h.scripts {
+        if !inside_scripts(rel) || !rel.ends_with(".lua") {
+            return Err(format!(
+                "scripts: `{rel}` is not a .lua file inside the scripts directory"
+            ));
+        }
+        if crc32fast::hash(file.text.as_bytes()) != file.crc32 {
+            return Err(format!("scripts.{rel}: its crc32 does not match its text"));
+        }
+    }
+    if !inside_scripts(&h.scene) {
+        return Err(format!(
+            "scene: `{}` is not a path inside the scripts directory",
+            h.scene
+        ));
+    }
+    if !h.scripts.contains_key(&h.scene) {
+        return Err(format!(
+            "scene: `{}` is not among the recording's scripts",
+            h.scene
+        ));
+    }
+    let last_tick = num_frames.saturating_sub(1) as u64;
+    for (k, timed) in h.inputs.iter().enumerate() {
+        if timed.tick > last_tick {
+            return Err(format!(
+                "inputs: one at tick {}, after the recording's last frame (tick {last_tick})",
+                timed.tick
+            ));
+        }
+        check_input(&timed.input).map_err(|why| format!("inputs[{}].{why}", k + 1))?;
+    }
+    if let Some(r) = &h.replay_of {
+        let seconds = last_tick as f64 / tick_hz;
+        if !(r.from_s.is_finite() && (0.0..=seconds).contains(&r.from_s)) {
+            return Err(format!(
+                "replay_of.from_s: {:?} is not a time inside the recording (0 to {seconds:.2} s)",
+                r.from_s
+            ));
+        }
+        for rel in &r.changed {
+            if !inside_scripts(rel) {
+                return Err(format!(
+                    "replay_of.changed: `{rel}` is not a path inside the scripts directory"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The numbers of a test's input that the simulation takes as they are: finite, a tank with
+/// its corners in order, a rock with a radius.
+fn check_input(input: &super::inputs::Input) -> Result<(), String> {
+    use super::inputs::Input;
+    let finite = |field: &str, v: &[f32]| match v.iter().find(|x| !x.is_finite()) {
+        Some(x) => Err(format!("{field}: {x} is not a finite number")),
+        None => Ok(()),
+    };
+    match input {
+        Input::Tank { min, max } => {
+            finite("min", &min.to_array())?;
+            finite("max", &max.to_array())?;
+            if min.cmpge(*max).any() {
+                return Err(format!("min: {min} must be below max {max} on every axis"));
+            }
+        }
+        Input::Spawn {
+            pos,
+            heading,
+            pitch,
+            speed,
+            ..
+        } => {
+            finite("pos", &pos.to_array())?;
+            finite("heading", &[*heading, *pitch])?;
+            finite("speed", &speed.iter().copied().collect::<Vec<_>>())?;
+        }
+        Input::FoodPhysics {
+            sink_speed,
+            lifetime,
+        } => {
+            finite("sink_speed", &[*sink_speed])?;
+            finite("lifetime", &lifetime.iter().copied().collect::<Vec<_>>())?;
+        }
+        Input::Food { pos } => finite("pos", &pos.to_array())?,
+        Input::Obstacle { pos, radius } => {
+            finite("pos", &pos.to_array())?;
+            if !(radius.is_finite() && *radius > 0.0) {
+                return Err(format!("radius: {radius} is not a positive number"));
+            }
+        }
+        Input::Motion { .. } | Input::SetBehavior { .. } => {}
+    }
+    Ok(())
 }
 
 fn parse_frames(mut b: &[u8]) -> Result<Vec<Vec<Pose>>, FramesError> {

@@ -329,6 +329,94 @@ fn scene_params_reach_the_fish_as_fish_params() {
     assert_eq!(b["name"], serde_json::json!("none"));
 }
 
+/// NaN or an infinity in a group's `params` is refused at load with its field path, as every
+/// other non-finite number in a scene is, instead of reaching the fish as a userdata `null`.
+#[test]
+fn non_finite_scene_params_are_refused_with_their_field_path() {
+    for (params, path, shown) in [
+        (
+            "{ hide_at = { 1, 0/0, 3 } }",
+            "fish[2].params.hide_at[2]",
+            "NaN",
+        ),
+        ("{ radius = 1/0 }", "fish[2].params.radius", "inf"),
+        ("{ deep = { x = -1/0 } }", "fish[2].params.deep.x", "-inf"),
+    ] {
+        let (_d, root) = scratch(&[(
+            "scripts/scenes/p.lua",
+            &scene_of(&format!(
+                "    {{ species = \"black_porgy\" }},\n    {{ species = \"black_porgy\", params = {params} }},"
+            )),
+        )]);
+        let e = load_err(&root, "scenes/p.lua");
+        assert!(e.contains("p.lua"), "{params}: {e}");
+        assert!(
+            e.contains(&format!("{path}: {shown} is not a finite number")),
+            "{params}: {e}"
+        );
+    }
+}
+
+/// A logpoint whose `{expression}` fails is the logpoint's failure: one warning naming it, no
+/// error counted against the behaviour, and the behaviour runs on (issue 36, finding 4).
+#[test]
+fn a_logpoint_whose_expression_fails_is_not_an_error_of_the_behaviour() {
+    let (_d, root) = scratch(&[
+        (
+            "scripts/behaviors/shy.lua",
+            "return { tick = function(fish)\n  local m = fish.memory\n  m.n = (m.n or 0) + 1\nend }\n",
+        ),
+        (
+            "scripts/scenes/s.lua",
+            &scene_of(r#"    { species = "black_porgy", count = 3, behavior = "shy" },"#),
+        ),
+    ]);
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/s.lua"), 1).unwrap();
+    sim.set_logpoints(
+        "behaviors/shy.lua",
+        vec![shoal_script::logpoints::Logpoint {
+            line: 3,
+            message: "rock {m.rock[1]} n {m.n}".into(),
+        }],
+    )
+    .unwrap();
+    sim.run(2.0);
+    assert!(
+        sim.error_messages().is_empty(),
+        "{:?}",
+        sim.error_messages()
+    );
+    let shy = sim
+        .profile()
+        .into_iter()
+        .find(|m| m.module == "shy")
+        .unwrap();
+    assert!(shy.calls > 20, "{shy:?}");
+    assert_eq!(shy.errors, 0, "a logpoint's failure is not the module's");
+    let ids: Vec<_> = sim.world().fish_ids().collect();
+    assert!(
+        sim.memory_json(ids[0])["n"].as_u64().unwrap() > 10,
+        "the behaviour ran on"
+    );
+    let log = sim.drain_log();
+    let failed: Vec<_> = log
+        .iter()
+        .filter(|e| e.message.contains("logpoint {m.rock[1]} failed"))
+        .collect();
+    assert_eq!(failed.len(), 1, "shown once: {log:?}");
+    assert_eq!(failed[0].level, shoal_script::log::LogLevel::Warning);
+    assert!(
+        failed[0].message.contains("shy.lua:3:"),
+        "{}",
+        failed[0].message
+    );
+    assert!(
+        !log.iter()
+            .any(|e| e.level == shoal_script::log::LogLevel::Error),
+        "{log:?}"
+    );
+}
+
 #[test]
 fn spawning_with_an_unknown_behaviour_or_species_says_what_exists() {
     let mut sim = Simulation::empty(common::repo(), 1).unwrap();

@@ -5,6 +5,7 @@
 
 mod common;
 mod designer_loop;
+mod run_file_fuzz;
 mod save;
 mod script_api;
 mod script_behaviors;

@@ -482,6 +482,40 @@ fn test_inspect_shows_intention_percepts_and_memory() {
     assert_eq!(get("behavior"), "probe");
 }
 
+/// The inspector shows a Lua list in its order, not sorted as text, then its named fields.
+#[test]
+fn test_inspect_shows_lists_in_their_order() {
+    let (_d, mut sim) = probe(
+        "local M = {}\nfunction M.behave(fish) fish.memory.rock = {250.5, 60, -120, 60}\nfish.memory.order = {3, 1, 2}\nfish.memory.mixed = {30, 10, b = 2, a = 1}\nend\nreturn M\n",
+    );
+    let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
+    sim.step();
+    let lines = sim.inspect(id);
+    let get = |k: &str| {
+        lines
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_else(|| panic!("{k} missing from {lines:?}"))
+    };
+    assert_eq!(get("memory.rock"), "{250.50, 60, -120, 60}");
+    assert_eq!(get("memory.order"), "{3, 1, 2}");
+    assert_eq!(get("memory.mixed"), "{30, 10, a=1, b=2}");
+}
+
+/// The Lua console answers an expression with its value (`= nil` for none) and a statement
+/// with `ok`, not JSON's `= null` (issue 36).
+#[test]
+fn test_console_answers_statements_and_expressions_in_lua_terms() {
+    let (_d, mut sim) = probe("local M = {}\nfunction M.behave(fish) end\nreturn M\n");
+    let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
+    sim.step();
+    assert_eq!(sim.console_eval(id, "fish.memory.x = 5").unwrap(), "ok");
+    assert_eq!(sim.console_eval(id, "fish.memory.x * 2").unwrap(), "= 10");
+    assert_eq!(sim.console_eval(id, "fish.memory.nope").unwrap(), "= nil");
+    assert!(sim.console_eval(id, "fish.memory.nope.x").is_err());
+}
+
 #[test]
 fn test_stage_timings_are_recorded() {
     let (_d, mut sim) = probe("return { tick = function(fish) shoal.see() end }\n");

@@ -204,12 +204,15 @@ impl UserData for TestHandle {
             "expect",
             |lua, this, (cond, msg): (Value, Option<String>)| {
                 let ok = !matches!(cond, Value::Nil | Value::Boolean(false));
-                Ok(this.check(lua, ok, || {
-                    format!(
-                        "expected: {} — got {}",
-                        msg.unwrap_or_else(|| "condition to hold".into()),
+                // The designer's message says what was expected (often with the actual value
+                // in it: "intends to hide, got graze"); the condition's own value comes after
+                // it, named as such, not as a second "got".
+                Ok(this.check(lua, ok, || match msg {
+                    Some(msg) => format!("{msg} (t:expect's condition was {})", describe(&cond)),
+                    None => format!(
+                        "t:expect: the condition does not hold (it is {})",
                         describe(&cond)
-                    )
+                    ),
                 }))
             },
         );
