@@ -153,7 +153,7 @@ fn recording_cost(root: &Path, fish: usize, pairs: usize) -> anyhow::Result<Cost
     let snaps: Vec<f64> = (0..5)
         .map(|_| {
             let start = Instant::now();
-            let _ = shoal_app::SimView::snapshot(&sim);
+            let _ = shoal_app::Showable::snapshot(&sim);
             start.elapsed().as_secs_f64() * 1e3
         })
         .collect();

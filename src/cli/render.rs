@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use shoal_app::{DynScene, OverlayToggles, SimView, WorldScene};
+use shoal_app::{DynScene, OverlayToggles, Showable, WorldScene};
 use shoal_core::world::bench::bench_world;
 use shoal_core::world::driver::{WanderDriver, WanderPipeline};
 use shoal_core::world::{Species, SpeciesDesc};
@@ -113,7 +113,7 @@ pub fn parse_camera(s: &str) -> anyhow::Result<CameraSpec> {
 }
 
 /// The camera for frame `frame` of `num_frames` (see [`CameraSpec`]).
-pub fn camera_for<S: SimView>(
+pub fn camera_for<S: Showable>(
     spec: CameraSpec,
     scene: &WorldScene<S>,
     select: Option<shoal_core::world::FishId>,
@@ -206,10 +206,10 @@ pub fn load_scene(
     scene: Option<&Path>,
     seed: Option<u64>,
     fish: Option<usize>,
-) -> anyhow::Result<Box<dyn SimView>> {
+) -> anyhow::Result<Box<dyn Showable>> {
     let root = &source.root;
     let seed_or_1 = seed.unwrap_or(1);
-    let lua = |path: &Path| -> anyhow::Result<Box<dyn SimView>> {
+    let lua = |path: &Path| -> anyhow::Result<Box<dyn Showable>> {
         if fish.is_some() {
             anyhow::bail!(
                 "--fish applies to `--scene porgies`; the Lua scene `{}` sets its own fish",
@@ -223,7 +223,7 @@ pub fn load_scene(
         }
         Ok(Box::new(sim))
     };
-    let porgies = || -> anyhow::Result<Box<dyn SimView>> {
+    let porgies = || -> anyhow::Result<Box<dyn Showable>> {
         if let Some(n) = fish.filter(|&n| n == 0 || n > MAX_PORGIES) {
             anyhow::bail!(
                 "--fish {n}: the porgies scene takes 1 to {MAX_PORGIES} fish (`shoal bench sim \

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use shoal_app::{
-    AppOptions, Aquarium, OverlayToggles, SimView, SplitVersions, run_aquarium, run_window,
+    AppOptions, Aquarium, OverlayToggles, Showable, SplitVersions, run_aquarium, run_window,
 };
 use shoal_core::world::FishId;
 use shoal_script::Simulation;

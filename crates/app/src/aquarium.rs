@@ -6,7 +6,7 @@ use glam::Vec2;
 use winit::event::MouseButton;
 
 use super::scene::{DynScene, OverlayToggles, WorldScene};
-use super::sim::SimView;
+use super::showable::Showable;
 use super::split::{Split, SplitError, SplitVersions};
 use super::timeline::{Divergence, Timeline};
 use super::ui_state::{UiState, advance, drop_food_at, refresh_views, seek, select_at};
@@ -38,7 +38,7 @@ pub struct Aquarium {
 
 impl Aquarium {
     /// Shows `sim`, with `options.select` selected (and followed) and `options.overlays` on.
-    pub fn new(sim: Box<dyn SimView>, options: AppOptions) -> Self {
+    pub fn new(sim: Box<dyn Showable>, options: AppOptions) -> Self {
         let mut scene = WorldScene::new(sim);
         let mut ui = UiState::new(scene.default_camera());
         if let Some(line) = ui.timeline.record(scene.sim()) {
@@ -71,8 +71,8 @@ impl Aquarium {
     /// by side, time-locked. Fails when they do not start at the same
     /// tick or have different species.
     pub fn new_split(
-        a: Box<dyn SimView>,
-        b: Box<dyn SimView>,
+        a: Box<dyn Showable>,
+        b: Box<dyn Showable>,
         versions: SplitVersions,
         options: AppOptions,
     ) -> Result<Self, SplitError> {

@@ -1,11 +1,11 @@
 //! The aquarium application: the window (`shoal run`), its egui tuning panel, and the adapter
 //! that shows a simulation through the renderer.
 //!
-//! - [`SimView`] is what the app sees of a simulation: whole 60 Hz ticks of a
+//! - [`Showable`] is what the app sees of a simulation: whole 60 Hz ticks of a
 //!   [`shoal_core::world::World`], plus inspector lines, a log and hot reload where the simulation has
 //!   them. [`shoal_script::Simulation`] (Lua behaviours) and [`shoal_core::world::driver::WanderPipeline`]
 //!   (the built-in Rust driver) implement it, in [`sim`].
-//! - [`WorldScene`] turns a [`SimView`] into what [`shoal_render::Renderer`] draws (meshes,
+//! - [`WorldScene`] turns a [`Showable`] into what [`shoal_render::Renderer`] draws (meshes,
 //!   palettes, instances, props, overlays) and answers the panel's questions about a fish, by
 //!   [`shoal_core::world::FishId`].
 //! - `split` holds the split tank's second version of the scripts (`shoal run --split`),
@@ -23,7 +23,7 @@ mod panel;
 mod pointer;
 mod scene;
 pub mod scripts_panel;
-pub mod sim;
+pub mod showable;
 mod split;
 mod timeline;
 mod tuned;
@@ -34,7 +34,7 @@ mod window;
 pub use aquarium::{AppOptions, Aquarium};
 pub use pointer::Pointer;
 pub use scene::{DynScene, FOOD_PELLET_RADIUS, FishInfo, OverlayToggles, WorldScene};
-pub use sim::{LogLine, SimError, SimState, SimView};
+pub use showable::{LogLine, Showable, SimError, SimState};
 pub use split::{SplitError, SplitVersions};
 pub use timeline::{
     DEFAULT_SPAN_S, Divergence, GHOST_COLOR, NEW_PATH_COLOR, TETHER_COLOR, Timeline,

@@ -1,4 +1,4 @@
-//! [`WorldScene`]: the adapter from a simulation ([`SimView`]) to the renderer — fixed 60 Hz ticks,
+//! [`WorldScene`]: the adapter from a simulation ([`Showable`]) to the renderer — fixed 60 Hz ticks,
 //! the species' real meshes, the world's own palettes — and the questions the panel asks about
 //! a fish (where it is, its body wave, its inspector lines), all by [`FishId`].
 //!
@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
-use super::sim::{LogLine, SimError, SimState, SimView};
+use super::showable::{LogLine, Showable, SimError, SimState};
 use shoal_core::motion::RootState;
 use shoal_core::motion::{MotionParams, MotionRequest};
 use shoal_core::world::pose::remap_joints;
@@ -27,8 +27,8 @@ use shoal_render::{
     TankBounds,
 };
 
-/// The scene the window shows: any [`SimView`] behind the adapter.
-pub type DynScene = WorldScene<Box<dyn SimView>>;
+/// The scene the window shows: any [`Showable`] behind the adapter.
+pub type DynScene = WorldScene<Box<dyn Showable>>;
 /// Where a fish is, for picking and the follow camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FishInfo {
@@ -78,10 +78,10 @@ struct SpeciesDraw {
     slot_joints: Vec<[u16; 4]>,
 }
 
-/// A [`SimView`] as the renderer and the panel see it: fixed 60 Hz ticks, real meshes, fish
+/// A [`Showable`] as the renderer and the panel see it: fixed 60 Hz ticks, real meshes, fish
 /// posed by the renderer's GPU pose pass (or, [`WorldScene::set_gpu_pose`] off, real palettes
 /// from the CPU), and the selected fish highlighted.
-pub struct WorldScene<S: SimView> {
+pub struct WorldScene<S: Showable> {
     sim: S,
     species: Vec<SpeciesDraw>,
     instances: Vec<FishInstance>,
@@ -104,7 +104,7 @@ pub struct WorldScene<S: SimView> {
     pose_mode: PoseMode,
 }
 
-impl<S: SimView> std::fmt::Debug for WorldScene<S> {
+impl<S: Showable> std::fmt::Debug for WorldScene<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("WorldScene")
             .field("fish", &self.sim.world().num_fish())
@@ -116,7 +116,7 @@ impl<S: SimView> std::fmt::Debug for WorldScene<S> {
 /// Radius of a drawn food pellet, length units.
 pub const FOOD_PELLET_RADIUS: f32 = 2.5;
 
-impl<S: SimView> WorldScene<S> {
+impl<S: Showable> WorldScene<S> {
     /// Wraps a simulation whose species are all loaded (meshes are uploaded once at start).
     pub fn new(mut sim: S) -> Self {
         // The renderer poses the fish: the world's pose stage only writes the pass's records.

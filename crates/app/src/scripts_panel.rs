@@ -10,7 +10,7 @@
 use std::collections::VecDeque;
 
 use super::scene::DynScene;
-use super::sim::{SimError, SimView};
+use super::showable::{Showable, SimError};
 use shoal_core::world::FishId;
 use shoal_script::sim::ModuleProfile;
 
@@ -135,7 +135,7 @@ pub struct ScriptsPanel {
 
 /// A watch expression as Lua run in the fish's context: the fish's script fields and its body's
 /// state under short names.
-fn watch_code(expr: &str, sim: &dyn SimView, fish: FishId) -> String {
+fn watch_code(expr: &str, sim: &dyn Showable, fish: FishId) -> String {
     let w = sim.world();
     let (speed, heading, pitch, depth, x, y, z) =
         w.root(fish)
@@ -198,7 +198,7 @@ impl ScriptsPanel {
     /// After a frame: the profile, and each watch's value for the selected fish at the new
     /// tick. A new fish, or a rewind, starts the plots over from there.
     pub fn refresh(&mut self, scene: &DynScene, selected: Option<FishId>) {
-        let sim: &dyn SimView = &**scene.sim();
+        let sim: &dyn Showable = &**scene.sim();
         self.profile = sim.profile();
         self.sort_profile();
         let Some(fish) = selected else {
@@ -250,7 +250,7 @@ impl ScriptsPanel {
     /// condition is cleared) when it cannot be evaluated.
     pub fn check_pause(
         &mut self,
-        sim: &dyn SimView,
+        sim: &dyn Showable,
     ) -> Option<Result<(FishId, String), PauseWhenError>> {
         let cond = self.pause_when.clone()?;
         let w = sim.world();

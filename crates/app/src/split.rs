@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use super::scene::DynScene;
-use super::sim::{SimError, SimView};
+use super::showable::{Showable, SimError};
 use super::timeline::{Divergence, GHOST_COLOR, NEW_PATH_COLOR, Timeline};
 use shoal_core::world::{FishId, SpeciesId, TICK_HZ};
 use shoal_render::OverlayLine;
@@ -91,7 +91,7 @@ impl Split {
     /// B beside `a` (both at the same tick, with the same species); records B's first moment.
     pub(super) fn new(
         a: &DynScene,
-        b: Box<dyn SimView>,
+        b: Box<dyn Showable>,
         versions: SplitVersions,
     ) -> Result<(Self, Option<String>), SplitError> {
         let scene = DynScene::new(b);

@@ -12,7 +12,7 @@ use std::collections::VecDeque;
 
 use glam::Vec3;
 
-use super::sim::{SimState, SimView};
+use super::showable::{Showable, SimState};
 use shoal_core::world::{FishId, TICK_HZ};
 use shoal_render::OverlayLine;
 
@@ -43,7 +43,7 @@ struct TickTrack {
 }
 
 impl TickTrack {
-    fn of<S: SimView + ?Sized>(sim: &S) -> Self {
+    fn of<S: Showable + ?Sized>(sim: &S) -> Self {
         let w = sim.world();
         let ids = w.fish_id_slice().to_vec();
         let pos = ids
@@ -140,7 +140,7 @@ impl Timeline {
     /// and plays on: the history after it becomes the ghost. Returns a console line when the
     /// state could not be kept (once per distinct message; the aquarium goes on, and so does
     /// recording of positions).
-    pub fn record<S: SimView + ?Sized>(&mut self, sim: &S) -> Option<String> {
+    pub fn record<S: Showable + ?Sized>(&mut self, sim: &S) -> Option<String> {
         let now = TickTrack::of(sim);
         let tick = now.tick;
         if self.track.back().is_some_and(|b| tick <= b.tick) {

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::pointer::Pointer;
 use super::scene::{DynScene, OverlayToggles, WorldScene};
-use super::sim::SimView;
+use super::showable::Showable;
 use super::split::Split;
 use super::timeline::Timeline;
 use shoal_core::world::{FishId, Tank};
@@ -50,7 +50,7 @@ pub(super) struct UiState {
     pub pace: VecDeque<(f32, f32)>,
     pub watcher: Option<ShaderWatcher>,
     pub shader_error: Option<String>,
-    scratch_log: Vec<super::sim::LogLine>,
+    scratch_log: Vec<super::showable::LogLine>,
     /// History messages of this frame's ticks, for the console.
     scratch_notes: Vec<String>,
     /// Set by the panel's "restart scene" button; handled at the start of the next frame.
@@ -235,7 +235,7 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
 /// The fish under `cursor` (physical pixels from the top-left of a `size` view): the nearest
 /// whose bounding sphere (shrunk to 80 %, the body is thinner than its sphere) the ray through
 /// the pixel hits. CPU only; linear in the number of fish, run on clicks.
-pub fn pick_fish<S: SimView>(
+pub fn pick_fish<S: Showable>(
     camera: &Camera,
     cursor: Vec2,
     size: Vec2,
@@ -301,9 +301,9 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     let (timeline, notes, scripts) = (&mut ui.timeline, &mut ui.scratch_notes, &mut ui.scripts);
     let mut pause = None;
     // After each tick: the history, then the "pause when" condition (stop at the tick it is met).
-    // The scene's simulation is a `Box<dyn SimView>`, and `step_until` hands it as it is.
+    // The scene's simulation is a `Box<dyn Showable>`, and `step_until` hands it as it is.
     #[allow(clippy::borrowed_box)]
-    let mut after_tick = |sim: &Box<dyn SimView>| {
+    let mut after_tick = |sim: &Box<dyn Showable>| {
         notes.extend(timeline.record(sim.as_ref()));
         pause = scripts.check_pause(sim.as_ref());
         pause.is_none()

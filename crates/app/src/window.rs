@@ -15,7 +15,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
 use super::aquarium::{AppOptions, Aquarium};
-use super::sim::SimView;
+use super::showable::Showable;
 use super::ui_state::{FrameTimes, advance, refresh_views};
 use shoal_render::shaders::{ShaderSources, ShaderWatcher};
 use shoal_render::{Gpu, GpuError, RenderError, Renderer};
@@ -51,7 +51,7 @@ pub fn default_msaa(device_type: wgpu::DeviceType) -> u32 {
 
 /// Opens the aquarium window on `sim` and runs until it is closed (or `options.frames` are
 /// presented). Returns the number of frames presented.
-pub fn run_window(sim: Box<dyn SimView>, options: AppOptions) -> Result<u64, AppError> {
+pub fn run_window(sim: Box<dyn Showable>, options: AppOptions) -> Result<u64, AppError> {
     run_aquarium(Aquarium::new(sim, options), options)
 }
 

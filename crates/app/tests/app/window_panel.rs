@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use glam::Vec2;
-use shoal_app::{AppOptions, Aquarium, SimView};
+use shoal_app::{AppOptions, Aquarium, Showable};
 use shoal_core::world::FishId;
 use shoal_script::Simulation;
 

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use shoal_app::{AppOptions, Aquarium, SimView};
+use shoal_app::{AppOptions, Aquarium, Showable};
 use shoal_core::world::FishId;
 use shoal_script::Simulation;
 

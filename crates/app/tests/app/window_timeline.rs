@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use glam::Vec3;
-use shoal_app::{AppOptions, Aquarium, GHOST_COLOR, NEW_PATH_COLOR, SimView};
+use shoal_app::{AppOptions, Aquarium, GHOST_COLOR, NEW_PATH_COLOR, Showable};
 use shoal_core::world::FishId;
 use shoal_script::Simulation;
 

@@ -1,4 +1,4 @@
-//! [`SimView`]: what the window sees of a simulation, and its two implementations — the Lua
+//! [`Showable`]: what the window sees of a simulation, and its two implementations — the Lua
 //! behaviour host ([`shoal_script::Simulation`]) and the built-in Rust wander driver
 //! ([`shoal_core::world::driver::WanderPipeline`]).
 //!
@@ -52,7 +52,7 @@ pub enum SimError {
 }
 
 /// A simulation at one tick, kept by the window's history ring and put back by
-/// [`SimView::restore`]: opaque to the app, one variant per simulation kind.
+/// [`Showable::restore`]: opaque to the app, one variant per simulation kind.
 #[derive(Debug)]
 pub enum SimState {
     /// The Lua host's world and script lanes' fish tables.
@@ -111,7 +111,7 @@ impl LogLine {
 /// [`World`], plus the designer-facing extras (inspector, log, hot reload) where it has them.
 ///
 /// Fish are addressed by [`FishId`] (generational: a despawned fish's handle stays invalid).
-pub trait SimView {
+pub trait Showable {
     /// Runs one tick (1 / [`shoal_core::world::TICK_HZ`] s): behaviour, motion, pose, grid.
     fn tick(&mut self);
     /// The world.
@@ -136,19 +136,19 @@ pub trait SimView {
     fn drain_log(&mut self) -> Vec<LogLine> {
         Vec::new()
     }
-    /// The simulation as it is now, to put back later with [`SimView::restore`]. Fails when
+    /// The simulation as it is now, to put back later with [`Showable::restore`]. Fails when
     /// the state cannot be kept (a fish table holds a function: the error names the fish and
     /// the field), or for a simulation that cannot be rewound.
     fn snapshot(&self) -> Result<SimState, SimError> {
         Err(SimError::NoSnapshots)
     }
-    /// Puts back a state taken by [`SimView::snapshot`] of this simulation; it then runs the
+    /// Puts back a state taken by [`Showable::snapshot`] of this simulation; it then runs the
     /// same future as it did from there (with edited scripts, the new scripts' future).
     fn restore(&mut self, state: &SimState) -> Result<(), SimError> {
         let _ = state;
         Err(SimError::NoSnapshots)
     }
-    /// Starts watching script files for edits (see [`SimView::poll_reload`]).
+    /// Starts watching script files for edits (see [`Showable::poll_reload`]).
     fn watch(&mut self) -> Result<(), SimError> {
         Ok(())
     }
@@ -163,7 +163,7 @@ pub trait SimView {
         Vec::new()
     }
     /// Applies the edits of these files now, without a watcher (what
-    /// [`SimView::poll_reload`] does for the files it saw change); one console line per event.
+    /// [`Showable::poll_reload`] does for the files it saw change); one console line per event.
     fn reload_changed(&mut self, paths: &[std::path::PathBuf]) -> Vec<String> {
         let _ = paths;
         Vec::new()
@@ -211,7 +211,7 @@ pub trait SimView {
     }
 }
 
-impl<S: SimView + ?Sized> SimView for Box<S> {
+impl<S: Showable + ?Sized> Showable for Box<S> {
     fn tick(&mut self) {
         (**self).tick();
     }
@@ -278,7 +278,7 @@ impl<S: SimView + ?Sized> SimView for Box<S> {
     }
 }
 
-impl SimView for Simulation {
+impl Showable for Simulation {
     fn tick(&mut self) {
         self.step();
     }
@@ -361,7 +361,7 @@ impl SimView for Simulation {
     }
 }
 
-impl SimView for WanderPipeline {
+impl Showable for WanderPipeline {
     fn tick(&mut self) {
         WanderPipeline::tick(self);
     }
