@@ -192,8 +192,15 @@ fn bench_render_reports_triangles_per_frame() {
                     .collect()
             })
             .unwrap_or_else(|| panic!("no level line in\n{stdout}"));
-        assert_eq!(levels.len(), 3, "{stdout}");
+        assert_eq!(levels.len(), 5, "{stdout}");
         assert!(levels[0] > 4 * levels[2], "{stdout}");
+        // "…; shadow: 8 (error 0.053)": the outline level the far fish's shadows use.
+        let outline: u64 = stdout
+            .lines()
+            .find_map(|l| l.split_once("; shadow: "))
+            .and_then(|(_, rest)| rest.split(' ').next()?.parse().ok())
+            .unwrap_or_else(|| panic!("no shadow level in\n{stdout}"));
+        assert!(outline * 4 <= levels[4], "{stdout}");
         let rows: Vec<Vec<&str>> = stdout
             .lines()
             .map(|l| l.split_whitespace().collect::<Vec<_>>())
@@ -212,10 +219,13 @@ fn bench_render_reports_triangles_per_frame() {
                 assert_eq!(per_lod[0], fish, "{stdout}");
             } else {
                 // 64×48 pixels: every porgy is a few pixels long, so the coarsest level.
-                assert_eq!(per_lod[2], fish, "{stdout}");
+                assert_eq!(per_lod[4], fish, "{stdout}");
             }
-            let expected: u64 =
-                per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>() + fish * levels[2];
+            // Fish at levels 0–2 cast level 2's shadow, coarser ones the outline.
+            let near: u64 = per_lod[..3].iter().sum();
+            let expected: u64 = per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>()
+                + near * levels[2]
+                + (fish - near) * outline;
             assert_eq!(row[9].parse::<u64>().unwrap(), expected, "{stdout}");
         }
     }

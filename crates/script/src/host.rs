@@ -607,7 +607,7 @@ impl ScriptHost {
                     matches!(e, mlua::Error::MemoryError(_)) || self.budget.aborted().is_some();
                 self.last_call_hit_limit = stopped;
                 let mut msg = self.after_error(&e);
-                if !super::error::has_location(&msg) && !msg.starts_with(&self.root.display) {
+                if !super::lua_error::has_location(&msg) && !msg.starts_with(&self.root.display) {
                     // Errors without a position (out of memory) at least name the file.
                     let file = self.root.display_of(&self.modules[module].path);
                     msg = format!("{file}: {msg}");

@@ -37,6 +37,7 @@ pub mod host;
 pub mod kinematics;
 pub mod log;
 pub mod logpoints;
+pub mod lua_error;
 pub mod plot;
 pub mod profiler;
 pub mod reload;

@@ -218,7 +218,7 @@ pub fn install(lua: &Lua, globals: &Table) -> mlua::Result<()> {
 
 /// The console's warning for a logpoint whose `{source}` failed (deduplicated by the log).
 fn logpoint_failed(lua: &Lua, location: &str, source: &str, err: &mlua::Error) {
-    let why = crate::error::describe(err);
+    let why = crate::lua_error::describe(err);
     // The error's own position is the logpoint's line, already named in front.
     let why = why
         .strip_prefix(location)

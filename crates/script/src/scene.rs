@@ -256,7 +256,7 @@ fn is_array_like(t: &Table) -> bool {
 #[derive(Debug, thiserror::Error)]
 pub enum SpeciesFileError {
     /// Lua failed reading the table (a metamethod raised an error).
-    #[error("{file}: {}", super::error::describe(cause))]
+    #[error("{file}: {}", super::lua_error::describe(cause))]
     Lua {
         /// The file, as shown.
         file: String,

@@ -198,13 +198,13 @@ impl<'w> FishRef<'w> {
     /// As the last motion stage stored it, or, when that stage left the body's shape to the GPU
     /// pose pass, derived from the fish's motion player now (the same values).
     pub fn lateral(&self) -> Vec<f32> {
-        let (n, _) = super::stages::shape_lens(&self.species().rig.body);
+        let (n, _) = super::shape::shape_lens(&self.species().rig.body);
         self.world.shape_of(self.d).0[..n].to_vec()
     }
 
     /// Each driven joint's local yaw, radians (stored or derived, as [`FishRef::lateral`]).
     pub fn yaw(&self) -> Vec<f32> {
-        let (_, n) = super::stages::shape_lens(&self.species().rig.body);
+        let (_, n) = super::shape::shape_lens(&self.species().rig.body);
         self.world.shape_of(self.d).1[..n].to_vec()
     }
 

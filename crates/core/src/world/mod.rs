@@ -44,6 +44,7 @@ mod population;
 pub mod pose;
 mod registry;
 pub mod sense;
+mod shape;
 mod stages;
 mod state;
 pub mod steer;

@@ -8,6 +8,7 @@ use glam::Mat4;
 use super::contact::{drift, resolve_contact};
 use super::registry::Catalog;
 use super::sense::wrap_angle;
+use super::shape::derive_shape;
 use super::{FishId, MAX_DRIVEN_JOINTS, PoseMode, StageCounters, World, WorldState, pose};
 use crate::motion::RootState;
 
@@ -227,47 +228,4 @@ fn move_fish(state: &mut WorldState, catalog: &Catalog, shape_on_cpu: bool, dt: 
             rejected
         })
         .sum()
-}
-
-/// How many entries of a fish's stored `lateral` and `yaw` arrays `body` uses: its `joints_x`
-/// samples and its driven joints.
-pub(super) fn shape_lens(body: &crate::motion::Body) -> (usize, usize) {
-    (
-        body.joints_x.len().min(MAX_DRIVEN_JOINTS + 1),
-        body.power.len().min(MAX_DRIVEN_JOINTS),
-    )
-}
-
-/// `player`'s body shape for a root moving at `speed`, into `lateral` and `yaw` as the motion
-/// stage stores them (all 0 if a value is not finite); returns the head's lateral offset and
-/// yaw, for [`crate::motion::MotionPlayer::set_head_shape`], and whether the shape was finite.
-pub(super) fn derive_shape(
-    player: &crate::motion::MotionPlayer,
-    speed: f32,
-    sp: &super::Species,
-    table: &crate::motion::WaveTable,
-    lateral: &mut [f32; MAX_DRIVEN_JOINTS + 1],
-    yaw: &mut [f32; MAX_DRIVEN_JOINTS],
-) -> ((f32, f32), bool) {
-    let body = &sp.rig.body;
-    let (samples, driven) = shape_lens(body);
-    let head = player.shape_tabled(
-        speed,
-        &sp.desc.motion,
-        body,
-        table,
-        &mut lateral[..samples],
-        &mut yaw[..driven],
-    );
-    let finite = finite_shape(&lateral[..samples], &yaw[..driven]);
-    if !finite {
-        lateral.fill(0.0);
-        yaw.fill(0.0);
-    }
-    (head, finite)
-}
-
-/// Whether a body shape's values are all finite.
-fn finite_shape(lateral: &[f32], yaw: &[f32]) -> bool {
-    lateral.iter().chain(yaw).all(|v| v.is_finite())
 }

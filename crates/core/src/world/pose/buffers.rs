@@ -10,7 +10,7 @@ use std::time::Instant;
 use glam::Mat4;
 
 use super::super::registry::Catalog;
-use super::super::stages::derive_shape;
+use super::super::shape::derive_shape;
 use super::super::{PoseMode, StageCounters, WorldState};
 use super::{LEAF_FISH, PoseInputs, PoseTiming, gpu, run};
 use crate::skin::pose_program::{GpuFishPose, GpuPosePrograms};
