@@ -83,6 +83,7 @@ impl World {
     pub fn rebuild_grid(&mut self) {
         let start = Instant::now();
         self.index.rebuild(&self.state, &self.catalog.species);
+        self.state.crowd_columns = self.index.crowd_columns.len() > 0;
         self.counters.grid_ns = start.elapsed().as_nanos() as u64;
     }
 

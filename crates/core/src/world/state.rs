@@ -70,8 +70,8 @@ pub struct WorldState {
     pub(super) next_drop_s: f64,
     /// How pellets sink and how long they last.
     pub(super) food_physics: FoodPhysics,
-    /// Whether the world's last grid rebuild filled the crowd columns (see `index.rs`): set by
-    /// [`World::snapshot`] only (false in the live state). The crowd queries sum over the columns
+    /// Whether the world's last grid rebuild filled the crowd columns (see `index.rs`; the grid
+    /// stage keeps it current). The crowd queries sum over the columns
     /// in another order than over the fish arrays, so the sums round differently; a restored
     /// world fills the columns exactly when the snapshot's world had them, or a replay from a
     /// snapshot parts from its recording (70 of 10,000 fish did, one tick after the snapshot).
@@ -164,10 +164,7 @@ pub fn random_point(rng: &mut Pcg32, min: Vec3, max: Vec3) -> Vec3 {
 impl World {
     /// A copy of the world's state (see [`WorldState`]).
     pub fn snapshot(&self) -> WorldState {
-        WorldState {
-            crowd_columns: self.index.crowd_columns.len() > 0,
-            ..self.state.clone()
-        }
+        self.state.clone()
     }
 
     /// Puts back a state taken by [`World::snapshot`] of this world (or of a world with the same
@@ -192,10 +189,10 @@ impl World {
         }
         self.index.food_changed();
         // The columns exactly when the snapshot's world had them (see `WorldState::crowd_columns`).
-        let crowd_columns = std::mem::take(&mut self.state.crowd_columns);
-        self.index
-            .crowd_wanted
-            .store(crowd_columns, std::sync::atomic::Ordering::Relaxed);
+        self.index.crowd_wanted.store(
+            self.state.crowd_columns,
+            std::sync::atomic::Ordering::Relaxed,
+        );
         // The state may come from a world that left the body shapes to the GPU.
         self.pose.shapes_current = false;
         self.refresh_predators();
