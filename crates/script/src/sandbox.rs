@@ -651,13 +651,7 @@ pub fn load_source(lua: &Lua, display: &str, source: &str) -> Result<Function, S
     let cache = lua
         .create_table()
         .map_err(|e| ScriptError::Lua(describe(&e)))?;
-    let env = family_env(lua, &cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
-    lua.load(source)
-        .set_name(format!("@{display}"))
-        .set_mode(ChunkMode::Text)
-        .set_environment(env)
-        .into_function()
-        .map_err(|e| ScriptError::Lua(describe(&e)))
+    load_text(lua, display, source.as_bytes(), &cache)
 }
 
 /// [`load_file`] in the family of `cache` (see `family_env`).
@@ -676,6 +670,17 @@ fn load_in_family(lua: &Lua, path: &Path, cache: &Table) -> Result<Function, Scr
             source,
         }
     })?;
+    load_text(lua, &display, &source, cache)
+}
+
+/// Loads `source` as the text chunk named `display`, in a fresh environment of `cache`'s family:
+/// what [`load_file`] and [`load_source`] share.
+fn load_text(
+    lua: &Lua,
+    display: &str,
+    source: &[u8],
+    cache: &Table,
+) -> Result<Function, ScriptError> {
     let env = family_env(lua, cache).map_err(|e| ScriptError::Lua(describe(&e)))?;
     lua.load(source)
         .set_name(format!("@{display}"))

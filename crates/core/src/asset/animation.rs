@@ -187,20 +187,6 @@ pub fn key_bytes(driven: usize) -> usize {
     (3 + 4 + 1 + 4 * driven) * 4
 }
 
-/// A node name part from a joint name: letters, digits, `_` and `-` kept, anything else `_`
-/// (three.js and Blender treat `.`, `:`, `/` and spaces in names specially).
-pub fn sanitize_name(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
 fn quat_array(q: Quat) -> [f32; 4] {
     q.to_array()
 }
@@ -500,7 +486,7 @@ impl SchoolAnimation<'_> {
                     _ => rest.rotation,
                 };
                 let mut node = json!({
-                    "name": format!("{}_{}", f.name, sanitize_name(&skel.names()[j])),
+                    "name": format!("{}_{}", f.name, super::sanitize_name(&skel.names()[j])),
                     "translation": rest.translation.to_array(),
                     "rotation": quat_array(rotation),
                     "scale": rest.scale.to_array(),

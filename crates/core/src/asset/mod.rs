@@ -30,3 +30,17 @@ pub fn black_porgy_glb() -> Vec<u8> {
 pub fn eel_glb() -> Vec<u8> {
     FishPlan::eel().to_glb()
 }
+
+/// A node name part from a joint or bone name (rigging and export): letters, digits, `_` and `-` kept, anything else `_`
+/// (three.js and Blender treat `.`, `:`, `/` and spaces in names specially).
+pub fn sanitize_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}

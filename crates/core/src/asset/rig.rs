@@ -260,7 +260,7 @@ pub fn rig_scene(scene: &GltfScene, opts: &RigOptions) -> Result<Rigged, RigErro
         parts,
     } = baked;
     let rigged = RiggedMesh {
-        name: sanitize(&name),
+        name: super::sanitize_name(&name),
         joint_names: names.clone(),
         joint_parents: parents,
         joint_positions,
@@ -567,18 +567,6 @@ fn chain_joints(
         joint_positions.push(centroid + axis * t + offset);
     }
     (names, chain_f, joint_positions)
-}
-
-fn sanitize(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 /// Two unit vectors perpendicular to `axis` and each other.

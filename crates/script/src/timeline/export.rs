@@ -866,10 +866,7 @@ fn moment_of(w: &World, tick: usize, t_s: f64, locals: &mut Vec<JointTransform>)
             .zip(sp.model.skeleton.names())
             .map(|(m, name)| JointPos {
                 name: name.clone(),
-                node: format!(
-                    "{node}_{}",
-                    shoal_core::asset::animation::sanitize_name(name)
-                ),
+                node: format!("{node}_{}", shoal_core::asset::sanitize_name(name)),
                 pos: m.w_axis.truncate().to_array(),
             })
             .collect();

@@ -460,6 +460,15 @@ fn test_decisions_are_staggered_at_10_hz() {
     }
 }
 
+/// The inspector's value of `key`, failing with every line when it is missing.
+fn inspected(lines: &[(String, String)], key: &str) -> String {
+    lines
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.clone())
+        .unwrap_or_else(|| panic!("{key} missing from {lines:?}"))
+}
+
 #[test]
 fn test_inspect_shows_intention_percepts_and_memory() {
     let (_d, mut sim) = probe(
@@ -468,13 +477,7 @@ fn test_inspect_shows_intention_percepts_and_memory() {
     let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
     sim.step();
     let lines = sim.inspect(id);
-    let get = |k: &str| {
-        lines
-            .iter()
-            .find(|(key, _)| key == k)
-            .map(|(_, v)| v.clone())
-            .unwrap_or_else(|| panic!("{k} missing from {lines:?}"))
-    };
+    let get = |k: &str| inspected(&lines, k);
     assert_eq!(get("intention"), "eat");
     assert_eq!(get("percept.food"), "3");
     assert_eq!(get("memory.last"), "eat");
@@ -491,13 +494,7 @@ fn test_inspect_shows_lists_in_their_order() {
     let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
     sim.step();
     let lines = sim.inspect(id);
-    let get = |k: &str| {
-        lines
-            .iter()
-            .find(|(key, _)| key == k)
-            .map(|(_, v)| v.clone())
-            .unwrap_or_else(|| panic!("{k} missing from {lines:?}"))
-    };
+    let get = |k: &str| inspected(&lines, k);
     assert_eq!(get("memory.rock"), "{250.50, 60, -120, 60}");
     assert_eq!(get("memory.order"), "{3, 1, 2}");
     assert_eq!(get("memory.mixed"), "{30, 10, a=1, b=2}");
