@@ -394,7 +394,7 @@ pub struct RenderArgs {
     pub frames: usize,
     /// Largest projected error of a coarser level of detail, pixels; 0 draws every fish at full
     /// detail.
-    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX)]
+    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX, allow_negative_numbers = true)]
     pub lod_tolerance_px: f32,
     /// Draw this rigged model (joints spine_1 …, e.g. from `shoal asset rig`) instead of the
     /// black porgy, with its material and textures.
@@ -413,12 +413,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     if args.frames == 0 {
         anyhow::bail!("--frames must be at least 1");
     }
-    if !(args.lod_tolerance_px.is_finite() && args.lod_tolerance_px >= 0.0) {
-        anyhow::bail!(
-            "--lod-tolerance-px {} must be a number ≥ 0",
-            args.lod_tolerance_px
-        );
-    }
+    super::render::check_lod_tolerance(args.lod_tolerance_px)?;
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let target = OffscreenTarget::new(&gpu, args.size.0, args.size.1);

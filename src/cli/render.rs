@@ -52,7 +52,7 @@ pub struct Args {
     pub overlays: bool,
     /// Largest projected error of a coarser level of detail, pixels (as `bench render`); 0 draws
     /// every fish at full detail.
-    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX)]
+    #[arg(long, default_value_t = shoal_render::DEFAULT_LOD_TOLERANCE_PX, allow_negative_numbers = true)]
     pub lod_tolerance_px: f32,
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
@@ -295,6 +295,14 @@ pub(super) fn unknown_scene(scene: &Path, scripts: &Path, porgies: bool) -> anyh
     )
 }
 
+/// `--lod-tolerance-px` (`render` and `bench render`): a number of pixels ≥ 0.
+pub fn check_lod_tolerance(px: f32) -> anyhow::Result<()> {
+    if !(px.is_finite() && px >= 0.0) {
+        anyhow::bail!("--lod-tolerance-px {px} must be a number ≥ 0");
+    }
+    Ok(())
+}
+
 enum Output {
     Png(PathBuf),
     Gif(PathBuf),
@@ -303,6 +311,7 @@ enum Output {
 
 /// Runs `shoal render`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    check_lod_tolerance(args.lod_tolerance_px)?;
     if !(args.seconds.is_finite() && args.seconds >= 0.0) {
         anyhow::bail!("--seconds {} must be a number ≥ 0", args.seconds);
     }
@@ -324,12 +333,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     scene.set_selected(select);
 
-    if !(args.lod_tolerance_px.is_finite() && args.lod_tolerance_px >= 0.0) {
-        anyhow::bail!(
-            "--lod-tolerance-px {} must be a number ≥ 0",
-            args.lod_tolerance_px
-        );
-    }
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.adapter_summary());
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;

@@ -193,8 +193,16 @@ impl Renderer {
         for (mesh_id, joint0, is_fish) in fish.chain(props) {
             let mesh = &self.meshes[mesh_id.0 as usize];
             let (sphere, scale) = mesh.bounds.world_sphere(joint0);
-            let lod = selector.select(&mesh.levels, sphere, scale);
-            let draw = if frustum.intersects(sphere) {
+            let in_view = frustum.intersects(sphere);
+            let shadow_in_view =
+                shadow.is_some_and(|projection| frustum.intersects(projection.project(sphere)));
+            // The level, for the fish's draw and its shadow's: only when either is drawn.
+            let lod = if in_view || shadow_in_view {
+                selector.select(&mesh.levels, sphere, scale)
+            } else {
+                0
+            };
+            let draw = if in_view {
                 if is_fish {
                     stats.num_fish_drawn += 1;
                     stats.num_fish_per_lod[lod] += 1;
@@ -206,18 +214,17 @@ impl Renderer {
                 }
                 CULLED
             };
-            let shade = match shadow {
-                Some(projection) if frustum.intersects(projection.project(sphere)) => {
-                    // A fish drawn at one of the levels for a few pixels casts the outline
-                    // shadow; nearer ones the fish's own detail, at least `NEAR_SHADOW_LOD`'s.
-                    let far = lod > NEAR_SHADOW_LOD;
-                    if is_fish {
-                        stats.num_shadows_drawn += 1;
-                        stats.num_outline_shadows += u32::from(far);
-                    }
-                    self.num_lod_buckets + 2 * mesh_id.0 + u32::from(far)
+            let shade = if shadow_in_view {
+                // A fish drawn at one of the levels for a few pixels casts the outline shadow;
+                // nearer ones the fish's own detail, at least `NEAR_SHADOW_LOD`'s.
+                let far = lod > NEAR_SHADOW_LOD;
+                if is_fish {
+                    stats.num_shadows_drawn += 1;
+                    stats.num_outline_shadows += u32::from(far);
                 }
-                _ => CULLED,
+                self.num_lod_buckets + 2 * mesh_id.0 + u32::from(far)
+            } else {
+                CULLED
             };
             for bucket in [draw, shade] {
                 if bucket != CULLED {
