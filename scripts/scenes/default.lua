@@ -33,5 +33,24 @@ local scene = {
   currents = {
     { pos = { 0, 200, 0 }, radius = 150, velocity = { 8, 0, 0 } },
   },
+
+  -- The scene's own measures (docs/measures.md): each is called once per simulated second for
+  -- every fish, with the fish's table and the shoal sensors answering for it; `shoal compare` and
+  -- a test's `w:measure(NAME)` report the mean over fish and samples. Return nil to leave a fish
+  -- out; true and false count as 1 and 0.
+  measures = {
+    -- How far the nearest predator a porgy sees is, in porgy body lengths (porgies seeing one).
+    predator_distance_l = function(fish)
+      if fish.species ~= "black_porgy" then return nil end
+      local p = shoal.nearest("predator")
+      if p == nil then return nil end
+      return p.distance / shoal.species().length
+    end,
+    -- The share of porgies whose last decision was to flee.
+    fleeing = function(fish)
+      if fish.species ~= "black_porgy" then return nil end
+      return fish.intention == "flee"
+    end,
+  },
 }
 return scene

@@ -135,6 +135,7 @@
 ---@field food_lifetime? number    # seconds an uneaten pellet lasts before it dissolves (default: for ever)
 ---@field obstacles? shoal.Obstacle[]
 ---@field currents? shoal.Current[]
+---@field measures? table<string, fun(fish: shoal.Fish): number|boolean|nil>  # the scene's own measures, sampled once per simulated second for every fish (docs/measures.md)
 
 ---@class (exact) shoal.MotionParams
 ---@field p? number             # pivot, fraction of body length from the head (> 0.1424)

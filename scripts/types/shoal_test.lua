@@ -130,6 +130,13 @@ function TestWorld:errors() end
 ---@return integer
 function TestWorld:fish_count() end
 
+---The mean so far of the scene's measure `name` (its `measures = { NAME = function(fish) … end }`),
+---over every fish and once-a-second sample that gave a value. Raises an error for a name the
+---scene does not declare, or before any sample has a value.
+---@param name string
+---@return number
+function TestWorld:measure(name) end
+
 ---Writes `source` to `relative` inside a scratch world's scripts/ and reloads what it affects,
 ---as a save in the aquarium does. Returns the reload events, as text.
 ---@param relative string

@@ -64,6 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         merge(&args.merge)?
     };
+    report_measure_errors(&c);
     if let Some(plot) = &args.plot {
         shoal_script::timeline::compare_plot::write(&c, plot)?;
     }
@@ -159,11 +160,34 @@ fn merge(files: &[PathBuf]) -> anyhow::Result<Comparison> {
     Ok(compare::merge(parts)?)
 }
 
+/// On stderr (so `--json` stays JSON): each scene measure that failed, by version and name,
+/// with how often, in how many runs, and the first error (`file:line: message`).
+fn report_measure_errors(c: &Comparison) {
+    for (version, v) in [("A", &c.a), ("B", &c.b)] {
+        let mut failed: std::collections::BTreeMap<&str, (u64, usize, &str)> = Default::default();
+        for r in &v.runs {
+            for (name, e) in &r.measure_errors {
+                let entry = failed.entry(name).or_insert((0, 0, e.first.as_str()));
+                entry.0 += e.count;
+                entry.1 += 1;
+            }
+        }
+        for (name, (count, runs, first)) in failed {
+            eprintln!(
+                "{version}: measure \"{name}\" failed {count} times in {runs} of {} runs (its value \
+                 is over the samples that worked); first: {first}",
+                v.runs.len()
+            );
+        }
+    }
+}
+
 fn fmt_estimate(e: &Estimate) -> String {
+    let n = e.n;
     match (e.mean, e.low, e.high) {
-        (Some(m), Some(l), Some(h)) => format!("{m:>9.3} [{l:.3}, {h:.3}]"),
-        (Some(m), _, _) => format!("{m:>9.3}"),
-        _ => "—".to_owned(),
+        (Some(m), Some(l), Some(h)) => format!("{m:>9.3} [{l:.3}, {h:.3}] n={n}"),
+        (Some(m), _, _) => format!("{m:>9.3} n={n}"),
+        _ => format!("— n={n}"),
     }
 }
 
@@ -177,17 +201,17 @@ fn print_table(c: &Comparison) {
         println!("files that differ: {}", c.changed.join(", "));
     }
     println!(
-        "{} seeds per version; mean [95 % interval]; B − A paired by seed",
+        "{} seeds per version; mean [95 % interval] n=values it rests on; B − A paired by seed",
         c.a.runs.len()
     );
     println!(
-        "  {:<24} {:>30} {:>30} {:>30}",
+        "  {:<24} {:>36} {:>36} {:>36}",
         "measure", "A", "B", "B − A"
     );
     for m in &c.summary {
         let verdict = if m.significant { "  significant" } else { "" };
         println!(
-            "  {:<24} {:>30} {:>30} {:>30}{verdict}",
+            "  {:<24} {:>36} {:>36} {:>36}{verdict}",
             m.label,
             fmt_estimate(&m.a),
             fmt_estimate(&m.b),

@@ -446,23 +446,59 @@ impl ScriptHost {
             return Ok(());
         }
         let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
-        let t = self.lua.create_table().map_err(err)?;
-        t.raw_set("id", id.index).map_err(err)?;
-        t.raw_set("generation", id.generation).map_err(err)?;
-        t.raw_set("species", species).map_err(err)?;
-        t.raw_set("behavior", behavior).map_err(err)?;
-        t.raw_set("memory", self.lua.create_table().map_err(err)?)
-            .map_err(err)?;
-        let params = match self.fish_params.get(&id.index) {
-            Some((generation, v)) if *generation == id.generation => {
-                self.lua.to_value(&**v).map_err(err)?
-            }
-            _ => Value::Table(self.lua.create_table().map_err(err)?),
-        };
-        t.raw_set("params", params).map_err(err)?;
+        let t = self.new_fish_table(id, species, behavior).map_err(err)?;
         self.fish_tables.raw_set(id.index, &t).map_err(err)?;
         self.cache_table(id, t);
         Ok(())
+    }
+
+    /// A fish's table as it starts: ids, names, an empty `memory`, its `params`.
+    fn new_fish_table(&self, id: FishId, species: &str, behavior: &str) -> mlua::Result<Table> {
+        let t = self.lua.create_table()?;
+        t.raw_set("id", id.index)?;
+        t.raw_set("generation", id.generation)?;
+        t.raw_set("species", species)?;
+        t.raw_set("behavior", behavior)?;
+        t.raw_set("memory", self.lua.create_table()?)?;
+        let params = match self.fish_params.get(&id.index) {
+            Some((generation, v)) if *generation == id.generation => self.lua.to_value(&**v)?,
+            _ => Value::Table(self.lua.create_table()?),
+        };
+        t.raw_set("params", params)?;
+        Ok(t)
+    }
+
+    /// The table a scene measure is called with for fish `id`: its own table once it has one
+    /// (its `memory`, `intention`, `percepts`), else a fresh one that is not kept (a fish with
+    /// no behaviour, or one that has not decided yet).
+    pub fn measure_fish_table(
+        &self,
+        id: FishId,
+        species: &str,
+        behavior: &str,
+    ) -> mlua::Result<Table> {
+        match self.existing_fish_table(id) {
+            Some(t) => Ok(t),
+            None => self.new_fish_table(id, species, behavior),
+        }
+    }
+
+    /// Calls a scene measure `f` with `fish` under the per-call budget, with `shoal.species()`
+    /// answering for species index `species_number - 1`. An error comes back as the console
+    /// shows it (`file:line: message`).
+    pub fn call_measure(
+        &self,
+        f: &Function,
+        fish: &Table,
+        species_number: u16,
+    ) -> Result<Value, String> {
+        let _metered = self.begin_call();
+        let call = || -> mlua::Result<Value> {
+            let decision: Table = self.lua.named_registry_value(DECISION_KEY)?;
+            decision.raw_set("species", species_number)?;
+            f.call::<Value>(fish)
+        };
+        call().map_err(|e| self.after_error(&e))
     }
 
     /// Sets the data a fish finds in `fish.params` (from its scene group); it applies when the

@@ -213,6 +213,92 @@ pub struct SceneDesc {
     /// Current zones.
     #[serde(default)]
     pub currents: Vec<CurrentDesc>,
+    /// The names of the scene's own measures, sorted: the file's
+    /// `measures = { NAME = function(fish) return number end }`. The functions stay in Lua (see
+    /// [`take_measures`]); each is sampled once per simulated second for every fish, and a
+    /// run's value is the mean over fish and samples.
+    #[serde(default)]
+    pub measures: Vec<String>,
+}
+
+/// A scene file's value read into a [`SceneDesc`]: its `measures` checked (see
+/// [`take_measures`]), then every other field as [`from_lua_value`] reads it.
+pub fn scene_from_lua(value: Value, file: &str) -> Result<SceneDesc, FieldError> {
+    if let Value::Table(t) = &value {
+        take_measures(t, file)?;
+    }
+    from_lua_value(value, file)
+}
+
+/// Checks a scene table's `measures` (a table of functions by name, each field path named in
+/// the error) and replaces it, in `scene`, by the list of their names, sorted, which serde reads
+/// (functions are not data). Returns the names.
+pub fn take_measures(scene: &Table, file: &str) -> Result<Vec<String>, FieldError> {
+    let field = |path: String, why: String| FieldError {
+        file: file.to_owned(),
+        path,
+        why,
+    };
+    let lua_err = |e: mlua::Error| field("measures".into(), e.to_string());
+    let measures = match scene.raw_get::<Value>("measures").map_err(lua_err)? {
+        Value::Nil => return Ok(Vec::new()),
+        Value::Table(t) => t,
+        other => {
+            return Err(field(
+                "measures".into(),
+                format!(
+                    "expected a table of functions by name, such as \
+                     measures = {{ hiding = function(fish) return 1 end }} (got {})",
+                    other.type_name()
+                ),
+            ));
+        }
+    };
+    let mut names = Vec::new();
+    for pair in measures.pairs::<Value, Value>() {
+        let (k, v) = pair.map_err(lua_err)?;
+        let name = match &k {
+            Value::String(s) => s.to_string_lossy(),
+            other => {
+                return Err(field(
+                    "measures".into(),
+                    format!(
+                        "a measure is named by a string key (NAME = function(fish) … end), \
+                         got the {} key {}",
+                        other.type_name(),
+                        other.to_string().unwrap_or_default()
+                    ),
+                ));
+            }
+        };
+        if name.is_empty() {
+            return Err(field(
+                "measures".into(),
+                "a measure's name cannot be empty".into(),
+            ));
+        }
+        if !v.is_function() {
+            return Err(field(
+                format!("measures.{name}"),
+                format!(
+                    "expected a function(fish) returning a number (or a boolean, or nil to leave \
+                     the fish out), got {}",
+                    v.type_name()
+                ),
+            ));
+        }
+        names.push(name);
+    }
+    names.sort();
+    // The table is the scene file's own fresh value: the names replace the functions for serde.
+    let seq = scene
+        .weak_lua()
+        .try_upgrade()
+        .ok_or_else(|| mlua::Error::runtime("the scene's Lua state is gone"))
+        .and_then(|lua| lua.create_sequence_from(names.iter().map(String::as_str)))
+        .map_err(lua_err)?;
+    scene.raw_set("measures", seq).map_err(lua_err)?;
+    Ok(names)
 }
 
 /// A species file, read.

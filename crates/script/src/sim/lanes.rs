@@ -71,6 +71,9 @@ pub(super) struct Lane {
     sense_sampled: u32,
     /// Per behaviour module (by the host's module index): what its decisions cost so far.
     pub(super) profile: Vec<ModuleStats>,
+    /// This lane's copy of the scene's measure functions, in the order of the scene's names,
+    /// loaded on the first sample (see `measures.rs`); `Err` holds why they could not be.
+    pub(super) measures: Option<Result<Vec<mlua::Function>, String>>,
 }
 
 /// What one behaviour module's decisions cost in one lane (see `Simulation::profile`).
@@ -109,6 +112,7 @@ impl Lane {
             decided: 0,
             sense_sampled: 0,
             profile: Vec::new(),
+            measures: None,
         })
     }
 

@@ -47,6 +47,7 @@ use shoal_core::world::{
 mod bench;
 mod console;
 mod lanes;
+mod measures;
 mod reload;
 mod snapshot;
 
@@ -54,6 +55,7 @@ pub use bench::bench_school;
 pub use console::{FLAME_STACKS, ModuleProfile, SAMPLE_EVERY};
 use lanes::Lane;
 pub use lanes::{ModuleStats, Scripts, default_lanes, lane_index};
+pub use measures::MeasureResult;
 pub use reload::ReloadEvent;
 
 pub use snapshot::SimSnapshot;
@@ -93,6 +95,8 @@ pub struct Simulation {
     profile_since_s: f64,
     /// How often the lanes' Lua stacks are sampled (see [`Simulation::set_function_sampling`]).
     sample_every: Option<std::time::Duration>,
+    /// The scene's own measures and what they have sampled (see [`Simulation::measures`]).
+    measures: measures::Measures,
 }
 
 /// A model a simulation took from the source tree's `assets/` because its own models
@@ -175,6 +179,7 @@ impl Simulation {
         let mut sim = Self::with_host(root, host, &desc, seed)?;
         sim.scene_path = Some(path.canonicalize().unwrap_or(path));
         sim.populate(&desc, &display)?;
+        sim.measures = measures::Measures::new(&desc.measures);
         sim.scene = Some(desc);
         Ok(sim)
     }
@@ -212,6 +217,7 @@ impl Simulation {
             food_lifetime: None,
             obstacles: Vec::new(),
             currents: Vec::new(),
+            measures: Vec::new(),
         };
         Self::with_host(root, host, &desc, seed)
     }
@@ -325,6 +331,7 @@ impl Simulation {
             fish_params: std::collections::HashMap::new(),
             profile_since_s: 0.0,
             sample_every: None,
+            measures: measures::Measures::default(),
         })
     }
 
@@ -593,6 +600,9 @@ impl Simulation {
     /// Runs one fixed tick (1/60 s): [`shoal_core::world::step`] with the scripts as its behaviour.
     pub fn step(&mut self) {
         self.sim.tick();
+        if self.measures.is_due(self.sim.world().tick_count()) {
+            self.sample_measures();
+        }
     }
 
     /// The world and the scripts as one [`Pipeline`] (for `shoal bench sim`, which ticks either
@@ -642,7 +652,7 @@ pub(crate) fn scene_from_value(
     v: Value,
     display: &str,
 ) -> Result<SceneDesc, ScriptError> {
-    let desc: SceneDesc = super::scene::from_lua_value(v, display)?;
+    let desc: SceneDesc = super::scene::scene_from_lua(v, display)?;
     super::scene::validate_scene(&desc).map_err(|e| ScriptError::Scene {
         file: display.to_owned(),
         source: Box::new(e),

@@ -50,6 +50,23 @@ pub struct RunMeasures {
     /// CPU microseconds per decision (behaviour and sensing). A timing, so it varies from run to
     /// run and with what else the machine does; the other measures are exact.
     pub decision_us: f64,
+    /// The scene's own measures (`measures = { NAME = function(fish) … end }`), by name: the
+    /// mean over fish and once-a-second samples (`None`: no fish gave a value).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub measures: BTreeMap<String, Option<f64>>,
+    /// The scene's measures that failed during the run, by name: how many calls, and the
+    /// first error (`file:line: message`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub measure_errors: BTreeMap<String, MeasureErrors>,
+}
+
+/// How a scene measure failed in one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasureErrors {
+    /// Calls that raised an error or returned something other than a number.
+    pub count: u64,
+    /// The first error, `file:line: message`.
+    pub first: String,
 }
 
 /// One measure: its JSON key, its label, and how to read it from a run.
@@ -108,12 +125,18 @@ const MEASURES: [Measure; 9] = [
 ];
 
 /// The value of the measure with JSON key `key` in run `r` (`None` for an unknown key or a
-/// measure the run does not have, such as the time to a first bite that never came).
+/// measure the run does not have, such as the time to a first bite that never came): one of
+/// compare's own, else one of the scene's by its name.
 pub fn value(key: &str, r: &RunMeasures) -> Option<f64> {
-    MEASURES
-        .iter()
-        .find(|m| m.key == key)
-        .and_then(|m| (m.get)(r))
+    match MEASURES.iter().find(|m| m.key == key) {
+        Some(m) => (m.get)(r),
+        None => r.measures.get(key).copied().flatten(),
+    }
+}
+
+/// The JSON keys of compare's own measures: a scene's measure may not take one of them.
+pub fn builtin_keys() -> impl Iterator<Item = &'static str> {
+    MEASURES.iter().map(|m| m.key)
 }
 
 /// A mean with its 95 % interval (Student's t over `n` values; no interval below 2 values).
@@ -482,32 +505,47 @@ fn finish(mut c: Comparison) -> Comparison {
     c
 }
 
-/// Per measure: A, B, and B − A paired by seed.
+/// Per measure: A, B, and B − A paired by seed; compare's own measures first, then the scenes'
+/// own, by name (a measure only one version's scene has is summarized with no values for the
+/// other).
 pub fn summarize(a: &[RunMeasures], b: &[RunMeasures]) -> Vec<MeasureSummary> {
-    let by_seed: HashMap<u64, &RunMeasures> = b.iter().map(|m| (m.seed, m)).collect();
-    MEASURES
+    let scene_measures: std::collections::BTreeSet<&String> =
+        a.iter().chain(b).flat_map(|r| r.measures.keys()).collect();
+    let builtin = MEASURES
         .iter()
-        .map(|m| {
-            let va: Vec<f64> = a.iter().filter_map(m.get).collect();
-            let vb: Vec<f64> = b.iter().filter_map(m.get).collect();
-            let d: Vec<f64> = a
-                .iter()
-                .filter_map(|ra| {
-                    let rb = by_seed.get(&ra.seed)?;
-                    Some((m.get)(rb)? - (m.get)(ra)?)
-                })
-                .collect();
-            let diff = Estimate::of(&d);
-            MeasureSummary {
-                measure: m.key.to_owned(),
-                label: m.label.to_owned(),
-                a: Estimate::of(&va),
-                b: Estimate::of(&vb),
-                b_minus_a: diff,
-                significant: diff.excludes_zero(),
-            }
+        .map(|m| summary_of(a, b, m.key, m.label, m.get));
+    let scene = scene_measures
+        .into_iter()
+        .map(|name| summary_of(a, b, name, name, |r: &RunMeasures| value(name, r)));
+    builtin.chain(scene).collect()
+}
+
+fn summary_of(
+    a: &[RunMeasures],
+    b: &[RunMeasures],
+    key: &str,
+    label: &str,
+    get: impl Fn(&RunMeasures) -> Option<f64>,
+) -> MeasureSummary {
+    let by_seed: HashMap<u64, &RunMeasures> = b.iter().map(|m| (m.seed, m)).collect();
+    let va: Vec<f64> = a.iter().filter_map(&get).collect();
+    let vb: Vec<f64> = b.iter().filter_map(&get).collect();
+    let d: Vec<f64> = a
+        .iter()
+        .filter_map(|ra| {
+            let rb = by_seed.get(&ra.seed)?;
+            Some(get(rb)? - get(ra)?)
         })
-        .collect()
+        .collect();
+    let diff = Estimate::of(&d);
+    MeasureSummary {
+        measure: key.to_owned(),
+        label: label.to_owned(),
+        a: Estimate::of(&va),
+        b: Estimate::of(&vb),
+        b_minus_a: diff,
+        significant: diff.excludes_zero(),
+    }
 }
 
 /// Why shards could not be merged (see [`merge`]). Each names the shard.
@@ -601,6 +639,18 @@ pub fn measure_run(
 ) -> Result<RunMeasures, TimelineError> {
     let mut sim = Simulation::from_scene_with_scripts(root, scripts, Path::new(scene), seed)
         .map_err(|e| TimelineError::Invalid(format!("{}: {e}", scripts.display())))?;
+    if let Some(name) = sim
+        .measure_names()
+        .iter()
+        .find(|n| builtin_keys().any(|k| k == n.as_str()))
+    {
+        return Err(TimelineError::Invalid(format!(
+            "{}: {scene}: measures.{name} has the name of one of compare's own measures ({}); \
+             give it another name",
+            scripts.display(),
+            builtin_keys().collect::<Vec<_>>().join(", ")
+        )));
+    }
     // The experiment's parallelism is across runs; one lane per run keeps each on one core.
     sim.set_lanes(1)?;
     sim.reset_profile();
@@ -644,7 +694,25 @@ pub fn measure_run(
             v.iter().sum::<f64>() / v.len() as f64
         }
     };
+    let scene_measures = sim.measures();
     Ok(RunMeasures {
+        measures: scene_measures
+            .iter()
+            .map(|(name, m)| (name.clone(), m.mean))
+            .collect(),
+        measure_errors: scene_measures
+            .into_iter()
+            .filter_map(|(name, m)| {
+                let first = m.first_error?;
+                Some((
+                    name,
+                    MeasureErrors {
+                        count: m.errors,
+                        first,
+                    },
+                ))
+            })
+            .collect(),
         seed,
         pellets_eaten: (world.eaten_foods().count() - eaten_before) as f64,
         first_bite_s: eaten
@@ -849,6 +917,8 @@ mod tests {
             catches: 0.0,
             script_errors: 0.0,
             decision_us: 1.0,
+            measures: BTreeMap::new(),
+            measure_errors: BTreeMap::new(),
         }
     }
 

@@ -157,7 +157,8 @@ fn add_clock_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
 }
 
 /// `w:polarization`, `w:nearest_distance`, `w:min_distance`, `w:centroid`, `w:tank`,
-/// `w:obstacles`, `w:errors`, `w:fish_count`: what a test measures.
+/// `w:obstacles`, `w:errors`, `w:fish_count`, `w:measure(name)` (a scene measure's mean so
+/// far): what a test measures.
 fn add_measure_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
     methods.add_method("polarization", |_, this, fishes: Table| {
         let ids = WorldHandle::ids_of(&fishes)?;
@@ -202,6 +203,28 @@ fn add_measure_methods<M: UserDataMethods<WorldHandle>>(methods: &mut M) {
     });
     methods.add_method("fish_count", |_, this, ()| {
         Ok(this.world.borrow().sim.world().num_fish())
+    });
+    methods.add_method("measure", |_, this, name: String| {
+        let world = this.world.borrow();
+        let measures = world.sim.measures();
+        let Some((_, m)) = measures.iter().find(|(n, _)| *n == name) else {
+            let known: Vec<&str> = measures.iter().map(|(n, _)| n.as_str()).collect();
+            return Err(mlua::Error::runtime(format!(
+                "w:measure: {} (a scene declares its measures as measures = {{ NAME = \
+                 function(fish) … end }})",
+                crate::scene::unknown_name("measure", &name, &known)
+            )));
+        };
+        m.mean.ok_or_else(|| {
+            mlua::Error::runtime(match &m.first_error {
+                Some(e) => format!("w:measure(\"{name}\"): no value, every call failed: {e}"),
+                None => format!(
+                    "w:measure(\"{name}\"): no value yet: measures are sampled once per \
+                     simulated second (run the world at least 1 s), and a fish whose measure \
+                     returns nil is left out"
+                ),
+            })
+        })
     });
 }
 
