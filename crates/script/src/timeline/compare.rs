@@ -922,6 +922,39 @@ mod tests {
         }
     }
 
+    /// A scene's own measures are summarized after compare's, by name, paired by seed like
+    /// them; one only B's scene has gets no values for A; and they survive the JSON shards
+    /// carry to `--merge`.
+    #[test]
+    fn scene_measures_are_summarized_beside_the_builtin_ones() {
+        let with = |seed: u64, name: &str, v: f64| {
+            let mut r = run(seed, 1.0);
+            r.measures.insert(name.to_owned(), Some(v));
+            r
+        };
+        let a = vec![with(1, "hiding", 0.2), with(2, "hiding", 0.4)];
+        let mut b = vec![with(1, "hiding", 0.5), with(2, "hiding", 0.7)];
+        b[0].measures.insert("new".into(), Some(3.0));
+        b[1].measures.insert("new".into(), None);
+        let s = summarize(&a, &b);
+        assert_eq!(s.len(), MEASURES.len() + 2);
+        let hiding = &s[MEASURES.len()];
+        assert_eq!((hiding.measure.as_str(), hiding.b_minus_a.n), ("hiding", 2));
+        assert!((hiding.b_minus_a.mean.unwrap() - 0.3).abs() < 1e-12);
+        assert!(hiding.significant, "{hiding:?}");
+        let new = &s[MEASURES.len() + 1];
+        assert_eq!((new.a.n, new.b.n, new.b_minus_a.n), (0, 1, 0));
+        let json = serde_json::to_string(&b[0]).unwrap();
+        assert!(
+            json.contains(r#""measures":{"hiding":0.5,"new":3.0}"#),
+            "{json}"
+        );
+        let back: RunMeasures = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, b[0]);
+        assert_eq!(value("hiding", &back), Some(0.5));
+        assert_eq!(value("pellets_eaten", &back), Some(1.0));
+    }
+
     #[test]
     fn differences_are_paired_by_seed() {
         // B eats exactly one more pellet than A on every seed, though seeds vary a lot: the

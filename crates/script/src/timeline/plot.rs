@@ -25,6 +25,9 @@ pub(super) const COLORS: [RGBColor; 8] = [
     RGBColor(188, 189, 34),
 ];
 
+/// Diverged fish named in the diff plot's legend (the others by the ends of their paths).
+const LEGEND_FISH: usize = 10;
+
 /// Each fish's path (x, z) over the first `n` frames, by (index, generation).
 fn paths(run: &Run, n: usize) -> HashMap<(u32, u32), Vec<(f32, f32)>> {
     let mut out: HashMap<(u32, u32), Vec<(f32, f32)>> = HashMap::new();
@@ -71,7 +74,7 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), PlotError
     if text {
         top_view_axes(&mut chart).map_err(err)?;
     }
-    let area = chart.plotting_area();
+    let area = chart.plotting_area().clone();
     let tank = [(min[0], min[2]), (max[0], max[2])];
     area.draw(&Rectangle::new(tank, WATER.mix(0.6).filled()))
         .map_err(err)?;
@@ -81,18 +84,22 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), PlotError
     let (pa, pb) = (paths(a, n), paths(b, n));
     let mut keys: Vec<_> = pb.keys().copied().collect();
     keys.sort_unstable();
-    let diverged = |k: &(u32, u32)| {
-        let name = if k.1 == 0 {
+    let name_of = |k: &(u32, u32)| {
+        if k.1 == 0 {
             format!("#{}", k.0)
         } else {
             format!("#{}.{}", k.0, k.1)
-        };
+        }
+    };
+    let diverged = |k: &(u32, u32)| {
+        let name = name_of(k);
         d.fish
             .iter()
             .find(|f| f.fish == name)
             .and_then(|f| f.first_divergence_s)
     };
     let shared = TANK_EDGE.mix(0.45).stroke_width(1);
+    let mut legend = 0usize;
     for (i, k) in keys.iter().enumerate() {
         let points = &pb[k];
         let Some(t) = diverged(k) else {
@@ -115,13 +122,64 @@ pub fn write(a: &Run, b: &Run, d: &RunDiff, path: &Path) -> Result<(), PlotError
             .map_err(err)?;
         }
         let c = COLORS[i % COLORS.len()];
-        area.draw(&PathElement::new(points[at..].to_vec(), c.stroke_width(2)))
+        let series = chart
+            .draw_series(std::iter::once(PathElement::new(
+                points[at..].to_vec(),
+                c.stroke_width(2),
+            )))
             .map_err(err)?;
+        // Which colour is which fish: the legend names the first few, and every coloured path
+        // carries its fish's name at its end (colours repeat past eight fish).
+        if text && legend < LEGEND_FISH {
+            series
+                .label(format!("{} (parts at {t:.2} s)", name_of(k)))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3))
+                });
+            legend += 1;
+        }
+        let area = chart.plotting_area();
         area.draw(&Circle::new(points[at], 6, c.stroke_width(2)))
             .map_err(err)?;
         if let Some(&last) = points.last() {
             area.draw(&Circle::new(last, 5, c.filled())).map_err(err)?;
+            if text {
+                area.draw(&Text::new(
+                    name_of(k),
+                    last,
+                    ("sans-serif", 14).into_font().color(&c),
+                ))
+                .map_err(err)?;
+            }
         }
+    }
+    if text && legend > 0 {
+        let hidden = d
+            .fish
+            .iter()
+            .filter(|f| f.first_divergence_s.is_some())
+            .count()
+            - legend;
+        if hidden > 0 {
+            chart
+                .draw_series(std::iter::empty::<Circle<(f32, f32), i32>>())
+                .map_err(err)?
+                .label(format!("… {hidden} more (named at their paths' ends)"))
+                .legend(|(x, y)| Circle::new((x + 10, y), 0, BACKGROUND));
+        }
+        chart
+            .draw_series(std::iter::empty::<Circle<(f32, f32), i32>>())
+            .map_err(err)?
+            .label("grey: the first run after the fish parts")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], GHOST.stroke_width(3)));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(BACKGROUND.mix(0.85))
+            .border_style(TANK_EDGE)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(err)?;
     }
     root.present().map_err(err)
 }

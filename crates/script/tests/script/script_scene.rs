@@ -164,3 +164,104 @@ fn test_scene_food_physics_errors_name_the_key() {
         assert!(err.contains(key), "{body}: {err}");
     }
 }
+
+/// A scene's own measures: sampled once per simulated second for every fish, the mean over fish
+/// and samples; nil leaves a fish out, true counts 1; the shoal sensors answer for the fish; a
+/// measure that fails is logged by name with file:line while the others and the run go on; and
+/// the values do not depend on the number of script lanes.
+#[test]
+fn test_scene_measures_sample_every_fish_once_a_second() {
+    let (_dir, root) = common::scratch_repo();
+    std::fs::write(
+        root.join("scripts/scenes/measured.lua"),
+        "return { tank = { min = {-300, 0, -300}, max = {300, 300, 300} },\n\
+         fish = { { species = \"black_porgy\", count = 6, behavior = \"wander\" },\n\
+                  { species = \"eel\", count = 2 } },\n\
+         measures = {\n\
+           one = function(fish) return 1 end,\n\
+           porgy_only = function(fish) if fish.species ~= \"black_porgy\" then return nil end return 2 end,\n\
+           is_eel = function(fish) return fish.species == \"eel\" end,\n\
+           height = function(fish) return shoal.body().y end,\n\
+           broken = function(fish) return fish.memory.missing.x end,\n\
+         } }\n",
+    )
+    .unwrap();
+    let run = |lanes: usize| {
+        let mut sim = Simulation::from_scene(&root, Path::new("scenes/measured.lua"), 4).unwrap();
+        sim.set_lanes(lanes).unwrap();
+        assert_eq!(
+            sim.measure_names(),
+            ["broken", "height", "is_eel", "one", "porgy_only"]
+        );
+        sim.run(0.9);
+        assert_eq!(sim.measures()[3].1.samples, 0, "no sample before 1 s");
+        sim.run(2.1);
+        sim
+    };
+    let sim = run(1);
+    let m: std::collections::BTreeMap<String, shoal_script::MeasureResult> =
+        sim.measures().into_iter().collect();
+    // 8 fish × 3 samples (1 s, 2 s, 3 s).
+    assert_eq!((m["one"].mean, m["one"].samples), (Some(1.0), 24));
+    assert_eq!(
+        (m["porgy_only"].mean, m["porgy_only"].samples),
+        (Some(2.0), 18)
+    );
+    assert_eq!(m["is_eel"].mean, Some(0.25));
+    let h = m["height"].mean.unwrap();
+    assert!(
+        h > 0.0 && h < 300.0,
+        "shoal.body() answered for each fish: {h}"
+    );
+    assert_eq!((m["broken"].mean, m["broken"].errors), (None, 24));
+    let first = m["broken"].first_error.clone().unwrap();
+    assert!(
+        first.contains("scenes/measured.lua:8:") && first.contains("missing"),
+        "{first}"
+    );
+    let logged = sim.error_messages().join("\n");
+    assert!(
+        logged.contains("measure \"broken\": ") && logged.contains("measured.lua:8:"),
+        "{logged}"
+    );
+    let four = run(4);
+    assert_eq!(
+        four.measures(),
+        sim.measures(),
+        "the same whatever the lanes"
+    );
+}
+
+/// `measures` that is not a table of functions is refused at load with its field path.
+#[test]
+fn test_scene_measures_must_be_functions() {
+    let (_dir, root) = common::scratch_repo();
+    for (body, expected) in [
+        ("measures = 3", "measures: expected a table of functions"),
+        (
+            "measures = { hiding = 0.5 }",
+            "measures.hiding: expected a function(fish) returning a number",
+        ),
+        (
+            "measures = { function() end }",
+            "measures: a measure is named by a string key",
+        ),
+        ("measure = {}", "did you mean \"measures\""),
+    ] {
+        std::fs::write(
+            root.join("scripts/scenes/bad.lua"),
+            format!(
+                "return {{ tank = {{ min = {{0, 0, 0}}, max = {{100, 100, 100}} }}, {body} }}\n"
+            ),
+        )
+        .unwrap();
+        let err = Simulation::from_scene(&root, Path::new("scenes/bad.lua"), 1)
+            .err()
+            .unwrap_or_else(|| panic!("{body} accepted"))
+            .to_string();
+        assert!(
+            err.contains("scenes/bad.lua") && err.contains(expected),
+            "{body}: {err}"
+        );
+    }
+}

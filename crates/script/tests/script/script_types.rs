@@ -93,7 +93,7 @@ fn test_shipped_scenes_parse() {
         let v = h
             .load_data_file(&repo_scripts().join("scenes").join(file))
             .unwrap();
-        let scene: SceneDesc = h.from_lua(v).unwrap();
+        let scene: SceneDesc = shoal_script::scene::scene_from_lua(v, file).unwrap();
         let n: u32 = scene.fish.iter().map(|g| g.count).sum();
         assert!(n >= min_fish, "{file}: {n} fish");
         assert!(
@@ -108,7 +108,8 @@ fn test_shipped_scenes_parse() {
     let v = h
         .load_data_file(&repo_scripts().join("scenes/default.lua"))
         .unwrap();
-    let scene: SceneDesc = h.from_lua(v).unwrap();
+    let scene: SceneDesc = shoal_script::scene::scene_from_lua(v, "default.lua").unwrap();
+    assert_eq!(scene.measures, ["fleeing", "predator_distance_l"]);
     let behaviors: BTreeSet<_> = scene
         .fish
         .iter()
