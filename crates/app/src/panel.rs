@@ -269,34 +269,41 @@ fn selected_fish(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             });
         return;
     };
-    // Split tank: A's and B's lines side by side, by key (A's order, then B's own keys).
-    egui::Grid::new("inspector").striped(true).show(ui, |ui| {
-        ui.label("");
-        ui.strong("A");
-        ui.strong("B");
-        ui.end_row();
-        let b_only = split
-            .inspect
-            .iter()
-            .filter(|(k, _)| st.inspect.iter().all(|(ka, _)| ka != k));
-        for (k, _) in st.inspect.iter().chain(b_only) {
-            let find = |lines: &[(String, String)]| {
-                lines
-                    .iter()
-                    .find(|(kk, _)| kk == k)
-                    .map_or("—".to_owned(), |(_, v)| v.clone())
-            };
-            let (a, b) = (find(&st.inspect), find(&split.inspect));
-            ui.label(k);
-            ui.label(&a);
-            if a == b {
-                ui.label(b);
-            } else {
-                ui.colored_label(WARNING, b);
-            }
+    // Split tank: A's and B's lines side by side, by key (A's order, then B's own keys). Each
+    // of the three columns gets at most a third of the panel and its values wrap there: a long
+    // value (a script error's message) would otherwise widen the panel by its whole length.
+    let column = ((ui.available_width() - 2.0 * ui.spacing().item_spacing.x) / 3.0).max(40.0);
+    egui::Grid::new("inspector")
+        .striped(true)
+        .num_columns(3)
+        .max_col_width(column)
+        .show(ui, |ui| {
+            ui.label("");
+            ui.strong("A");
+            ui.strong("B");
             ui.end_row();
-        }
-    });
+            let b_only = split
+                .inspect
+                .iter()
+                .filter(|(k, _)| st.inspect.iter().all(|(ka, _)| ka != k));
+            for (k, _) in st.inspect.iter().chain(b_only) {
+                let find = |lines: &[(String, String)]| {
+                    lines
+                        .iter()
+                        .find(|(kk, _)| kk == k)
+                        .map_or("—".to_owned(), |(_, v)| v.clone())
+                };
+                let (a, b) = (find(&st.inspect), find(&split.inspect));
+                ui.add(egui::Label::new(k).wrap());
+                ui.add(egui::Label::new(&a).wrap());
+                if a == b {
+                    ui.add(egui::Label::new(b).wrap());
+                } else {
+                    ui.add(egui::Label::new(egui::RichText::new(b).color(WARNING)).wrap());
+                }
+                ui.end_row();
+            }
+        });
 }
 
 /// The motion layer's requests, sized from the fish's species (speed, turn angle, length).

@@ -463,6 +463,64 @@ return M
     );
 }
 
+/// In the split tank the inspector has three columns (key, A, B); a long script error in B's
+/// column wraps inside the panel instead of stretching it by the message's length.
+#[test]
+fn a_long_error_in_the_split_tanks_inspector_wraps_inside_the_panel() {
+    let broken = r#"local M = {}
+function M.tick(fish)
+  error("this behaviour fails on purpose with a message long enough to be wider than any panel a designer would keep open")
+end
+return M
+"#;
+    let a_dir = scripts_with(&[(
+        "behaviors/broken.lua",
+        "return { tick = function(fish) end }\n",
+    )]);
+    let b_dir = scripts_with(&[("behaviors/broken.lua", broken)]);
+    // The panel tests' scene (three porgies and one running `broken`), written into A's scripts.
+    drop(aquarium(a_dir.path(), Some("broken"), Some(3)));
+    std::fs::copy(
+        a_dir.path().join("scenes/panel_test.lua"),
+        b_dir.path().join("scenes/panel_test.lua"),
+    )
+    .unwrap();
+    let load = |dir: &Path| {
+        Simulation::from_scene_with_scripts(&repo(), dir, Path::new("scenes/panel_test.lua"), 3)
+            .expect("the test scene loads")
+    };
+    let (sa, sb) = (load(a_dir.path()), load(b_dir.path()));
+    let options = AppOptions {
+        select: Some(sa.world().fish_id_slice()[3]),
+        ..AppOptions::default()
+    };
+    let versions = shoal_app::SplitVersions {
+        a: "A".into(),
+        b: "B".into(),
+        dirs: None,
+    };
+    let mut aq = Aquarium::new_split(Box::new(sa), Box::new(sb), versions, options).unwrap();
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    assert!(
+        aq.split_inspect()
+            .iter()
+            .any(|(k, v)| k == "error" && v.contains("fails on purpose")),
+        "B's inspector has the error line: {:?}",
+        aq.split_inspect()
+    );
+    let ctx = egui::Context::default();
+    let mut panel = egui::Rect::NOTHING;
+    for _ in 0..4 {
+        panel = window_frame(&ctx, &mut aq, vec![]);
+    }
+    assert!(
+        panel.width() <= 451.0,
+        "the panel stays at its 450 points: {panel:?}"
+    );
+}
+
 /// The porgy file's last field line, after which the panel inserts a `motion` table.
 const PORGY_LAST: &str = "  decision_hz = 10,        -- behaviour decisions per second (staggered over the 60 Hz tick)\n";
 
