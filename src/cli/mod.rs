@@ -399,3 +399,77 @@ pub fn is_closed_pipe_panic(message: &str) -> bool {
     message.starts_with("failed printing to std")
         && (message.contains(&broken) || message.contains("os error 32"))
 }
+
+/// The set-up of a large Lua scene, shown on stderr (see [`SpawnProgress::new`]).
+pub struct SpawnProgress {
+    bar: Option<indicatif::ProgressBar>,
+    started: std::time::Instant,
+    shown: bool,
+}
+
+impl SpawnProgress {
+    /// Fish from which a scene's set-up is shown: it takes seconds from here.
+    pub const FROM_FISH: u64 = 10_000;
+
+    /// A bar on a terminal; elsewhere (a log, a pipe) one line when the spawning starts and
+    /// one when it is done.
+    pub fn new() -> Self {
+        Self {
+            bar: None,
+            started: std::time::Instant::now(),
+            shown: false,
+        }
+    }
+}
+
+impl Default for SpawnProgress {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl shoal_script::SetupProgress for SpawnProgress {
+    fn start(&mut self, total: u64) {
+        use std::io::IsTerminal;
+        if total < Self::FROM_FISH {
+            return;
+        }
+        self.shown = true;
+        self.started = std::time::Instant::now();
+        if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new(total);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "setting up: {bar:40} {pos}/{len} fish spawned ({eta} left)",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            self.bar = Some(bar);
+        } else {
+            eprintln!(
+                "setting up {total} fish (about {} of memory)…",
+                shoal_core::world::footprint::human(shoal_core::world::footprint::estimate_bytes(
+                    total
+                ))
+            );
+        }
+    }
+
+    fn spawned(&mut self, done: u64) {
+        if let Some(bar) = &self.bar {
+            bar.set_position(done);
+        }
+    }
+
+    fn finish(&mut self, total: u64) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+        if self.shown {
+            eprintln!(
+                "set up {total} fish in {:.1} s",
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+    }
+}

@@ -216,8 +216,14 @@ pub fn load_scene(
                 path.display()
             );
         }
-        let sim = Simulation::from_scene_with_scripts(root, &source.scripts, path, seed_or_1)
-            .with_context(|| format!("loading scene `{}`", path.display()))?;
+        let sim = Simulation::from_scene_reporting(
+            root,
+            &source.scripts,
+            path,
+            seed_or_1,
+            &mut super::SpawnProgress::new(),
+        )
+        .with_context(|| format!("loading scene `{}`", path.display()))?;
         if let Some(line) = super::borrowed_models_line(&sim) {
             println!("{line}");
         }
@@ -225,9 +231,13 @@ pub fn load_scene(
     };
     let porgies = || -> anyhow::Result<Box<dyn Showable>> {
         if let Some(n) = fish.filter(|&n| n == 0 || n > MAX_PORGIES) {
+            let would_take = shoal_core::world::footprint::human(
+                shoal_core::world::footprint::estimate_bytes(n as u64),
+            );
             anyhow::bail!(
-                "--fish {n}: the porgies scene takes 1 to {MAX_PORGIES} fish (`shoal bench sim \
-                 --fish N` measures larger schools without drawing them)"
+                "--fish {n}: the porgies scene takes 1 to {MAX_PORGIES} fish ({n} would take \
+                 about {would_take} of memory; `shoal bench sim --fish N` measures larger schools \
+                 without drawing them)"
             );
         }
         Ok(Box::new(porgy_sim(

@@ -200,8 +200,14 @@ fn run_split(args: &Args, source: &super::ScriptSource, spec: &str) -> anyhow::R
     }
     let seed = args.seed.unwrap_or(1);
     let load = |scripts: &Path, which: &str| -> anyhow::Result<Simulation> {
-        Simulation::from_scene_with_scripts(&source.root, scripts, &scripts.join(&scene), seed)
-            .with_context(|| format!("loading scene `{scene}` of {which}"))
+        Simulation::from_scene_reporting(
+            &source.root,
+            scripts,
+            &scripts.join(&scene),
+            seed,
+            &mut super::SpawnProgress::new(),
+        )
+        .with_context(|| format!("loading scene `{scene}` of {which}"))
     };
     let a_sim = load(&source.scripts, "A")?;
     if let Some(line) = super::borrowed_models_line(&a_sim) {

@@ -365,7 +365,7 @@ fn negative_seconds_and_huge_fish_counts_get_lines_that_say_why() {
             &[
                 "render", "--scene", "porgies", "--fish", "10000000", "--out", "x.png",
             ],
-            "--fish 10000000: the porgies scene takes 1 to 100000 fish",
+            "--fish 10000000: the porgies scene takes 1 to 100000 fish (10000000 would take about",
         ),
     ] {
         let dir = tempfile::tempdir().unwrap();
@@ -383,4 +383,61 @@ fn negative_seconds_and_huge_fish_counts_get_lines_that_say_why() {
             "{args:?}: {stderr}"
         );
     }
+}
+
+/// A Lua scene whose groups add up to more fish than the machine's memory holds is refused
+/// before anything is spawned, saying how much it would take and how much there is; one of
+/// 10,000 fish says on stderr that it is setting them up, and when it is done (issue 36).
+#[test]
+fn impossible_fish_counts_are_refused_and_large_set_ups_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = dir.path().join("scripts/scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    let group = r#"{ species = "black_porgy", count = 200000 }"#;
+    let groups = vec![group; 1000].join(",\n");
+    std::fs::write(
+        scenes.join("huge.lua"),
+        format!(
+            "return {{ tank = {{ min = {{-2000, 0, -2000}}, max = {{2000, 800, 2000}} }},\n\
+             fish = {{ {groups} }} }}\n"
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        scenes.join("large.lua"),
+        "return { tank = { min = {-2000, 0, -2000}, max = {2000, 800, 2000} },\n\
+         fish = { { species = \"black_porgy\", count = 10000 } } }\n",
+    )
+    .unwrap();
+    let render = |scene: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_shoal"))
+            .current_dir(dir.path())
+            .env("SHOAL_SCRIPTS", shoal_core::source_root().join("scripts"))
+            .env("XDG_RUNTIME_DIR", dir.path())
+            .args(["render", "--scene"])
+            .arg(scenes.join(scene))
+            .args(["--seconds", "0.03", "--size", "64x36", "--out"])
+            .arg(dir.path().join("out.png"))
+            .output()
+            .unwrap()
+    };
+    let out = render("huge.lua");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("200000000 fish would take about 2.6 TiB of memory")
+            && stderr.contains("available"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("setting up"),
+        "refused before spawning: {stderr}"
+    );
+    let out = render("large.lua");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("setting up 10000 fish") && stderr.contains("set up 10000 fish in"),
+        "{stderr}"
+    );
 }

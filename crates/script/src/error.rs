@@ -19,6 +19,14 @@ pub enum ScriptError {
     /// A Lua error (syntax or runtime), already formatted as `file:line: message`.
     #[error("{0}")]
     Lua(String),
+    /// A scene starts more fish than this machine's memory holds (refused before spawning).
+    #[error("{file}: {source}")]
+    TooManyFish {
+        /// The scene file, as shown.
+        file: String,
+        /// The count, its estimate and the memory available.
+        source: shoal_core::world::footprint::TooManyFish,
+    },
     /// A data file (species or scene) has a value the host rejects.
     #[error("{file}: {why}")]
     Data {

@@ -55,4 +55,6 @@ pub use host::ScriptHost;
 pub use log::{LogEntry, LogLevel};
 pub use sandbox::Limits;
 pub use scene::SceneDesc;
-pub use sim::{BorrowedModel, MeasureResult, ReloadEvent, SimSnapshot, Simulation, lane_index};
+pub use sim::{
+    BorrowedModel, MeasureResult, ReloadEvent, SetupProgress, SimSnapshot, Simulation, lane_index,
+};

@@ -35,6 +35,7 @@ mod crowd;
 pub mod driver;
 mod fish;
 mod food;
+pub mod footprint;
 pub mod grid;
 mod index;
 pub mod measures;

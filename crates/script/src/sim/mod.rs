@@ -69,6 +69,28 @@ struct SpeciesSlot {
     period_ticks: u64,
 }
 
+/// Fish spawned between two [`SetupProgress::spawned`] reports.
+pub const SETUP_PROGRESS_EVERY: u64 = 1000;
+
+/// What [`Simulation::from_scene_reporting`] tells as it sets a scene up.
+pub trait SetupProgress {
+    /// The scene is read and fits: `total` fish are about to be spawned.
+    fn start(&mut self, total: u64) {
+        let _ = total;
+    }
+    /// `done` fish are spawned (every [`SETUP_PROGRESS_EVERY`]).
+    fn spawned(&mut self, done: u64) {
+        let _ = done;
+    }
+    /// Every fish is spawned and the scene's food, rocks and currents are in.
+    fn finish(&mut self, total: u64) {
+        let _ = total;
+    }
+}
+
+/// No report.
+impl SetupProgress for () {}
+
 /// The aquarium: world, scripts, scene.
 pub struct Simulation {
     /// The world and the script lanes deciding for its fish (the tick's behaviour stage).
@@ -158,6 +180,20 @@ impl Simulation {
         scene: &Path,
         seed: u64,
     ) -> Result<Self, ScriptError> {
+        Self::from_scene_reporting(root, scripts_dir, scene, seed, &mut ())
+    }
+
+    /// [`Simulation::from_scene_with_scripts`], telling `progress` how the spawning goes (a
+    /// scene of 200,000 fish takes a while to set up). Either way a scene whose fish would not
+    /// fit in the memory available is refused before any is spawned
+    /// ([`shoal_core::world::footprint`]).
+    pub fn from_scene_reporting(
+        root: &Path,
+        scripts_dir: &Path,
+        scene: &Path,
+        seed: u64,
+        progress: &mut dyn SetupProgress,
+    ) -> Result<Self, ScriptError> {
         let scripts_dir = scripts_dir.to_path_buf();
         let path = [
             scene.to_path_buf(),
@@ -176,9 +212,20 @@ impl Simulation {
             .root()
             .display_of(&path.canonicalize().unwrap_or(path.clone()));
         let desc = read_scene(&host, &path, &display)?;
+        let total: u64 = desc.fish.iter().map(|g| u64::from(g.count)).sum();
+        shoal_core::world::footprint::check_fits(
+            total,
+            shoal_core::world::footprint::available_bytes(),
+        )
+        .map_err(|source| ScriptError::TooManyFish {
+            file: display.clone(),
+            source,
+        })?;
         let mut sim = Self::with_host(root, host, &desc, seed)?;
         sim.scene_path = Some(path.canonicalize().unwrap_or(path));
-        sim.populate(&desc, &display)?;
+        progress.start(total);
+        sim.populate(&desc, &display, progress)?;
+        progress.finish(total);
         sim.measures = measures::Measures::new(&desc.measures);
         sim.scene = Some(desc);
         Ok(sim)
@@ -363,7 +410,13 @@ impl Simulation {
         Ok(())
     }
 
-    fn populate(&mut self, desc: &SceneDesc, display: &str) -> Result<(), ScriptError> {
+    fn populate(
+        &mut self,
+        desc: &SceneDesc,
+        display: &str,
+        progress: &mut dyn SetupProgress,
+    ) -> Result<(), ScriptError> {
+        let mut spawned = 0u64;
         for name in &desc.species {
             self.species_id(name)?;
         }
@@ -416,6 +469,10 @@ impl Simulation {
                     })?;
                 if let Some(params) = &group.params {
                     self.set_params(id, params.clone());
+                }
+                spawned += 1;
+                if spawned.is_multiple_of(SETUP_PROGRESS_EVERY) {
+                    progress.spawned(spawned);
                 }
             }
         }
