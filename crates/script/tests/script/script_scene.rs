@@ -216,12 +216,12 @@ fn test_scene_measures_sample_every_fish_once_a_second() {
     assert_eq!((m["broken"].mean, m["broken"].errors), (None, 24));
     let first = m["broken"].first_error.clone().unwrap();
     assert!(
-        first.contains("scenes/measured.lua:8:") && first.contains("missing"),
+        first.contains("scenes/measured.lua:9:") && first.contains("missing"),
         "{first}"
     );
     let logged = sim.error_messages().join("\n");
     assert!(
-        logged.contains("measure \"broken\": ") && logged.contains("measured.lua:8:"),
+        logged.contains("measure \"broken\": ") && logged.contains("measured.lua:9:"),
         "{logged}"
     );
     let four = run(4);
