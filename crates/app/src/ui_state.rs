@@ -213,6 +213,11 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
     {
         ui.camera.target = ui.camera.target.lerp(info.center, 0.15);
     }
+    // The scene edits follow the running scene even while the panel's Scene section is
+    // folded (a press in the view picks from them).
+    let file = scene.sim().scene_file();
+    ui.scene_edits
+        .observe(scene.sim().scene_desc(), file.as_deref());
     ui.overlay.clear();
     if ui.toggles.any() {
         scene.overlay_lines(ui.toggles, &mut ui.overlay);
