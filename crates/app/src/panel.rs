@@ -663,6 +663,10 @@ fn scene_items(
                 let pos = [target.x, y, target.z].map(|v| round_f32(v, UNIT_DECIMALS));
                 match st.scene_edits.add(scene.sim_mut(), item, pos, radius) {
                     Ok(i) => {
+                        // The new item is the scene's now (and `desc` is shown below).
+                        if let Some(live) = st.scene_edits.live() {
+                            *desc = live.clone();
+                        }
                         st.edit_scene = true;
                         st.picked = Some(match item {
                             Item::Rock(_) => Item::Rock(i),
@@ -762,7 +766,8 @@ fn value(
 
 /// Three [`value`]s, `at.x`, `at.y`, `at.z`, in a row.
 fn vec3(ui: &mut egui::Ui, st: &mut UiState, drag: &mut Drag, at: &str, v: &mut [f32; 3]) {
-    ui.horizontal(|ui| {
+    // Wrapped: three labelled values in a row would hold the panel wide.
+    ui.horizontal_wrapped(|ui| {
         for (k, x) in ["x", "y", "z"].iter().zip(v.iter_mut()) {
             value(ui, st, drag, format!("{at}.{k}"), x, f32::MIN);
         }

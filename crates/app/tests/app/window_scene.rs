@@ -276,6 +276,19 @@ fn rocks_and_current_zones_are_added_and_deleted_undoably_and_saved() {
     let w = h.state().scene.world();
     assert_eq!(w.obstacles().len(), 2);
     assert_eq!(w.currents().len(), 1, "the zone drifts fish at once");
+    // The item just added is the one picked, its values in the panel.
+    h.get_by_role_and_label(Role::SpinButton, "currents[1].radius");
+    // Ctrl+Z takes the zone back out, Ctrl+Shift+Z puts it back.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run();
+    assert!(h.state().scene.world().currents().is_empty());
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    h.run();
+    let w = h.state().scene.world();
+    assert_eq!(w.currents().len(), 1);
     let new_rock = w.obstacles()[1].pos;
     let zone = w.currents()[0].pos;
     h.get_by_label("save to scene file").click();
