@@ -87,22 +87,39 @@ impl Simulation {
                 self.set_params(id, params.clone())?;
             }
         }
-        if desc.obstacles != old.obstacles {
-            let rocks = desc
-                .obstacles
-                .iter()
-                .map(|o| (Vec3::from_array(o.pos), o.radius));
-            self.sim.world_mut().set_obstacles(rocks);
+        let props_changed = desc.obstacles != old.obstacles || desc.currents != old.currents;
+        self.scene = Some(desc);
+        if props_changed {
+            self.props_edited = true;
+            self.sync_props();
         }
-        if desc.currents != old.currents {
-            let zones = desc.currents.iter().map(|c| Current {
+        Ok(())
+    }
+
+    /// Puts the scene's rocks and current zones into the world. After a live edit of them, a
+    /// state restored from the history (kept before the edit) gets them too: they are scene
+    /// data, like the scripts, and a rewound simulation runs on with the scene as edited now.
+    pub(super) fn sync_props(&mut self) {
+        if !self.props_edited {
+            return;
+        }
+        let Some(desc) = &self.scene else { return };
+        let rocks: Vec<_> = desc
+            .obstacles
+            .iter()
+            .map(|o| (Vec3::from_array(o.pos), o.radius))
+            .collect();
+        let zones: Vec<_> = desc
+            .currents
+            .iter()
+            .map(|c| Current {
                 pos: Vec3::from_array(c.pos),
                 radius: c.radius,
                 velocity: Vec3::from_array(c.velocity),
-            });
-            self.sim.world_mut().set_currents(zones);
-        }
-        self.scene = Some(desc);
-        Ok(())
+            })
+            .collect();
+        let w = self.sim.world_mut();
+        w.set_obstacles(rocks);
+        w.set_currents(zones);
     }
 }

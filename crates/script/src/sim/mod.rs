@@ -92,6 +92,9 @@ pub struct Simulation {
     fish_params: std::collections::HashMap<FishId, Arc<serde_json::Value>>,
     /// The fish each scene group spawned, by group (the panel's `params` edits reach them).
     group_fish: Vec<Vec<FishId>>,
+    /// The window moved, added or removed rocks or current zones: a restored state keeps them
+    /// as edited (see [`Simulation::apply_scene_edit`]).
+    props_edited: bool,
     /// Simulated time [`Simulation::profile`] counts from.
     profile_since_s: f64,
     /// How often the lanes' Lua stacks are sampled (see [`Simulation::set_function_sampling`]).
@@ -325,6 +328,7 @@ impl Simulation {
             reload_events: Vec::new(),
             fish_params: std::collections::HashMap::new(),
             group_fish: Vec::new(),
+            props_edited: false,
             profile_since_s: 0.0,
             sample_every: None,
         })

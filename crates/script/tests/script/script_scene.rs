@@ -195,4 +195,14 @@ fn a_live_scene_edit_moves_rocks_and_zones_and_refuses_the_rest() {
     assert!(err.contains("obstacles[2]"), "{err}");
     assert_eq!(sim.scene(), Some(&desc), "a refused edit changes nothing");
     assert_eq!(sim.world().obstacles()[1].radius, 70.0);
+    // A state kept before an edit, put back, runs on with the rocks as edited now.
+    let before = sim.snapshot().unwrap();
+    let mut moved = desc.clone();
+    moved.obstacles[1].pos = [9.0, 8.0, 7.0];
+    sim.apply_scene_edit(moved).unwrap();
+    sim.step();
+    sim.restore(&before).unwrap();
+    assert_eq!(sim.world().obstacles()[1].pos, Vec3::new(9.0, 8.0, 7.0));
+    assert_eq!(sim.world().obstacles().len(), 2);
+    assert!(sim.world().currents().is_empty());
 }
