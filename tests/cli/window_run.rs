@@ -547,3 +547,102 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
         .unwrap_or_else(|| panic!("one motion line: {inserted:?}"));
     assert!(s > 0.0 && s < 200.0 && s != 50.0, "the dragged speed {s}");
 }
+
+impl TracedWindow {
+    /// Scrolls the panel until the button `label` is inside the window (below its fold it is
+    /// drawn, and traced, outside it), then clicks it.
+    fn scroll_and_click(&mut self, label: &str) {
+        for _ in 0..12 {
+            let (x, y) = self.button(label);
+            // `ui: 3D view WxH, …`: the window's height.
+            let height: f32 = self
+                .view_line()
+                .split_once('x')
+                .and_then(|(_, r)| r.split(',').next())
+                .and_then(|h| h.parse().ok())
+                .expect("the view's height");
+            if y.parse::<f32>().unwrap_or(f32::MAX) < height - 30.0 {
+                break;
+            }
+            self.xdotool(&["mousemove", &x, "400"]);
+            self.frames(2);
+            self.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
+            self.frames(10);
+        }
+        self.click_button(label);
+    }
+}
+
+/// The real window, used like a designer would: "edit scene in the view", press on the rock in
+/// the view, drag it with the mouse, "save to scene file". The scene file then holds the rock's
+/// new position, and nothing else of it changed (its comments included).
+#[test]
+fn xdotool_drag_a_rock_in_the_view_and_save_it_to_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scripts = dir.path().join("scripts");
+    crate::common::copy_dir(&shoal_core::source_root().join("scripts"), &scripts);
+    let scene = scripts.join("scenes/rocks.lua");
+    let rock_line = "    { pos = { 100, 40, 0 }, radius = 40 },  -- the rock to move\n";
+    let before = format!(
+        "-- One porgy and a rock to move.\nreturn {{\n  tank = {{ min = {{-400, 0, -250}}, max = {{400, 300, 250}} }},\n  \
+         fish = {{\n    {{ species = \"black_porgy\", count = 1, pos = {{0, 150, 0}}, heading = 0 }},\n  }},\n  \
+         obstacles = {{\n{rock_line}  }},\n}}\n"
+    );
+    std::fs::write(&scene, &before).unwrap();
+    let mut w = TracedWindow::start(&[
+        "run",
+        "--frames",
+        "100000",
+        "--scripts",
+        scripts.to_str().unwrap(),
+        "--scene",
+        scene.to_str().unwrap(),
+    ]);
+    w.scroll_and_click("edit scene in the view");
+    let line = w
+        .wait_for(
+            &|l| l.starts_with("ui: rock 1 at "),
+            Duration::from_secs(120),
+        )
+        .unwrap_or_else(|| panic!("the window never said where the rock is:\n{:#?}", w.seen));
+    let (x, y) = line["ui: rock 1 at ".len()..]
+        .split_once(',')
+        .map(|(x, y)| (x.parse::<i32>().unwrap(), y.parse::<i32>().unwrap()))
+        .unwrap();
+    w.xdotool(&["mousemove", &x.to_string(), &y.to_string()]);
+    w.frames(2);
+    w.xdotool(&["mousedown", "1"]);
+    w.frames(2);
+    for k in 1..=6 {
+        let (tx, ty) = (x - 15 * k, y + 5 * k);
+        w.xdotool(&["mousemove", &tx.to_string(), &ty.to_string()]);
+        w.frames(1);
+    }
+    w.xdotool(&["mouseup", "1"]);
+    w.frames(3);
+    w.scroll_and_click("save to scene file");
+    let mut after = before.clone();
+    for _ in 0..200 {
+        w.frames(1);
+        after = std::fs::read_to_string(&scene).unwrap();
+        if after != before {
+            break;
+        }
+    }
+    let (head, rest) = before.split_once(rock_line).unwrap();
+    let new_line = after
+        .strip_prefix(head)
+        .and_then(|a| a.strip_suffix(rest))
+        .unwrap_or_else(|| panic!("only the rock's line changed:\n{after}"));
+    let pos = new_line
+        .strip_prefix("    { pos = { ")
+        .and_then(|l| l.strip_suffix(" }, radius = 40 },  -- the rock to move\n"))
+        .unwrap_or_else(|| panic!("the rock's line: {new_line:?}"));
+    let xyz: Vec<f32> = pos.split(", ").map(|v| v.parse().unwrap()).collect();
+    assert_eq!(xyz.len(), 3, "{pos}");
+    assert_eq!(xyz[1], 40.0, "it moved over the plane at its height");
+    assert!(
+        (xyz[0] - 100.0).abs() + xyz[2].abs() > 20.0,
+        "the rock moved with the mouse: {pos}"
+    );
+}

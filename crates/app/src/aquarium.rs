@@ -122,14 +122,95 @@ impl Aquarium {
     pub fn click(&mut self, at: Vec2, size: Vec2, over_ui: bool) {
         self.ui.pointer.moved(at);
         self.ui.pointer.pressed(MouseButton::Left, over_ui);
+        if !over_ui {
+            self.press_in_view(at, size);
+        }
         if let Some(at) = self.ui.pointer.released(MouseButton::Left) {
             self.view_click(at, size);
         }
+        self.release_in_view();
+    }
+
+    /// A left press in the view at `at` (physical pixels of a `size` view) with "edit scene"
+    /// on: picks the rock, current zone or start region there and starts dragging it. True
+    /// when it picked one (the press then neither turns the camera nor selects a fish).
+    pub fn press_in_view(&mut self, at: Vec2, size: Vec2) -> bool {
+        self.ui.press_picked = self.ui.edit_scene
+            && self.ui.split.is_none()
+            && !self.ui.shift
+            && super::scene_view::press(&mut self.ui, at, size);
+        self.ui.press_picked
+    }
+
+    /// The pointer moved to `at` while a press in the view holds an item: it moves there over
+    /// its plane, live (the whole drag is one undo step). False when nothing is dragged.
+    pub fn drag_in_view(&mut self, at: Vec2, size: Vec2) -> bool {
+        if self.ui.grab.is_none() {
+            return false;
+        }
+        let tank = self.scene.world().tank();
+        let bounds = (tank.min, tank.max);
+        if let Some(desc) = super::scene_view::dragged(&self.ui, at, size, bounds)
+            && let Err(e) = self.ui.scene_edits.edit(self.scene.sim_mut(), desc, true)
+        {
+            self.ui.log(e.to_string());
+        }
+        refresh_views(&mut self.scene, &mut self.ui);
+        true
+    }
+
+    /// The button came up: a drag of a scene item ends (its next edit is a new undo step).
+    pub fn release_in_view(&mut self) {
+        if self.ui.grab.take().is_some() {
+            self.ui.scene_edits.end_drag();
+        }
+    }
+
+    /// With `SHOAL_UI_TRACE` and "edit scene" on, prints where each rock's centre is in a
+    /// `size` view (`ui: rock 1 at X,Y`) whenever it moves, so an end-to-end test can drag it.
+    pub(super) fn trace_rocks(&mut self, size: Vec2) {
+        if !self.ui.trace || !self.ui.edit_scene {
+            return;
+        }
+        let rocks: Vec<glam::Vec3> = self
+            .scene
+            .world()
+            .obstacles()
+            .iter()
+            .map(|o| o.pos)
+            .collect();
+        let view_proj = self.ui.camera.view_proj(size.x / size.y.max(1.0));
+        for (i, p) in rocks.into_iter().enumerate() {
+            let ndc = view_proj.project_point3(p);
+            let px = Vec2::new((ndc.x + 1.0) * 0.5 * size.x, (1.0 - ndc.y) * 0.5 * size.y);
+            self.ui.trace_line(&format!("rock {}", i + 1), || {
+                format!("ui: rock {} at {:.0},{:.0}", i + 1, px.x, px.y)
+            });
+        }
+    }
+
+    /// Turns "edit scene" on or off (the panel's checkbox).
+    pub fn set_edit_scene(&mut self, on: bool) {
+        self.ui.edit_scene = on;
+        if !on {
+            self.ui.picked = None;
+            self.ui.grab = None;
+        }
+    }
+
+    /// The scene as the window's edits left it, and the files' scene (what undo and save work
+    /// on).
+    pub fn edited_scene(&self) -> Option<&shoal_script::scene::SceneDesc> {
+        self.ui.scene_edits.live()
     }
 
     /// A click that ended in the view at `at` (a `size` view): selects the fish there, or,
-    /// with shift held, drops food where the click shows (see [`food_drop_point`]).
+    /// with shift held, drops food where the click shows (see [`food_drop_point`]). A click
+    /// that picked a scene item selects no fish.
     pub(super) fn view_click(&mut self, at: Vec2, size: Vec2) {
+        if self.ui.press_picked {
+            return;
+        }
         if self.ui.shift {
             drop_food_at(&mut self.scene, &mut self.ui, at, size);
         } else {

@@ -22,6 +22,8 @@ mod aquarium;
 mod panel;
 mod pointer;
 mod scene;
+mod scene_edit;
+mod scene_view;
 pub mod scripts_panel;
 pub mod showable;
 mod split;

@@ -4,14 +4,18 @@
 use std::collections::VecDeque;
 
 use super::scene::DynScene;
+use super::scene_edit::{
+    Item, PARAM_DECIMALS, SceneAsk, SceneSaved, UNIT_DECIMALS, round_f32, round_f64,
+};
 use super::timeline::{Divergence, clock};
-use super::tuned::{Ask, Keep, SaveOutcome};
+use super::tuned::{Ask, DECIMALS, Keep, SaveOutcome};
 use super::ui_state::{
     FrameTimes, MAX_FRAME_DT_S, UiState, drop_food, food_drop_for_panel, pace_ratio,
 };
 use super::widgets::text_width;
 use shoal_core::motion::{MotionParams, MotionRequest, Side, TurnKind};
 use shoal_core::world::FishId;
+use shoal_script::scene::SceneDesc;
 
 const WARNING: egui::Color32 = egui::Color32::from_rgb(255, 210, 90);
 const ERROR: egui::Color32 = egui::Color32::from_rgb(255, 110, 90);
@@ -19,6 +23,7 @@ const ERROR: egui::Color32 = egui::Color32::from_rgb(255, 110, 90);
 /// The tuning panel.
 pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     ui.heading("shoal");
+    scene_shortcuts(ui, scene, st);
     notices(ui, scene, st);
     section(ui, "Time", |ui| time_controls(ui, scene, st));
     section(ui, "Timeline", |ui| timeline(ui, scene, st));
@@ -36,11 +41,30 @@ pub(super) fn panel(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     section(ui, "Motion parameters", |ui| {
         motion_parameters(ui, scene, st)
     });
+    section(ui, "Scene", |ui| scene_section(ui, scene, st));
     section(ui, "Overlays", |ui| overlays(ui, st));
     section(ui, "Timings (last 120 frames, ms)", |ui| {
         timings(ui, scene, st);
     });
     section(ui, "Console", |ui| console(ui, st));
+}
+
+/// Ctrl+Z / Ctrl+Shift+Z: undo and redo the scene edits, wherever the panel is scrolled.
+fn scene_shortcuts(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let (undo_key, redo_key) = ui.input_mut(|i| {
+        let redo = i.consume_shortcut(&egui::KeyboardShortcut::new(
+            egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+            egui::Key::Z,
+        ));
+        let undo = i.consume_shortcut(&egui::KeyboardShortcut::new(
+            egui::Modifiers::COMMAND,
+            egui::Key::Z,
+        ));
+        (undo, redo)
+    });
+    if undo_key || redo_key {
+        scene_undo(scene, st, redo_key);
+    }
 }
 
 /// A collapsing section, open at start.
@@ -428,8 +452,17 @@ fn motion_parameters(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) 
         .fold(0.0, f32::max);
     let beside = widest + ui.spacing().interact_size.x + 3.0 * ui.spacing().item_spacing.x;
     ui.spacing_mut().slider_width = (ui.available_width() - beside).clamp(40.0, 100.0);
-    for (value, range, label) in sliders {
-        let slider = ui.add(egui::Slider::new(value, range).text(label));
+    // Each slider steps by what it shows, so the value saved is the one on screen. Only edits
+    // are clamped and stepped: a file's value off the grid (50 * 1.2 is 60.000004 in f32) or
+    // out of the range stays as it is until the designer moves that slider.
+    for ((value, range, label), decimals) in sliders.into_iter().zip(DECIMALS) {
+        let slider = ui.add(
+            egui::Slider::new(value, range)
+                .text(label)
+                .clamping(egui::SliderClamping::Edits)
+                .fixed_decimals(decimals)
+                .step_by(10f64.powi(-(decimals as i32))),
+        );
         st.trace_widget(ui, label, &slider);
     }
     p.turn_angle = deg.to_radians();
@@ -470,7 +503,7 @@ fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             st.trace_widget(ui, "save to species file", &save);
             if save.clicked() {
                 let outcome = st.tuned.save(sp, &file, false, false);
-                report_save(st, &name, outcome);
+                report_save(scene, st, sp, &name, outcome);
             }
             if ui.button("revert").clicked()
                 && let Some(saved) = st.tuned.saved(sp)
@@ -488,7 +521,7 @@ fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             ui.horizontal_wrapped(|ui| {
                 if ui.button("replace the expression").clicked() {
                     let outcome = st.tuned.save(sp, &file, false, true);
-                    report_save(st, &name, outcome);
+                    report_save(scene, st, sp, &name, outcome);
                 }
                 if ui.button("cancel").clicked() {
                     st.tuned.ask = None;
@@ -503,7 +536,7 @@ fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             ui.horizontal_wrapped(|ui| {
                 if ui.button("save my values over it").clicked() {
                     let outcome = st.tuned.save(sp, &file, true, false);
-                    report_save(st, &name, outcome);
+                    report_save(scene, st, sp, &name, outcome);
                 }
                 if ui.button("take the file's values").clicked()
                     && let Some(saved) = st.tuned.saved(sp)
@@ -519,10 +552,25 @@ fn save_tuning(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
     }
 }
 
-/// The console line of a save.
-fn report_save(st: &mut UiState, name: &str, outcome: SaveOutcome) {
+/// The console line of a save; the values as written go live (a slider's float noise under the
+/// value it showed is dropped), so the reload the save triggers changes nothing.
+fn report_save(
+    scene: &mut DynScene,
+    st: &mut UiState,
+    species: usize,
+    name: &str,
+    outcome: SaveOutcome,
+) {
     match outcome {
-        SaveOutcome::Saved(n) => st.log(format!("{name}: saved {n} value(s)")),
+        SaveOutcome::Saved(n) => {
+            if let Some(saved) = st.tuned.saved(species)
+                && scene.motion_params(species) != Some(saved)
+                && let Err(e) = scene.set_motion_params(species, saved)
+            {
+                st.log(e.to_string());
+            }
+            st.log(format!("{name}: saved {n} value(s)"));
+        }
         SaveOutcome::Failed(e) => st.log(format!("save refused: {e}")),
         SaveOutcome::Asked | SaveOutcome::Nothing => {}
     }
@@ -538,6 +586,367 @@ fn short_path(file: &std::path::Path) -> String {
         .collect();
     parts.reverse();
     parts.join("/")
+}
+
+/// The scene's live edits: each group's `params` (numbers as drag values, booleans as
+/// checkboxes; the scripts read them as `fish.params` at once), the unsaved changes, "save to
+/// scene file", "revert", undo and redo.
+fn scene_section(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
+    let file = scene.sim().scene_file();
+    st.scene_edits
+        .observe(scene.sim().scene_desc(), file.as_deref());
+    let Some(live) = st.scene_edits.live().cloned() else {
+        ui.label("(not built from a scene file: nothing to edit)");
+        return;
+    };
+    let mut desc = live.clone();
+    let mut drag = Drag::default();
+    for (g, group) in desc.fish.iter_mut().enumerate() {
+        let Some(params) = &mut group.params else {
+            continue;
+        };
+        let behavior = group
+            .behavior
+            .as_deref()
+            .map_or(String::new(), |b| format!(", {b}"));
+        ui.label(format!("fish[{}] ({}{behavior}):", g + 1, group.species));
+        ui.indent(("params", g), |ui| {
+            params_controls(
+                ui,
+                st,
+                &format!("fish[{}].params", g + 1),
+                params,
+                &mut drag,
+            );
+        });
+    }
+    scene_items(ui, scene, st, &mut desc, &mut drag);
+    // A drag of a value is one undo step.
+    if desc != live
+        && let Err(e) = st.scene_edits.edit(scene.sim_mut(), desc, drag.dragged)
+    {
+        st.log(e.to_string());
+    }
+    if drag.stopped {
+        st.scene_edits.end_drag();
+    }
+    scene_save(ui, scene, st, file.as_deref());
+}
+
+/// "edit scene" (presses in the view pick and drag rocks, current zones and start regions),
+/// "add rock" / "add current zone", and the picked item's position and size as drag values
+/// (edited in `desc`) with "delete"; Ctrl+Z / Ctrl+Shift+Z undo and redo.
+fn scene_items(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut UiState,
+    desc: &mut SceneDesc,
+    drag: &mut Drag,
+) {
+    let mut on = st.edit_scene;
+    let r = ui
+        .checkbox(&mut on, "edit scene in the view")
+        .on_hover_text("press on a rock, a current zone or a start region in the view and drag it over the floor plane; fish positions are the simulation's, not scene data");
+    st.trace_widget(ui, "edit scene in the view", &r);
+    if on != st.edit_scene {
+        st.edit_scene = on;
+        st.picked = None;
+        st.grab = None;
+    }
+    ui.horizontal_wrapped(|ui| {
+        let target = st.camera.target;
+        for (label, item, radius) in [
+            ("add rock", Item::Rock(0), 40.0),
+            ("add current zone", Item::Zone(0), 100.0),
+        ] {
+            let b = ui.button(label);
+            st.trace_widget(ui, label, &b);
+            if b.clicked() {
+                let y = if matches!(item, Item::Rock(_)) {
+                    radius * 0.5
+                } else {
+                    target.y
+                };
+                let pos = [target.x, y, target.z].map(|v| round_f32(v, UNIT_DECIMALS));
+                match st.scene_edits.add(scene.sim_mut(), item, pos, radius) {
+                    Ok(i) => {
+                        // The new item is the scene's now (and `desc` is shown below).
+                        if let Some(live) = st.scene_edits.live() {
+                            *desc = live.clone();
+                        }
+                        st.edit_scene = true;
+                        st.picked = Some(match item {
+                            Item::Rock(_) => Item::Rock(i),
+                            _ => Item::Zone(i),
+                        });
+                    }
+                    Err(e) => st.log(e.to_string()),
+                }
+            }
+        }
+    });
+    let Some(item) = st.picked else {
+        if st.edit_scene {
+            ui.label("press on a rock, current zone or start region in the view to pick it");
+        }
+        return;
+    };
+    let mut delete = false;
+    match item {
+        Item::Rock(i) => {
+            let Some(o) = desc.obstacles.get_mut(i) else {
+                st.picked = None;
+                return;
+            };
+            let at = format!("obstacles[{}]", i + 1);
+            ui.strong(format!("rock {at}"));
+            vec3(ui, st, drag, &format!("{at}.pos"), &mut o.pos);
+            ui.horizontal(|ui| value(ui, st, drag, format!("{at}.radius"), &mut o.radius, 0.0));
+            delete = true;
+        }
+        Item::Zone(i) => {
+            let Some(c) = desc.currents.get_mut(i) else {
+                st.picked = None;
+                return;
+            };
+            let at = format!("currents[{}]", i + 1);
+            ui.strong(format!("current zone {at}"));
+            vec3(ui, st, drag, &format!("{at}.pos"), &mut c.pos);
+            ui.horizontal(|ui| value(ui, st, drag, format!("{at}.radius"), &mut c.radius, 1.0));
+            vec3(ui, st, drag, &format!("{at}.velocity"), &mut c.velocity);
+            delete = true;
+        }
+        Item::Region(g) => {
+            let Some(r) = desc.fish.get_mut(g).and_then(|f| f.region.as_mut()) else {
+                st.picked = None;
+                return;
+            };
+            let at = format!("fish[{}].region", g + 1);
+            ui.strong(format!("start region {at}"));
+            vec3(ui, st, drag, &format!("{at}.min"), &mut r.min);
+            vec3(ui, st, drag, &format!("{at}.max"), &mut r.max);
+        }
+    }
+    if delete {
+        let b = ui.button("delete");
+        st.trace_widget(ui, "delete", &b);
+        if b.clicked() {
+            match st.scene_edits.delete(scene.sim_mut(), item) {
+                Ok(()) => {
+                    st.picked = None;
+                    // The deleted item's values in `desc` are no longer the scene's.
+                    if let Some(live) = st.scene_edits.live() {
+                        *desc = live.clone();
+                    }
+                }
+                Err(e) => st.log(e.to_string()),
+            }
+        }
+    }
+}
+
+/// A scene value (world units) as a drag value labelled `label`, stepping by what it shows.
+fn value(
+    ui: &mut egui::Ui,
+    st: &mut UiState,
+    drag: &mut Drag,
+    label: String,
+    v: &mut f32,
+    min: f32,
+) {
+    let l = ui.label(&label);
+    let r = ui
+        .add(
+            egui::DragValue::new(v)
+                .range(min..=f32::MAX)
+                .fixed_decimals(UNIT_DECIMALS)
+                .speed(1.0),
+        )
+        .labelled_by(l.id);
+    st.trace_widget(ui, &label, &r);
+    drag.dragged |= r.dragged();
+    drag.stopped |= r.drag_stopped();
+    if r.changed() {
+        *v = round_f32(*v, UNIT_DECIMALS);
+    }
+}
+
+/// Three [`value`]s, `at.x`, `at.y`, `at.z`, in a row.
+fn vec3(ui: &mut egui::Ui, st: &mut UiState, drag: &mut Drag, at: &str, v: &mut [f32; 3]) {
+    // Wrapped: three labelled values in a row would hold the panel wide.
+    ui.horizontal_wrapped(|ui| {
+        for (k, x) in ["x", "y", "z"].iter().zip(v.iter_mut()) {
+            value(ui, st, drag, format!("{at}.{k}"), x, f32::MIN);
+        }
+    });
+}
+
+/// Whether a scene control is being dragged this frame, or its drag ended.
+#[derive(Debug, Default)]
+struct Drag {
+    dragged: bool,
+    stopped: bool,
+}
+
+/// One control per leaf of a `params` table, labelled with its key path: numbers as drag
+/// values stepping by what they show (whole numbers stay whole), booleans as checkboxes,
+/// strings shown.
+fn params_controls(
+    ui: &mut egui::Ui,
+    st: &mut UiState,
+    at: &str,
+    v: &mut serde_json::Value,
+    drag: &mut Drag,
+) {
+    use serde_json::Value as J;
+    match v {
+        J::Object(map) => {
+            for (k, item) in map.iter_mut() {
+                params_controls(ui, st, &format!("{at}.{k}"), item, drag);
+            }
+        }
+        J::Array(items) => {
+            for (i, item) in items.iter_mut().enumerate() {
+                params_controls(ui, st, &format!("{at}[{}]", i + 1), item, drag);
+            }
+        }
+        J::Bool(b) => {
+            let r = ui.checkbox(b, at);
+            st.trace_widget(ui, at, &r);
+        }
+        J::Number(n) => {
+            let whole = !n.is_f64();
+            let mut x = n.as_f64().unwrap_or(0.0);
+            let decimals = if whole { 0 } else { PARAM_DECIMALS };
+            let r = ui
+                .horizontal(|ui| {
+                    let label = ui.label(at);
+                    ui.add(
+                        egui::DragValue::new(&mut x)
+                            .fixed_decimals(decimals)
+                            .speed(10f64.powi(-(decimals as i32)).max(0.01)),
+                    )
+                    .labelled_by(label.id)
+                })
+                .inner;
+            st.trace_widget(ui, at, &r);
+            drag.dragged |= r.dragged();
+            drag.stopped |= r.drag_stopped();
+            if r.changed() {
+                let new = if whole {
+                    Some(serde_json::Number::from(x.round() as i64))
+                } else {
+                    serde_json::Number::from_f64(round_f64(x, decimals))
+                };
+                if let Some(new) = new {
+                    *n = new;
+                }
+            }
+        }
+        J::String(s) => {
+            ui.label(format!("{at} = \"{s}\""));
+        }
+        J::Null => {}
+    }
+}
+
+/// The scene's unsaved changes, "save to scene file", "revert", undo/redo, and the question a
+/// save may raise.
+fn scene_save(
+    ui: &mut egui::Ui,
+    scene: &mut DynScene,
+    st: &mut UiState,
+    file: Option<&std::path::Path>,
+) {
+    let Some(file) = file.map(std::path::Path::to_path_buf) else {
+        return;
+    };
+    let name = short_path(&file);
+    let changes = st.scene_edits.changes();
+    if changes.is_empty() {
+        ui.label(format!("no unsaved scene changes ({name})"));
+    } else {
+        ui.colored_label(WARNING, format!("unsaved scene changes ({name}):"));
+        for e in &changes {
+            ui.monospace(format!("{} = {}", e.path, e.value.text()));
+        }
+    }
+    ui.horizontal_wrapped(|ui| {
+        let save = ui.add_enabled(!changes.is_empty(), egui::Button::new("save to scene file"));
+        st.trace_widget(ui, "save to scene file", &save);
+        if save.clicked() {
+            let outcome = st.scene_edits.save(&file, false, false);
+            report_scene_save(st, &name, outcome);
+        }
+        let revert = ui.add_enabled(!changes.is_empty(), egui::Button::new("revert scene"));
+        if revert.clicked()
+            && let Err(e) = st.scene_edits.revert(scene.sim_mut())
+        {
+            st.log(e.to_string());
+        }
+        let undo = ui.add_enabled(st.scene_edits.can_undo(), egui::Button::new("undo"));
+        st.trace_widget(ui, "undo", &undo);
+        if undo.clicked() {
+            scene_undo(scene, st, false);
+        }
+        let redo = ui.add_enabled(st.scene_edits.can_redo(), egui::Button::new("redo"));
+        st.trace_widget(ui, "redo", &redo);
+        if redo.clicked() {
+            scene_undo(scene, st, true);
+        }
+    });
+    match st.scene_edits.ask.clone() {
+        Some(SceneAsk::Expression(why)) => {
+            ui.colored_label(WARNING, why);
+            ui.horizontal_wrapped(|ui| {
+                if ui.button("replace the expression").clicked() {
+                    let outcome = st.scene_edits.save(&file, false, true);
+                    report_scene_save(st, &name, outcome);
+                }
+                if ui.button("cancel").clicked() {
+                    st.scene_edits.ask = None;
+                }
+            });
+        }
+        Some(SceneAsk::DiskChanged) => {
+            ui.colored_label(
+                WARNING,
+                format!("{name} changed on disk while the window had unsaved edits of it"),
+            );
+            ui.horizontal_wrapped(|ui| {
+                if ui.button("save my scene edits over it").clicked() {
+                    let outcome = st.scene_edits.save(&file, true, false);
+                    report_scene_save(st, &name, outcome);
+                }
+                if ui.button("keep the file").clicked() {
+                    st.scene_edits.ask = None;
+                    st.restart_requested = true;
+                }
+            });
+        }
+        None => {}
+    }
+}
+
+/// Undoes (or, with `redo`, redoes) the last scene edit.
+pub(super) fn scene_undo(scene: &mut DynScene, st: &mut UiState, redo: bool) {
+    let r = if redo {
+        st.scene_edits.redo(scene.sim_mut())
+    } else {
+        st.scene_edits.undo(scene.sim_mut())
+    };
+    if let Err(e) = r {
+        st.log(e.to_string());
+    }
+}
+
+/// The console line of a scene save.
+fn report_scene_save(st: &mut UiState, name: &str, outcome: SceneSaved) {
+    match outcome {
+        SceneSaved::Saved(n) => st.log(format!("{name}: saved {n} scene value(s)")),
+        SceneSaved::Failed(e) => st.log(format!("save refused: {e}")),
+        SceneSaved::Asked | SceneSaved::Nothing => {}
+    }
 }
 
 /// The debug overlay checkboxes.

@@ -10,6 +10,7 @@ use shoal_core::world::driver::WanderPipeline;
 use shoal_core::world::{FishId, World, WorldError, WorldState};
 use shoal_script::log::LogLevel;
 use shoal_script::logpoints::SetLogpointsError;
+use shoal_script::scene::SceneDesc;
 use shoal_script::{EvalError, ScriptError, SimSnapshot, Simulation};
 
 /// Why the window could not do what the designer asked of the simulation.
@@ -49,6 +50,9 @@ pub enum SimError {
     /// A file's logpoints were not set.
     #[error(transparent)]
     Logpoints(#[from] SetLogpointsError),
+    /// A scene edit the window cannot make.
+    #[error("scene edit: {0}")]
+    SceneEdit(String),
 }
 
 /// A simulation at one tick, kept by the window's history ring and put back by
@@ -158,6 +162,19 @@ pub trait Showable {
         let _ = species;
         None
     }
+    /// The scene running, with the window's live edits (`None`: not built from a scene file).
+    fn scene_desc(&self) -> Option<&SceneDesc> {
+        None
+    }
+    /// The scene file, where the panel saves scene edits.
+    fn scene_file(&self) -> Option<std::path::PathBuf> {
+        None
+    }
+    /// Makes `desc` the running scene (see [`Simulation::apply_scene_edit`]).
+    fn apply_scene_edit(&mut self, desc: SceneDesc) -> Result<(), SimError> {
+        let _ = desc;
+        Err(SimError::NoSceneFile)
+    }
     /// Applies edited scripts; one console line per reload event.
     fn poll_reload(&mut self) -> Vec<String> {
         Vec::new()
@@ -238,6 +255,15 @@ impl<S: Showable + ?Sized> Showable for Box<S> {
     }
     fn species_file(&self, species: usize) -> Option<std::path::PathBuf> {
         (**self).species_file(species)
+    }
+    fn scene_desc(&self) -> Option<&SceneDesc> {
+        (**self).scene_desc()
+    }
+    fn scene_file(&self) -> Option<std::path::PathBuf> {
+        (**self).scene_file()
+    }
+    fn apply_scene_edit(&mut self, desc: SceneDesc) -> Result<(), SimError> {
+        (**self).apply_scene_edit(desc)
     }
     fn poll_reload(&mut self) -> Vec<String> {
         (**self).poll_reload()
@@ -340,6 +366,15 @@ impl Showable for Simulation {
     }
     fn species_file(&self, species: usize) -> Option<std::path::PathBuf> {
         Simulation::species_file(self, species).map(std::path::Path::to_path_buf)
+    }
+    fn scene_desc(&self) -> Option<&SceneDesc> {
+        Simulation::scene(self)
+    }
+    fn scene_file(&self) -> Option<std::path::PathBuf> {
+        Simulation::scene_file(self).map(std::path::Path::to_path_buf)
+    }
+    fn apply_scene_edit(&mut self, desc: SceneDesc) -> Result<(), SimError> {
+        Ok(Simulation::apply_scene_edit(self, desc)?)
     }
     fn poll_reload(&mut self) -> Vec<String> {
         Simulation::poll_reload(self)

@@ -23,6 +23,40 @@ pub(super) const FIELDS: [&str; 10] = [
     "turn_angle",
 ];
 
+/// Decimals each slider of [`FIELDS`] shows and steps by (the turn angle's: of its degrees).
+pub(super) const DECIMALS: [usize; 10] = [2, 1, 1, 2, 1, 2, 3, 2, 2, 1];
+
+/// `v` rounded to `decimals` places, as the nearest `f32` (what a slider showing that many
+/// shows).
+pub(super) fn round_to(v: f32, decimals: usize) -> f32 {
+    format!("{v:.decimals$}").parse().unwrap_or(v)
+}
+
+/// The text saved for motion field `name` tuned to `v`: the value the slider shows, not the
+/// float noise under it (a speed dragged to 63.27586 while the slider shows 63.3 is saved as
+/// 63.3). The turn angle shows degrees and is saved in radians: the shortest decimal whose
+/// degrees show the same.
+pub(super) fn saved_number(name: &str, v: f32) -> LuaValue {
+    let i = FIELDS.iter().position(|k| *k == name).unwrap_or(0);
+    let d = DECIMALS[i];
+    if name != "turn_angle" {
+        return LuaValue::from_f32(round_to(v, d));
+    }
+    let shown = round_to(v.to_degrees(), d);
+    (0..=8)
+        .map(|k| round_to(v, k))
+        .find(|r| round_to(r.to_degrees(), d) == shown)
+        .map_or(LuaValue::from_f32(v), LuaValue::from_f32)
+}
+
+/// The value a file holding [`saved_number`]'s text gives.
+fn reread(value: &LuaValue, fallback: f32) -> f32 {
+    match value {
+        LuaValue::Number(t) => t.parse().unwrap_or(fallback),
+        _ => fallback,
+    }
+}
+
 fn field(p: &MotionParams, name: &str) -> f32 {
     match name {
         "p" => p.p,
@@ -208,9 +242,19 @@ impl Tuned {
             .filter(|k| field(&b.params, k) != field(&tuned, k))
             .map(|k| Edit {
                 path: KeyPath::keys(&["motion", k]),
-                value: LuaValue::from_f32(field(&tuned, k)),
+                value: saved_number(k, field(&tuned, k)),
             })
             .collect();
+        // What the file says once written (the panel puts it live, so the reload changes
+        // nothing).
+        let mut written = tuned;
+        for (k, e) in FIELDS
+            .iter()
+            .filter(|k| field(&b.params, k) != field(&tuned, k))
+            .zip(&edits)
+        {
+            set_field(&mut written, k, reread(&e.value, field(&tuned, k)));
+        }
         match edit::save(
             file,
             &edits,
@@ -219,7 +263,7 @@ impl Tuned {
             },
         ) {
             Ok(_) => {
-                b.params = tuned;
+                b.params = written;
                 b.tuned = None;
                 b.disk = std::fs::read_to_string(file).ok();
                 self.ask = None;
@@ -248,4 +292,30 @@ pub(super) enum SaveOutcome {
     Asked,
     /// Refused (the message names the file and why).
     Failed(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_is_saved_as_its_slider_shows_it() {
+        assert_eq!(saved_number("s", 63.27586).text(), "63.3");
+        assert_eq!(saved_number("s", 70.0).text(), "70");
+        assert_eq!(saved_number("front_amp", 0.012_345_6).text(), "0.012");
+        assert_eq!(saved_number("p", 0.299_999_98).text(), "0.3");
+        // The turn angle shows degrees (one decimal) and is saved in radians: the shortest
+        // decimal showing the same degrees.
+        let right = 90f32.to_radians();
+        assert_eq!(saved_number("turn_angle", right).text(), "1.57");
+        assert_eq!(round_to(1.57f32.to_degrees(), 1), 90.0);
+        let odd = 37.4f32.to_radians();
+        let text = saved_number("turn_angle", odd).text();
+        let back: f32 = text.parse().unwrap();
+        assert_eq!(round_to(back.to_degrees(), 1), 37.4, "{text}");
+        assert!(
+            text.len() < format!("{odd}").len(),
+            "{text} is shorter than {odd}"
+        );
+    }
 }

@@ -33,6 +33,16 @@ pub(super) struct UiState {
     pub species: usize,
     /// The sliders' unsaved values and the question a save raised.
     pub tuned: super::tuned::Tuned,
+    /// The window's edits of the running scene (params, rocks, currents, regions), undo/redo.
+    pub scene_edits: super::scene_edit::SceneEdits,
+    /// "edit scene" is on: presses in the view pick rocks, current zones and start regions.
+    pub edit_scene: bool,
+    /// The rock, zone or region picked for editing.
+    pub picked: Option<super::scene_edit::Item>,
+    /// The drag of the picked item in progress.
+    pub grab: Option<super::scene_view::Grab>,
+    /// The last press in the view picked a scene item (its click selects no fish).
+    pub press_picked: bool,
     pub paused: bool,
     pub step_once: bool,
     pub speed: f32,
@@ -91,6 +101,11 @@ impl UiState {
             selected: None,
             species: 0,
             tuned: Default::default(),
+            scene_edits: Default::default(),
+            edit_scene: false,
+            picked: None,
+            grab: None,
+            press_picked: false,
             paused: false,
             step_once: false,
             restart_requested: false,
@@ -198,9 +213,19 @@ pub(super) fn refresh_views(scene: &mut DynScene, ui: &mut UiState) {
     {
         ui.camera.target = ui.camera.target.lerp(info.center, 0.15);
     }
+    // The scene edits follow the running scene even while the panel's Scene section is
+    // folded (a press in the view picks from them).
+    let file = scene.sim().scene_file();
+    ui.scene_edits
+        .observe(scene.sim().scene_desc(), file.as_deref());
     ui.overlay.clear();
     if ui.toggles.any() {
         scene.overlay_lines(ui.toggles, &mut ui.overlay);
+    }
+    if ui.edit_scene
+        && let Some(desc) = ui.scene_edits.live()
+    {
+        super::scene_view::overlay(desc, ui.picked, &mut ui.overlay);
     }
     if ui.show_ghosts {
         let now = scene.world().time();

@@ -280,7 +280,14 @@ impl App {
                     .window
                     .as_ref()
                     .map_or(1.0, |w| w.config.height.max(1) as f32);
-                match self.aq.ui.pointer.moved(p) {
+                let moved = self.aq.ui.pointer.moved(p);
+                if let Some(ws) = &self.window {
+                    let size = Vec2::new(views_width(ws, &self.aq) as f32, height);
+                    if self.aq.drag_in_view(p, size) {
+                        return;
+                    }
+                }
+                match moved {
                     Some((MouseButton::Left, delta)) => self.aq.ui.camera.orbit(
                         delta.x / height * std::f32::consts::PI,
                         delta.y / height * std::f32::consts::PI,
@@ -293,11 +300,23 @@ impl App {
                 }
             }
             WindowEvent::MouseInput { state, button, .. } => match state {
-                ElementState::Pressed => self.aq.ui.pointer.pressed(*button, over_ui),
+                ElementState::Pressed => {
+                    self.aq.ui.pointer.pressed(*button, over_ui);
+                    if *button == MouseButton::Left
+                        && !over_ui
+                        && let Some(ws) = &self.window
+                    {
+                        let size =
+                            Vec2::new(views_width(ws, &self.aq) as f32, ws.config.height as f32);
+                        let at = self.aq.ui.pointer.cursor;
+                        self.aq.press_in_view(at, size);
+                    }
+                }
                 ElementState::Released => {
                     if let Some(at) = self.aq.ui.pointer.released(*button) {
                         self.click(at);
                     }
+                    self.aq.release_in_view();
                 }
             },
             WindowEvent::ModifiersChanged(m) => self.aq.set_shift(m.state().shift_key()),
@@ -435,6 +454,7 @@ fn encode_views(
     aq.ui.trace_line("3D view", || {
         format!("ui: 3D view {width}x{height}, panel from x={panel_left:?}")
     });
+    aq.trace_rocks(glam::Vec2::new(width as f32, height as f32));
     if aq.ui.split.is_none() && width >= ws.config.width {
         let mut input = aq.scene.frame_input();
         input.camera = aq.ui.camera;

@@ -125,6 +125,9 @@ pub enum LuaValue {
     List(Vec<LuaValue>),
     /// Any other table literal, written as given.
     Table(String),
+    /// `nil`: the key or list item is removed from the file (with its line, when it has one of
+    /// its own, trailing comment included); a later item of the list moves up one place.
+    Nil,
 }
 
 impl LuaValue {
@@ -158,6 +161,9 @@ impl LuaValue {
         };
         if t.is_empty() {
             return Err(bad("the value is empty".into()));
+        }
+        if t == "nil" {
+            return Ok(Self::Nil);
         }
         let word = t
             .chars()
@@ -221,6 +227,7 @@ impl LuaValue {
         match self {
             Self::Number(t) | Self::Str(t) | Self::Table(t) => t.clone(),
             Self::Bool(b) => b.to_string(),
+            Self::Nil => "nil".into(),
             Self::List(items) if items.is_empty() => "{}".into(),
             Self::List(items) => {
                 let inner: Vec<String> = items.iter().map(Self::text).collect();
@@ -234,7 +241,7 @@ impl LuaValue {
             Self::Number(_) => Kind::Number,
             Self::Bool(_) => Kind::Bool,
             Self::Str(_) => Kind::Str,
-            Self::List(_) | Self::Table(_) => Kind::Table,
+            Self::List(_) | Self::Table(_) | Self::Nil => Kind::Table,
         }
     }
 }
@@ -654,9 +661,15 @@ fn edit_once(
             ));
         }
         let Some(field) = found.first() else {
-            splices.push(insert(source, file, &key, table, &segs[i..], &edit.value)?);
+            if edit.value != LuaValue::Nil {
+                splices.push(insert(source, file, &key, table, &segs[i..], &edit.value)?);
+            }
             break;
         };
+        if i + 1 == segs.len() && edit.value == LuaValue::Nil {
+            splices.push(removal(source, table, field));
+            break;
+        }
         let value = field_value(field).expect("matching fields have values");
         if i + 1 < segs.len() {
             match value {
@@ -682,6 +695,44 @@ fn edit_once(
         out.replace_range(s.range, &s.text);
     }
     Ok(out)
+}
+
+/// Removes `field` of `table`: its whole line (trailing comment included) when it has lines of
+/// its own, else the field and its separator.
+fn removal(source: &str, table: &TableConstructor, field: &Field) -> Splice {
+    let pairs: Vec<_> = table.fields().pairs().collect();
+    let at = start_byte(field);
+    let k = pairs
+        .iter()
+        .position(|p| start_byte(p.value()) == at)
+        .unwrap_or(0);
+    let end = pairs[k].punctuation().map_or(end_byte(field), end_byte);
+    let line_start = source[..at].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = source[end..].find('\n').map_or(source.len(), |i| end + i);
+    let rest = source[end..line_end].trim_start();
+    let own_line = source[line_start..at].trim().is_empty()
+        && (rest.is_empty() || (rest.starts_with("--") && !rest.starts_with("--[")));
+    if own_line {
+        return Splice {
+            range: line_start..(line_end + 1).min(source.len()),
+            text: String::new(),
+        };
+    }
+    if pairs[k].punctuation().is_none() && k > 0 {
+        // The last field without a separator: the previous one's goes with it.
+        let prev = pairs[k - 1]
+            .punctuation()
+            .map_or(end_byte(pairs[k - 1].value()), start_byte);
+        return Splice {
+            range: prev..end,
+            text: String::new(),
+        };
+    }
+    let spaces = source[end..].len() - source[end..].trim_start_matches([' ', '\t']).len();
+    Splice {
+        range: at..end + spaces,
+        text: String::new(),
+    }
 }
 
 /// Replaces the literal `old` with `new` (item by item for two lists of the same length).

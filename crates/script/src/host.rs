@@ -501,10 +501,21 @@ impl ScriptHost {
         call().map_err(|e| self.after_error(&e))
     }
 
-    /// Sets the data a fish finds in `fish.params` (from its scene group); it applies when the
-    /// fish's table is made, so call it before the fish first decides.
-    pub fn set_params(&mut self, id: FishId, params: Arc<serde_json::Value>) {
+    /// Sets the data a fish finds in `fish.params` (from its scene group): in its table at once
+    /// when the fish has decided already (the panel's edits of a scene's `params`), else when
+    /// the table is made.
+    pub fn set_params(
+        &mut self,
+        id: FishId,
+        params: Arc<serde_json::Value>,
+    ) -> Result<(), ScriptError> {
+        if let Some(t) = self.existing_fish_table(id) {
+            let err = |e: mlua::Error| ScriptError::Lua(describe(&e));
+            let value = self.lua.to_value(&*params).map_err(err)?;
+            t.raw_set("params", value).map_err(err)?;
+        }
         self.fish_params.insert(id.index, (id.generation, params));
+        Ok(())
     }
 
     /// The cached handle on the fish's table, if it belongs to this generation of the slot.

@@ -7,5 +7,6 @@ mod common;
 mod render_pose;
 mod render_world;
 mod window_panel;
+mod window_scene;
 mod window_scripts;
 mod window_timeline;

@@ -15,13 +15,13 @@ use shoal_script::Simulation;
 
 const VIEW: Vec2 = Vec2::new(960.0, 600.0);
 
-fn repo() -> PathBuf {
+pub(crate) fn repo() -> PathBuf {
     shoal_core::source_root().to_path_buf()
 }
 
 /// A copy of `scripts/` in a temporary directory, plus `extra` files (path under scripts/,
 /// source).
-fn scripts_with(extra: &[(&str, &str)]) -> tempfile::TempDir {
+pub(crate) fn scripts_with(extra: &[(&str, &str)]) -> tempfile::TempDir {
     let dir = tempfile::tempdir().expect("temp dir");
     copy_dir(&repo().join("scripts"), dir.path());
     for (path, source) in extra {
@@ -78,7 +78,7 @@ fn aquarium(scripts: &Path, behavior: Option<&str>, select: Option<usize>) -> Aq
     aq
 }
 
-fn harness(aq: Aquarium) -> Harness<'static, Aquarium> {
+pub(crate) fn harness(aq: Aquarium) -> Harness<'static, Aquarium> {
     Harness::builder()
         .with_size(egui::vec2(520.0, 1600.0))
         .build_ui_state(|ui, aq: &mut Aquarium| aq.panel(ui), aq)
@@ -524,7 +524,7 @@ return M
 /// The porgy file's last field line, after which the panel inserts a `motion` table.
 const PORGY_LAST: &str = "  decision_hz = 10,        -- behaviour decisions per second (staggered over the 60 Hz tick)\n";
 
-fn set_speed(h: &mut Harness<'static, Aquarium>, s: f64) -> f32 {
+pub(crate) fn set_speed(h: &mut Harness<'static, Aquarium>, s: f64) -> f32 {
     h.get_by_role_and_label(egui::accesskit::Role::Slider, "s (speed, units/s)")
         .set_value_accesskit(s);
     h.run();

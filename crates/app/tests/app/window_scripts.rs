@@ -435,7 +435,14 @@ fn saving_while_paused_reloads_at_once() {
     );
     let scene = root.join("scripts/scenes/default.lua");
     let text = std::fs::read_to_string(&scene).unwrap();
-    std::fs::write(&scene, format!("{text}\n-- edited\n")).unwrap();
+    // A real change (a comment alone changes nothing to restart for: the file then matches
+    // the running scene).
+    assert!(text.contains("food_lifetime = 90,"));
+    std::fs::write(
+        &scene,
+        text.replacen("food_lifetime = 90,", "food_lifetime = 80,", 1),
+    )
+    .unwrap();
     assert!(frames_until(&mut h, |aq| aq.scene.scene_changed()));
     h.run();
     h.get_by_label("the scene file changed");

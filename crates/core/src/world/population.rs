@@ -308,6 +308,15 @@ impl World {
         ObstacleId((self.state.obstacles.len() - 1) as u32)
     }
 
+    /// Replaces every obstacle (the window's scene edits), each as [`World::add_obstacle`]
+    /// takes it.
+    pub fn set_obstacles(&mut self, obstacles: impl IntoIterator<Item = (Vec3, f32)>) {
+        self.state.obstacles.clear();
+        for (pos, radius) in obstacles {
+            self.add_obstacle(pos, radius);
+        }
+    }
+
     /// All obstacles, by [`ObstacleId`].
     pub fn obstacles(&self) -> &[Obstacle] {
         &self.state.obstacles
@@ -319,6 +328,15 @@ impl World {
             self.state.currents.push(c);
         } else {
             log::warn!("ignoring current with non-finite or non-positive values: {c:?}");
+        }
+    }
+
+    /// Replaces every current zone (the window's scene edits), each as [`World::add_current`]
+    /// takes it.
+    pub fn set_currents(&mut self, currents: impl IntoIterator<Item = Current>) {
+        self.state.currents.clear();
+        for c in currents {
+            self.add_current(c);
         }
     }
 

@@ -47,6 +47,7 @@ use shoal_core::world::{
 mod bench;
 mod console;
 mod lanes;
+mod live_edit;
 mod measures;
 mod reload;
 mod snapshot;
@@ -113,6 +114,11 @@ pub struct Simulation {
     reload_events: Vec<ReloadEvent>,
     /// Each fish's `fish.params` from its scene group (only fish that have some).
     fish_params: std::collections::HashMap<FishId, Arc<serde_json::Value>>,
+    /// The fish each scene group spawned, by group (the panel's `params` edits reach them).
+    group_fish: Vec<Vec<FishId>>,
+    /// The window moved, added or removed rocks or current zones: a restored state keeps them
+    /// as edited (see [`Simulation::apply_scene_edit`]).
+    props_edited: bool,
     /// Simulated time [`Simulation::profile`] counts from.
     profile_since_s: f64,
     /// How often the lanes' Lua stacks are sampled (see [`Simulation::set_function_sampling`]).
@@ -302,20 +308,18 @@ impl Simulation {
             let lane = lane_index(id, n);
             self.sim.behavior.lanes[lane]
                 .host
-                .set_params(id, Arc::clone(params));
+                .set_params(id, Arc::clone(params))?;
         }
         Ok(())
     }
 
-    /// Gives fish `id` the table `params` as `fish.params` (a scene group's `params`); it
-    /// applies when the fish first decides.
-    pub fn set_params(&mut self, id: FishId, params: serde_json::Value) {
+    /// Gives fish `id` the table `params` as `fish.params` (a scene group's `params`): at once
+    /// when the fish has decided already, else when it first decides.
+    pub fn set_params(&mut self, id: FishId, params: serde_json::Value) -> Result<(), ScriptError> {
         let params = Arc::new(params);
         let lane = lane_index(id, self.sim.behavior.lanes.len());
-        self.sim.behavior.lanes[lane]
-            .host
-            .set_params(id, Arc::clone(&params));
-        self.fish_params.insert(id, params);
+        self.fish_params.insert(id, Arc::clone(&params));
+        self.sim.behavior.lanes[lane].host.set_params(id, params)
     }
 
     /// The lane fish `id` decides in.
@@ -376,6 +380,8 @@ impl Simulation {
             scene_changed: false,
             reload_events: Vec::new(),
             fish_params: std::collections::HashMap::new(),
+            group_fish: Vec::new(),
+            props_edited: false,
             profile_since_s: 0.0,
             sample_every: None,
             measures: measures::Measures::default(),
@@ -468,12 +474,16 @@ impl Simulation {
                         source,
                     })?;
                 if let Some(params) = &group.params {
-                    self.set_params(id, params.clone());
+                    self.set_params(id, params.clone())?;
                 }
                 spawned += 1;
                 if spawned.is_multiple_of(SETUP_PROGRESS_EVERY) {
                     progress.spawned(spawned);
                 }
+                if self.group_fish.len() <= g {
+                    self.group_fish.resize(g + 1, Vec::new());
+                }
+                self.group_fish[g].push(id);
             }
         }
         for f in &desc.food {
@@ -649,9 +659,15 @@ impl Simulation {
         self.sim.world_mut()
     }
 
-    /// The scene this simulation was built from.
+    /// The scene this simulation runs: as built from its file, with the window's live edits
+    /// ([`Simulation::apply_scene_edit`]).
     pub fn scene(&self) -> Option<&SceneDesc> {
         self.scene.as_ref()
+    }
+
+    /// The scene file this simulation was built from.
+    pub fn scene_file(&self) -> Option<&Path> {
+        self.scene_path.as_deref()
     }
 
     /// Runs one fixed tick (1/60 s): [`shoal_core::world::step`] with the scripts as its behaviour.

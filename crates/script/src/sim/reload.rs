@@ -20,6 +20,9 @@ pub enum ReloadEvent {
     Species(String),
     /// The current scene's file changed: the panel offers a restart.
     SceneChanged,
+    /// The current scene's file was written with what already runs (saved from the window):
+    /// nothing to restart.
+    SceneUnchanged,
     /// A file failed to load; the last good version keeps running.
     Failed(String),
 }
@@ -33,6 +36,7 @@ impl std::fmt::Display for ReloadEvent {
             Self::SceneChanged => {
                 write!(f, "the scene file changed: restart the scene to apply it")
             }
+            Self::SceneUnchanged => write!(f, "the scene file matches the running scene"),
             Self::Failed(msg) => {
                 // The error itself is logged on its own line; name the file here.
                 let file = msg.split(':').next().unwrap_or(msg);
@@ -74,6 +78,14 @@ impl Simulation {
         for p in paths {
             let real = p.canonicalize().unwrap_or_else(|_| p.clone());
             if self.scene_path.as_deref() == Some(real.as_path()) {
+                let display = self.host().root().display_of(&real);
+                // Saved from the window: the file says what already runs.
+                if let Ok(desc) = super::read_scene(self.host(), &real, &display)
+                    && self.scene.as_ref() == Some(&desc)
+                {
+                    events.push(ReloadEvent::SceneUnchanged);
+                    continue;
+                }
                 self.scene_changed = true;
                 let msg = format!(
                     "{}: scene changed — restart?",

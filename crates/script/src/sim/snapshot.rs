@@ -94,6 +94,7 @@ impl Simulation {
                 .restore_fish_state(state)
                 .map_err(|e| ScriptError::Lua(e.to_string()))?;
         }
+        self.sync_props();
         Ok(())
     }
 }

@@ -243,3 +243,43 @@ fn test_save_checks_the_result_as_the_simulation_reads_it() {
         Err(EditError::UnknownKind(_))
     ));
 }
+
+#[test]
+fn test_nil_removes_a_key_or_list_item_with_its_line() {
+    let before = shipped("scripts/scenes/default.lua");
+    let rock = "    { pos = { 250, 60, -120 }, radius = 60 },\n";
+    assert!(
+        before.contains(rock),
+        "the shipped scene changed: update this test"
+    );
+    // A list item on a line of its own goes with its line; the next one moves up.
+    let after = set(&before, &["obstacles[1]=nil"]).unwrap();
+    assert_eq!(after, before.replacen(rock, "", 1));
+    // A key, its trailing comment with it.
+    let after = set(&before, &["food_lifetime=nil"]).unwrap();
+    assert_eq!(
+        after,
+        before.replacen(
+            "  food_lifetime = 90,     -- seconds before an uneaten pellet dissolves\n",
+            "",
+            1
+        )
+    );
+    // Items of a one-line list: the separator goes too, first, middle or last.
+    let one = "return {\n  food = { {1, 2, 3}, {4, 5, 6}, {7, 8, 9} },\n}\n";
+    for (k, want) in [
+        (1, "{ {4, 5, 6}, {7, 8, 9} }"),
+        (2, "{ {1, 2, 3}, {7, 8, 9} }"),
+        (3, "{ {1, 2, 3}, {4, 5, 6} }"),
+    ] {
+        let after = set(one, &[&format!("food[{k}]=nil")]).unwrap();
+        assert_eq!(
+            after,
+            one.replacen("{ {1, 2, 3}, {4, 5, 6}, {7, 8, 9} }", want, 1),
+            "food[{k}]"
+        );
+    }
+    // A key that is not there: nothing to remove.
+    assert_eq!(set(&before, &["food_sink_speed_typo=nil"]).unwrap(), before);
+    assert_eq!(LuaValue::parse("nil").unwrap(), LuaValue::Nil);
+}

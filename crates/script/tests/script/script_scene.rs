@@ -265,3 +265,45 @@ fn test_scene_measures_must_be_functions() {
         );
     }
 }
+
+/// The window's live scene edits: rocks and current zones reach the world at once, a group's
+/// `params` reach its fish, and what needs a restart (the tank) or is not a number (NaN) is
+/// refused, naming it, with nothing changed.
+#[test]
+fn a_live_scene_edit_moves_rocks_and_zones_and_refuses_the_rest() {
+    let (_d, root) = common::scratch_repo();
+    let mut sim = Simulation::from_scene(&root, Path::new("scenes/default.lua"), 5).unwrap();
+    let mut desc = sim.scene().unwrap().clone();
+    desc.obstacles[0].pos = [1.0, 2.0, 3.0];
+    desc.obstacles[1].radius = 70.0;
+    desc.currents.clear();
+    sim.apply_scene_edit(desc.clone()).unwrap();
+    let w = sim.world();
+    assert_eq!(w.obstacles()[0].pos, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(w.obstacles()[1].radius, 70.0);
+    assert!(w.currents().is_empty());
+    assert_eq!(sim.scene(), Some(&desc));
+    let mut bigger = desc.clone();
+    bigger.tank.max[0] = 900.0;
+    let err = sim.apply_scene_edit(bigger).unwrap_err().to_string();
+    assert!(
+        err.contains("scenes/default.lua") && err.contains("restart"),
+        "{err}"
+    );
+    let mut nan = desc.clone();
+    nan.obstacles[1].radius = f32::NAN;
+    let err = sim.apply_scene_edit(nan).unwrap_err().to_string();
+    assert!(err.contains("obstacles[2]"), "{err}");
+    assert_eq!(sim.scene(), Some(&desc), "a refused edit changes nothing");
+    assert_eq!(sim.world().obstacles()[1].radius, 70.0);
+    // A state kept before an edit, put back, runs on with the rocks as edited now.
+    let before = sim.snapshot().unwrap();
+    let mut moved = desc.clone();
+    moved.obstacles[1].pos = [9.0, 8.0, 7.0];
+    sim.apply_scene_edit(moved).unwrap();
+    sim.step();
+    sim.restore(&before).unwrap();
+    assert_eq!(sim.world().obstacles()[1].pos, Vec3::new(9.0, 8.0, 7.0));
+    assert_eq!(sim.world().obstacles().len(), 2);
+    assert!(sim.world().currents().is_empty());
+}
