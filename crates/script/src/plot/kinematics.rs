@@ -215,7 +215,7 @@ fn draw_midlines(
         .margin(14)
         .caption(
             format!(
-                "midline over one tail beat at {} L/s (blue → red = time)",
+                "midline over one tail beat at {:.2} L/s (blue → red = time)",
                 m.requested_speed_body_lengths_per_s
             ),
             ("sans-serif", 18),
@@ -255,5 +255,96 @@ fn draw_midlines(
             ))
             .map_err(plot_err)?;
     }
+    Ok(())
+}
+
+/// The figure of `shoal kinematics --midline --plot`: a measured animal's envelope (and, with
+/// `compare`, a shoal species' envelope measured at the animal's speed over it), and the
+/// animal's midlines over one tail beat.
+pub fn plot_midline(
+    name: &str,
+    animal: &Measurement,
+    compare: Option<(&Subject, &Measurement)>,
+    out: &Path,
+) -> Result<(), PlotError> {
+    let area = BitMapBackend::new(out, (1400, 650)).into_drawing_area();
+    area.fill(&WHITE).map_err(plot_err)?;
+    let (header, panels) = area.split_vertically(44);
+    header
+        .draw(&Text::new(
+            format!(
+                "{name}: measured amplitude envelope and midlines{}",
+                compare.map_or(String::new(), |(s, _)| format!(", with shoal's {}", s.name))
+            ),
+            (16, 10),
+            ("sans-serif", 24).into_font().color(&BLACK),
+        ))
+        .map_err(plot_err)?;
+    let (left, right) = panels.split_horizontally(700);
+    let y_max = std::iter::once(animal)
+        .chain(compare.map(|(_, m)| m))
+        .flat_map(|m| m.kinematics.envelope.iter().map(|p| p.amplitude))
+        .fold(0.05f32, f32::max)
+        * 1.25;
+    let mut chart = ChartBuilder::on(&left)
+        .margin(14)
+        .caption(
+            "amplitude envelope a(x), half peak-to-peak",
+            ("sans-serif", 18),
+        )
+        .x_label_area_size(40)
+        .y_label_area_size(56)
+        .build_cartesian_2d(0f32..1.02f32, 0f32..y_max)
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("position along the body, head (0) → tail tip (1), L")
+        .y_desc("amplitude, body lengths")
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(plot_err)?;
+    let k = &animal.kinematics;
+    chart
+        .draw_series(LineSeries::new(
+            k.envelope.iter().map(|p| (p.x, p.amplitude)),
+            BLACK.stroke_width(3),
+        ))
+        .map_err(plot_err)?
+        .label(format!(
+            "{name} (measured) at {:.2} L/s, f = {:.2} Hz",
+            k.speed_body_lengths_per_s, k.tail_beat_hz
+        ))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(3)));
+    chart
+        .draw_series(
+            k.envelope
+                .iter()
+                .map(|p| Circle::new((p.x, p.amplitude), 4, BLACK.filled())),
+        )
+        .map_err(plot_err)?;
+    if let Some((subject, m)) = compare {
+        let color = RGBColor(220, 60, 30);
+        chart
+            .draw_series(LineSeries::new(
+                m.kinematics.envelope.iter().map(|p| (p.x, p.amplitude)),
+                color.stroke_width(3),
+            ))
+            .map_err(plot_err)?
+            .label(format!(
+                "shoal {} at {:.2} L/s, f = {:.2} Hz",
+                subject.name, m.requested_speed_body_lengths_per_s, m.kinematics.tail_beat_hz
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 15))
+        .draw()
+        .map_err(plot_err)?;
+    draw_midlines(&right, std::slice::from_ref(animal), y_max)?;
+    area.present().map_err(|e| PlotError::write(out, e))?;
     Ok(())
 }
