@@ -148,6 +148,7 @@ fn text_report(subject: &Subject, ms: &[Measurement]) -> String {
         match p.front_wave {
             FrontWave::Recoil => "recoil",
             FrontWave::Travelling => "travelling",
+            FrontWave::Anguilliform => "anguilliform (whole-body envelope)",
         },
         p.front_amp,
         subject.body.num_joints()

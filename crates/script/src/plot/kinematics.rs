@@ -19,23 +19,17 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
     let mackerel: Vec<(f32, f32)> = (0..=50)
         .map(|i| {
             let x = i as f32 / 50.0;
-            (x, 0.02 - 0.0825 * x + 0.1625 * x * x)
-        })
-        .collect();
-    // Anguilliform envelope a(x) = 0.1·e^(x − 1) L: the form CFD studies of eel swimming
-    // (Borazjani & Sotiropoulos 2009) are remembered to fit to Tytell & Lauder's (2004) eels.
-    // Not verified: only the papers' abstracts could be checked, and they do not give it.
-    let eel: Vec<(f32, f32)> = (0..=50)
-        .map(|i| {
-            let x = i as f32 / 50.0;
-            (x, 0.1 * (x - 1.0).exp())
+            // The mackerel model A(z)/L = 0.02 − 0.08z + 0.16z², "experimentally determined by
+            // Videler and Hess" (1984) per the FILM fish-model notebook (second-hand; the
+            // sources in docs/motion.md).
+            (x, 0.02 - 0.08 * x + 0.16 * x * x)
         })
         .collect();
     let grey = RGBColor(150, 150, 150);
     match mode {
         Mode::Carangiform => (
             vec![(
-                "mackerel, Videler & Hess 1984 (fit)".to_owned(),
+                "mackerel model after Videler & Hess 1984 (second-hand)".to_owned(),
                 mackerel,
                 BLACK,
             )],
@@ -55,34 +49,18 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
             ],
         ),
         Mode::Anguilliform => (
-            vec![
-                (
-                    "eel, 0.1·exp(x − 1) after Tytell & Lauder 2004 (fit from memory, unverified)"
-                        .to_owned(),
-                    eel,
-                    BLACK,
-                ),
-                (
-                    "carangiform for contrast: mackerel, Videler & Hess 1984 (fit)".to_owned(),
-                    mackerel,
-                    grey,
-                ),
-            ],
-            vec![
-                (
-                    "eel head, 0.025 – 0.1 L (Tytell & Lauder 2004, from memory, unverified)"
-                        .to_owned(),
-                    0.0,
-                    0.025,
-                    0.1,
-                ),
-                (
-                    "eel tail tip: ≈ 0.08 L Gillis 1998, ≈ 0.075 L D'Août & Aerts 1999".to_owned(),
-                    1.0,
-                    0.075,
-                    0.085,
-                ),
-            ],
+            vec![(
+                "carangiform for contrast: mackerel model (second-hand)".to_owned(),
+                mackerel,
+                grey,
+            )],
+            vec![(
+                "eel tail tip: 0.08 L Gillis 1998, 0.075 L D'Août & Aerts 1999 (abstracts)"
+                    .to_owned(),
+                1.0,
+                0.075,
+                0.085,
+            )],
         ),
     }
 }

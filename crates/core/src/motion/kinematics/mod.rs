@@ -37,8 +37,8 @@ pub use midline::{
     MidlineMeasurement, measure_midline, parse_midline, read_midline,
 };
 pub use study::{
-    MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, Mode, RATE_HZ, Range, SECONDS, StudyError, Subject,
-    measure, published,
+    LAMPREY, LampreyFigures, MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, Mode, RATE_HZ, Range,
+    SECONDS, StudyError, Subject, measure, published,
 };
 
 use super::{
