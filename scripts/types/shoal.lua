@@ -141,7 +141,7 @@
 ---@field p? number             # pivot, fraction of body length from the head (> 0.1424)
 ---@field turn_axis? number     # where the body turns about, fraction of body length (default: p)
 ---@field front_amp? number     # front wave amplitude at the snout, fraction of body length
----@field front_wave? "recoil"|"travelling"  # carangiform recoil or an anguilliform travelling wave
+---@field front_wave? "recoil"|"travelling"|"anguilliform"  # carangiform recoil, a travelling front, or the whole-body anguilliform envelope (docs/motion.md)
 ---@field s? number             # cruising speed, units/s
 ---@field l? number             # body length, units (the model is scaled to it)
 ---@field max_amp? number       # maxAmp of A(x), units

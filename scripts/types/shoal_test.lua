@@ -201,7 +201,7 @@ function TestFish:set_behavior(name) end
 ---@field turn_angle number   # default turn angle, radians
 ---@field turn_axis? number   # where the body turns about (nil: about the pivot p)
 ---@field front_amp number    # front wave amplitude, fraction of body length
----@field front_wave "recoil"|"travelling"
+---@field front_wave "recoil"|"travelling"|"anguilliform"
 
 ---A food pellet a test dropped.
 ---@class shoal.TestFood

@@ -10,12 +10,12 @@ use anyhow::{Context as _, bail};
 use serde::Serialize;
 
 use shoal_core::motion::kinematics::{
-    self, Kinematics, MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, Mode, RATE_HZ, SECONDS, Subject,
-    measure, published,
+    self, Kinematics, MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, MidlineMeasurement, Mode, RATE_HZ,
+    SECONDS, Subject, measure, measure_midline, published, read_midline,
 };
 use shoal_core::motion::{FrontWave, MotionParams};
 use shoal_script::kinematics::subject;
-use shoal_script::plot::kinematics::plot;
+use shoal_script::plot::kinematics::{plot, plot_midline};
 
 /// `--mode`: which published data to compare with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -70,8 +70,20 @@ pub struct Args {
     pub plot: Option<PathBuf>,
     /// Published data to compare with (default: anguilliform for a species whose front wave
     /// travels from the snout, like the eel's; else carangiform).
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, conflicts_with = "midline")]
     pub mode: Option<ModeArg>,
+    /// Measure a real animal instead: a CSV midline with the columns t (s), point (head to
+    /// tail), x, y (any length unit); see docs/motion.md.
+    #[arg(long, conflicts_with_all = ["species", "preset", "speed"])]
+    pub midline: Option<PathBuf>,
+    /// With --midline: the flow speed of a flow tank, body lengths per second, added to the
+    /// animal's travel through the frame.
+    #[arg(long, requires = "midline", allow_hyphen_values = true)]
+    pub flow_speed: Option<f32>,
+    /// With --midline: also measure this shoal species at the animal's speed and draw its
+    /// envelope over the animal's (--plot) and print it beside (text).
+    #[arg(long, requires = "midline")]
+    pub compare_species: Option<String>,
 }
 
 /// The speeds to measure: `--speed`, checked, or the cruising speed.
@@ -136,6 +148,7 @@ fn text_report(subject: &Subject, ms: &[Measurement]) -> String {
         match p.front_wave {
             FrontWave::Recoil => "recoil",
             FrontWave::Travelling => "travelling",
+            FrontWave::Anguilliform => "anguilliform (whole-body envelope)",
         },
         p.front_amp,
         subject.body.num_joints()
@@ -220,6 +233,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             dir.display()
         );
     }
+    if let Some(file) = &args.midline {
+        return run_midline(&args, file);
+    }
     // Species files of ./scripts when there is one, else of the source tree.
     let subject = subject(
         args.species.as_deref(),
@@ -246,10 +262,160 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         text_report(&subject, &ms)
     };
+    print(&text)
+}
+
+fn print(text: &str) -> anyhow::Result<ExitCode> {
     let mut stdout = std::io::stdout().lock();
     match stdout.write_all(text.as_bytes()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other.context("writing to stdout")?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[derive(Serialize)]
+struct MidlineReport<'a> {
+    name: String,
+    definitions: serde_json::Value,
+    #[serde(flatten)]
+    animal: &'a MidlineMeasurement,
+    compare_species: Option<&'a Measurement>,
+}
+
+/// `shoal kinematics --midline FILE`: a measured animal's kinematics.
+fn run_midline(args: &Args, file: &Path) -> anyhow::Result<ExitCode> {
+    if let Some(v) = args.flow_speed
+        && !(v.is_finite() && (0.0..=MAX_SPEED_BODY_LENGTHS_PER_S).contains(&v))
+    {
+        bail!(
+            "--flow-speed {v}: must be a number of body lengths per second in \
+             [0, {MAX_SPEED_BODY_LENGTHS_PER_S}]"
+        );
+    }
+    let midline = read_midline(file)?;
+    let animal = measure_midline(&midline, args.flow_speed)?;
+    let name = file.file_stem().map_or_else(
+        || file.display().to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let compare = match &args.compare_species {
+        Some(species) => {
+            let subject = subject(
+                Some(species),
+                None,
+                None,
+                &super::ScriptsArg::default().resolve()?.root,
+            )?;
+            let speed = animal
+                .kinematics
+                .speed_body_lengths_per_s
+                .clamp(0.05, MAX_SPEED_BODY_LENGTHS_PER_S);
+            let m = measure(&subject, &[speed])?.remove(0);
+            Some((subject, m))
+        }
+        None => None,
+    };
+    let as_measurement = Measurement {
+        requested_speed_body_lengths_per_s: animal.kinematics.speed_body_lengths_per_s,
+        kinematics: animal.kinematics.clone(),
+        series: animal.series.clone(),
+    };
+    if let Some(path) = &args.plot {
+        plot_midline(
+            &name,
+            &as_measurement,
+            compare.as_ref().map(|(s, m)| (s, m)),
+            path,
+        )?;
+        log::info!("wrote {}", path.display());
+    }
+    if args.json {
+        let mut definitions = definitions_json();
+        definitions["midline"] = serde_json::json!(MIDLINE_DEFINITION);
+        let report = MidlineReport {
+            name,
+            definitions,
+            animal: &animal,
+            compare_species: compare.as_ref().map(|(_, m)| m),
+        };
+        return print(&(serde_json::to_string_pretty(&report)? + "\n"));
+    }
+    print(&midline_text(&name, &animal, compare.as_ref()))
+}
+
+const MIDLINE_DEFINITION: &str = "the file's midline points; body length L = mean arc length; \
+stations = mean arc length from the head / L; centre (length-weighted centroid) and swimming axis \
+(principal axis, tail to head) averaged over one tail beat; lateral = distance across that axis \
+from the centre / L; travel = the centre's motion along the axis / L, plus any --flow-speed";
+
+fn midline_text(
+    name: &str,
+    a: &MidlineMeasurement,
+    compare: Option<&(Subject, Measurement)>,
+) -> String {
+    use std::fmt::Write as _;
+    let i = &a.info;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{name} ({}): {} frames at {:.1} Hz, {} points; body length L = {:.2} file units; \
+         swimming direction ({:.3}, {:.3}); travel {:.3} L/s{}",
+        i.file,
+        i.frames,
+        i.rate_hz,
+        i.points,
+        i.body_length,
+        i.direction[0],
+        i.direction[1],
+        i.travel_body_lengths_per_s,
+        i.flow_speed_body_lengths_per_s
+            .map_or(String::new(), |v| format!(" + flow {v} L/s"))
+    );
+    let _ = writeln!(out, "lengths in body lengths L\n");
+    let mut columns: Vec<(String, &Kinematics)> = vec![(name.to_owned(), &a.kinematics)];
+    if let Some((s, m)) = compare {
+        columns.push((s.name.clone(), &m.kinematics));
+    }
+    let _ = write!(out, "{:<34}", "");
+    for (c, _) in &columns {
+        let _ = write!(out, "{c:>14}");
+    }
+    out.push('\n');
+    type Row = (&'static str, fn(&Kinematics) -> f32, usize);
+    let rows: [Row; 11] = [
+        ("speed U (L/s)", |k| k.speed_body_lengths_per_s, 3),
+        ("tail-beat frequency f (Hz)", |k| k.tail_beat_hz, 2),
+        (
+            "tail amplitude A, peak-to-peak (L)",
+            |k| k.tail_amplitude_peak_to_peak,
+            3,
+        ),
+        ("body wavelength λb (L)", |k| k.wavelength, 2),
+        ("waves on the body", |k| k.waves_on_body, 2),
+        ("wave speed V (L/s)", |k| k.wave_speed_body_lengths_per_s, 2),
+        ("stride length U/f (L)", |k| k.stride_length, 2),
+        ("slip U/V", |k| k.slip, 2),
+        ("Strouhal number f·A/U", |k| k.strouhal, 2),
+        ("head amplitude a(0) (L)", |k| k.envelope[0].amplitude, 3),
+        ("smallest amplitude at x", |k| k.min_amplitude_x, 2),
+    ];
+    for (label, get, digits) in rows {
+        let _ = write!(out, "{label:<34}");
+        for (_, k) in &columns {
+            let _ = write!(out, "{:>14.digits$}", get(k));
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(out, "\nenvelope a(x), half peak-to-peak (L):");
+    for j in 0..=10 {
+        let x = j as f32 / 10.0;
+        let _ = write!(out, "  x = {x:.1}{:<25}", "");
+        for (_, k) in &columns {
+            let _ = write!(out, "{:>14.3}", k.amplitude_at(x));
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(out, "\nmidline: {MIDLINE_DEFINITION}\n\n{DEFINITIONS}");
+    out
 }

@@ -45,7 +45,7 @@ fn deep_bodies_get_porgy_motion_and_slender_ones_eel_motion() {
     );
     assert_eq!(
         eel.desc.motion.front_wave,
-        shoal_core::motion::FrontWave::Travelling
+        shoal_core::motion::FrontWave::Anguilliform
     );
     assert!(eel.slenderness > 2.0 * porgy.slenderness);
     assert_eq!(porgy.desc.vertebral_joints.len(), 6);

@@ -12,6 +12,7 @@ mod common;
 mod dap;
 mod designer_folder;
 mod export;
+mod midline_kinematics;
 mod motion_cli;
 mod motion_kinematics;
 mod motion_plot;

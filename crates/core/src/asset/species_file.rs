@@ -189,7 +189,7 @@ impl SpeciesSuggestion {
                  p = {p:.2},               -- swim wave's pivot (its quietest point), fraction of l from the head\n    \
                  turn_axis = {axis:.2},       -- where it turns about, fraction of l from the head\n    \
                  front_amp = {front_amp:.3},      -- snout amplitude of the front wave, fraction of l\n    \
-                 front_wave = {front_wave:?}, -- \"recoil\" (carangiform head yaw) or \"travelling\" (anguilliform)\n    \
+                 front_wave = {front_wave:?}, -- \"recoil\" (carangiform head yaw), \"travelling\" or \"anguilliform\" (whole-body envelope, docs/motion.md)\n    \
                  s = {s},                 -- cruising speed, units/s\n    \
                  max_amp = {amp:.2},        -- amplitude scale of the body wave, units\n    \
                  lambda = {lambda},            -- body wave length, units\n    \
@@ -215,6 +215,7 @@ impl SpeciesSuggestion {
             front_wave = match m.front_wave {
                 crate::motion::FrontWave::Recoil => "recoil",
                 crate::motion::FrontWave::Travelling => "travelling",
+                crate::motion::FrontWave::Anguilliform => "anguilliform",
             },
             s = m.s,
             amp = m.max_amp,

@@ -61,6 +61,53 @@ pub enum FrontWave {
     /// an anguilliform swimmer undulates. The curve steps at the pivot from F_f to F_b = 0; on a
     /// body of rigid segments only the joints are sampled, so place the pivot just behind one.
     Travelling,
+    /// **Not in the paper: an opt-in extension for anguilliform swimmers** (docs/motion.md,
+    /// "The anguilliform envelope"). One wave of length λ runs over the whole body (the same
+    /// F_b = A·sin(2π·x'/λ − φ) in front of the pivot as behind it, so there is no λ' and no
+    /// step), with the amplitude [`anguilliform_amplitude`]: the snout amplitude at the head,
+    /// rising smoothly and monotonically (no dip, no node) to equation (4)'s tail amplitude
+    /// (1 − p)·maxAmp at the tail tip, as Gillis 1998 describes eels ("the most anterior
+    /// regions … do not undergo significant undulation", a "nonlinear increase" of amplitude
+    /// along the body). The pivot then only places turns.
+    Anguilliform,
+}
+
+/// The exponent of the [`FrontWave::Anguilliform`] envelope's rise along the body (1 would be
+/// linear). Gillis 1998 gives the shape only in words ("nonlinear increase"); 1.5 puts the
+/// mid-body amplitude near the measured sea lamprey's share of its tail amplitude (fishmechr's
+/// `lampreydata`, tests/data/midline; docs/motion.md).
+pub const ANGUILLIFORM_EXPONENT: f32 = 1.5;
+
+/// The [`FrontWave::Anguilliform`] amplitude at `x` (length units from the head), length units:
+/// a(x) = a₀ + (a₁ − a₀)·(x/l)^[`ANGUILLIFORM_EXPONENT`], with a₀ = `snout`·l at the snout and
+/// a₁ = (1 − p)·`max_amp` at the tail tip (equation (4)'s tail amplitude). Positive everywhere
+/// (the whole body undulates, in phase with the wave behind it); `x` outside [0, l] is clamped.
+pub fn anguilliform_amplitude(x: f32, p: f32, l: f32, max_amp: f32, snout: f32) -> f32 {
+    let u = (x / l).clamp(0.0, 1.0);
+    let (head, tail) = (snout * l, (1.0 - p) * max_amp);
+    head + (tail - head) * u.powf(ANGUILLIFORM_EXPONENT)
+}
+
+/// The swim wave's amplitude at `x` (length units from the head) under every profile:
+/// [`front_amplitude`] in front of the pivot and [`amplitude`] behind it, or
+/// [`anguilliform_amplitude`] along the whole body. Length units, signed like them.
+pub fn swim_amplitude(x: f32, p: f32, l: f32, max_amp: f32, front: (f32, FrontWave)) -> f32 {
+    match front.1 {
+        FrontWave::Anguilliform => anguilliform_amplitude(x, p, l, max_amp, front.0),
+        _ if x_prime(x, p, l) < 0.0 => front_amplitude(x, p, l, front.0, front.1),
+        _ => amplitude(x, p, l, max_amp),
+    }
+}
+
+/// The swim wave's spatial argument at `x_prime` (length units from the pivot), radians:
+/// 2π·x'/λ' in front of the pivot (equation (3)) and 2π·x'/λ behind it (equation (4)), or
+/// 2π·x'/λ along the whole body under [`FrontWave::Anguilliform`].
+pub fn swim_argument(x_prime: f32, lambda: f32, lambda_prime: f32, profile: FrontWave) -> f32 {
+    if x_prime < 0.0 && profile != FrontWave::Anguilliform {
+        TAU * x_prime / lambda_prime
+    } else {
+        TAU * x_prime / lambda
+    }
 }
 
 /// The front wave's amplitude A_f(x) for x ≤ p·l, length units, with the snout amplitude
@@ -75,6 +122,8 @@ pub fn front_amplitude(x: f32, p: f32, l: f32, snout: f32, profile: FrontWave) -
     match profile {
         FrontWave::Recoil => (x - p * l) / p * snout,
         FrontWave::Travelling => snout * l,
+        // Its value at the snout; along the body see anguilliform_amplitude.
+        FrontWave::Anguilliform => snout * l,
     }
 }
 
@@ -187,12 +236,8 @@ pub fn swim_wave(
     gain: f32,
 ) -> f32 {
     let xp = x_prime(x, p, l);
-    if xp < 0.0 {
-        let a = front_amplitude(x, p, l, front.0, front.1);
-        f_front(a * gain, xp, lambda_prime, phase)
-    } else {
-        f_back(amplitude(x, p, l, max_amp) * gain, xp, lambda, phase)
-    }
+    let a = swim_amplitude(x, p, l, max_amp, front) * gain;
+    (swim_argument(xp, lambda, lambda_prime, front.1) - phase).sin() * a
 }
 
 /// The smoothstep every speed change and blend uses (written once, in [`crate::math`]).
@@ -208,6 +253,37 @@ mod tests {
 
     fn close(a: f32, b: f32, tol: f32) -> bool {
         (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn test_anguilliform_envelope_rises_smoothly_over_the_whole_body() {
+        // l = 70, p = 0.2, maxAmp = 7 → tail (1 − 0.2)·7 = 5.6 units = 0.08 L; snout 0.01 L.
+        let (p, l, max_amp, snout) = (0.2, 70.0, 7.0, 0.01);
+        let a = |x: f32| anguilliform_amplitude(x * l, p, l, max_amp, snout) / l;
+        assert!(close(a(0.0), 0.01, 1e-6));
+        assert!(close(a(1.0), 0.08, 1e-6));
+        // Halfway: 0.01 + 0.07·0.5^1.5.
+        assert!(close(a(0.5), 0.01 + 0.07 * 0.5f32.powf(1.5), 1e-6));
+        // Rising everywhere, no node: every sample positive and above the one before.
+        for i in 1..=100 {
+            let (x0, x1) = ((i - 1) as f32 / 100.0, i as f32 / 100.0);
+            assert!(a(x1) > a(x0) && a(x0) > 0.0, "{x0}");
+        }
+        // One wave of length λ over the whole body: the front uses λ, not λ'.
+        let front = (snout, FrontWave::Anguilliform);
+        let lp = lambda_prime(p, 49.0);
+        let y = swim_wave(0.0, p, l, max_amp, 49.0, lp, front, 0.3, 1.0);
+        let want = a(0.0) * l * (TAU * x_prime(0.0, p, l) / 49.0 - 0.3).sin();
+        assert!(close(y, want, 1e-5), "{y} vs {want}");
+        // The paper's profiles keep their amplitudes.
+        let recoil = swim_amplitude(0.0, p, l, max_amp, (snout, FrontWave::Recoil));
+        assert!(close(
+            recoil,
+            front_amplitude(0.0, p, l, snout, FrontWave::Recoil),
+            1e-6
+        ));
+        let back = swim_amplitude(0.6 * l, p, l, max_amp, (snout, FrontWave::Travelling));
+        assert!(close(back, amplitude(0.6 * l, p, l, max_amp), 1e-6));
     }
 
     #[test]

@@ -19,23 +19,17 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
     let mackerel: Vec<(f32, f32)> = (0..=50)
         .map(|i| {
             let x = i as f32 / 50.0;
-            (x, 0.02 - 0.0825 * x + 0.1625 * x * x)
-        })
-        .collect();
-    // Anguilliform envelope a(x) = 0.1·e^(x − 1) L: the form CFD studies of eel swimming
-    // (Borazjani & Sotiropoulos 2009) are remembered to fit to Tytell & Lauder's (2004) eels.
-    // Not verified: only the papers' abstracts could be checked, and they do not give it.
-    let eel: Vec<(f32, f32)> = (0..=50)
-        .map(|i| {
-            let x = i as f32 / 50.0;
-            (x, 0.1 * (x - 1.0).exp())
+            // The mackerel model A(z)/L = 0.02 − 0.08z + 0.16z², "experimentally determined by
+            // Videler and Hess" (1984) per the FILM fish-model notebook (second-hand; the
+            // sources in docs/motion.md).
+            (x, 0.02 - 0.08 * x + 0.16 * x * x)
         })
         .collect();
     let grey = RGBColor(150, 150, 150);
     match mode {
         Mode::Carangiform => (
             vec![(
-                "mackerel, Videler & Hess 1984 (fit)".to_owned(),
+                "mackerel model after Videler & Hess 1984 (second-hand)".to_owned(),
                 mackerel,
                 BLACK,
             )],
@@ -55,34 +49,18 @@ fn published_envelope(mode: Mode) -> (Curves, Bars) {
             ],
         ),
         Mode::Anguilliform => (
-            vec![
-                (
-                    "eel, 0.1·exp(x − 1) after Tytell & Lauder 2004 (fit from memory, unverified)"
-                        .to_owned(),
-                    eel,
-                    BLACK,
-                ),
-                (
-                    "carangiform for contrast: mackerel, Videler & Hess 1984 (fit)".to_owned(),
-                    mackerel,
-                    grey,
-                ),
-            ],
-            vec![
-                (
-                    "eel head, 0.025 – 0.1 L (Tytell & Lauder 2004, from memory, unverified)"
-                        .to_owned(),
-                    0.0,
-                    0.025,
-                    0.1,
-                ),
-                (
-                    "eel tail tip: ≈ 0.08 L Gillis 1998, ≈ 0.075 L D'Août & Aerts 1999".to_owned(),
-                    1.0,
-                    0.075,
-                    0.085,
-                ),
-            ],
+            vec![(
+                "carangiform for contrast: mackerel model (second-hand)".to_owned(),
+                mackerel,
+                grey,
+            )],
+            vec![(
+                "eel tail tip: 0.08 L Gillis 1998, 0.075 L D'Août & Aerts 1999 (abstracts)"
+                    .to_owned(),
+                1.0,
+                0.075,
+                0.085,
+            )],
         ),
     }
 }
@@ -215,7 +193,7 @@ fn draw_midlines(
         .margin(14)
         .caption(
             format!(
-                "midline over one tail beat at {} L/s (blue → red = time)",
+                "midline over one tail beat at {:.2} L/s (blue → red = time)",
                 m.requested_speed_body_lengths_per_s
             ),
             ("sans-serif", 18),
@@ -255,5 +233,96 @@ fn draw_midlines(
             ))
             .map_err(plot_err)?;
     }
+    Ok(())
+}
+
+/// The figure of `shoal kinematics --midline --plot`: a measured animal's envelope (and, with
+/// `compare`, a shoal species' envelope measured at the animal's speed over it), and the
+/// animal's midlines over one tail beat.
+pub fn plot_midline(
+    name: &str,
+    animal: &Measurement,
+    compare: Option<(&Subject, &Measurement)>,
+    out: &Path,
+) -> Result<(), PlotError> {
+    let area = BitMapBackend::new(out, (1400, 650)).into_drawing_area();
+    area.fill(&WHITE).map_err(plot_err)?;
+    let (header, panels) = area.split_vertically(44);
+    header
+        .draw(&Text::new(
+            format!(
+                "{name}: measured amplitude envelope and midlines{}",
+                compare.map_or(String::new(), |(s, _)| format!(", with shoal's {}", s.name))
+            ),
+            (16, 10),
+            ("sans-serif", 24).into_font().color(&BLACK),
+        ))
+        .map_err(plot_err)?;
+    let (left, right) = panels.split_horizontally(700);
+    let y_max = std::iter::once(animal)
+        .chain(compare.map(|(_, m)| m))
+        .flat_map(|m| m.kinematics.envelope.iter().map(|p| p.amplitude))
+        .fold(0.05f32, f32::max)
+        * 1.25;
+    let mut chart = ChartBuilder::on(&left)
+        .margin(14)
+        .caption(
+            "amplitude envelope a(x), half peak-to-peak",
+            ("sans-serif", 18),
+        )
+        .x_label_area_size(40)
+        .y_label_area_size(56)
+        .build_cartesian_2d(0f32..1.02f32, 0f32..y_max)
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("position along the body, head (0) → tail tip (1), L")
+        .y_desc("amplitude, body lengths")
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(plot_err)?;
+    let k = &animal.kinematics;
+    chart
+        .draw_series(LineSeries::new(
+            k.envelope.iter().map(|p| (p.x, p.amplitude)),
+            BLACK.stroke_width(3),
+        ))
+        .map_err(plot_err)?
+        .label(format!(
+            "{name} (measured) at {:.2} L/s, f = {:.2} Hz",
+            k.speed_body_lengths_per_s, k.tail_beat_hz
+        ))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(3)));
+    chart
+        .draw_series(
+            k.envelope
+                .iter()
+                .map(|p| Circle::new((p.x, p.amplitude), 4, BLACK.filled())),
+        )
+        .map_err(plot_err)?;
+    if let Some((subject, m)) = compare {
+        let color = RGBColor(220, 60, 30);
+        chart
+            .draw_series(LineSeries::new(
+                m.kinematics.envelope.iter().map(|p| (p.x, p.amplitude)),
+                color.stroke_width(3),
+            ))
+            .map_err(plot_err)?
+            .label(format!(
+                "shoal {} at {:.2} L/s, f = {:.2} Hz",
+                subject.name, m.requested_speed_body_lengths_per_s, m.kinematics.tail_beat_hz
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(3)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 15))
+        .draw()
+        .map_err(plot_err)?;
+    draw_midlines(&right, std::slice::from_ref(animal), y_max)?;
+    area.present().map_err(|e| PlotError::write(out, e))?;
     Ok(())
 }

@@ -154,11 +154,7 @@ fn draw_midlines(
     let envelope = |sign: f32| {
         (0..=100).map(move |i| {
             let x = i as f32 / 100.0;
-            let a = if x < p.p {
-                wave::front_amplitude(x * p.l, p.p, p.l, p.front_amp, p.front_wave)
-            } else {
-                wave::amplitude(x * p.l, p.p, p.l, p.max_amp)
-            };
+            let a = wave::swim_amplitude(x * p.l, p.p, p.l, p.max_amp, (p.front_amp, p.front_wave));
             (x, sign * a.abs() / p.l)
         })
     };

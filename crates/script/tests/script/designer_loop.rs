@@ -280,7 +280,10 @@ fn out_of_range_motion_values_are_errors_naming_the_field() {
         ("turn_axis = 0/0", "turn_axis = NaN"),
         ("front_amp = -0.1", "front_amp = -0.1"),
         ("p = 0.1", "p = 0.1"),
-        ("front_wave = \"wiggle\"", "recoil` or `travelling"),
+        (
+            "front_wave = \"wiggle\"",
+            "`recoil`, `travelling`, `anguilliform`",
+        ),
     ] {
         let (_d, root) = scratch(&[
             (

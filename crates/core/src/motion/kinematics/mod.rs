@@ -24,6 +24,7 @@
 //! - **wave speed** V = f·λ_b; **swimming speed** U: distance travelled over time.
 //! - **stride length** U/f: distance per tail beat; **slip** U/V; **Strouhal number** St = f·A/U.
 
+mod midline;
 mod study;
 
 use std::f32::consts::TAU;
@@ -31,9 +32,13 @@ use std::f32::consts::TAU;
 use glam::Vec3;
 use serde::Serialize;
 
+pub use midline::{
+    FIRST_WINDOW_S, MIN_TRAVEL_BODY_LENGTHS_PER_S, MeasuredMidline, MidlineError, MidlineInfo,
+    MidlineMeasurement, measure_midline, parse_midline, read_midline,
+};
 pub use study::{
-    MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, Mode, RATE_HZ, Range, SECONDS, StudyError, Subject,
-    measure, published,
+    LAMPREY, LampreyFigures, MAX_SPEED_BODY_LENGTHS_PER_S, Measurement, Mode, RATE_HZ, Range,
+    SECONDS, StudyError, Subject, measure, published,
 };
 
 use super::{

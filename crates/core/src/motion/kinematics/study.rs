@@ -37,10 +37,11 @@ pub enum Mode {
 
 impl Mode {
     /// The mode a species swims in, by its front wave: a wave running from the snout
-    /// ([`FrontWave::Travelling`]) is anguilliform, a front recoiling about the pivot carangiform.
+    /// ([`FrontWave::Travelling`], [`FrontWave::Anguilliform`]) is anguilliform, a front
+    /// recoiling about the pivot carangiform.
     pub fn of(params: &MotionParams) -> Self {
         match params.front_wave {
-            FrontWave::Travelling => Mode::Anguilliform,
+            FrontWave::Travelling | FrontWave::Anguilliform => Mode::Anguilliform,
             FrontWave::Recoil => Mode::Carangiform,
         }
     }
@@ -147,8 +148,10 @@ fn smallest(k: &Kinematics) -> f32 {
         .fold(f32::INFINITY, f32::min)
 }
 
-/// The published ranges for `mode` (docs/motion.md cites each and says how sure it is). The
-/// tests hold every shipped species of that mode to all of them, at 0.5 – 3 L/s.
+/// The published ranges for `mode` (docs/motion.md, "Sources", cites each: paper and where in
+/// it). The tests hold every shipped species of that mode to all of them, at 0.5 – 3 L/s.
+/// Where the eel sources give no number, the anguilliform range is the sea lamprey's measured
+/// value ± 20 % ([`LAMPREY`]; fishmechr's `lampreydata`, `tests/data/midline/lamprey.csv`).
 pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
     match mode {
         Mode::Carangiform => (
@@ -158,64 +161,57 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
                     what: "snout amplitude a(0) (L)",
                     lo: 0.004,
                     hi: 0.03,
-                    source: "Jayne & Lauder 1995 (bass) to Videler & Hess 1984 (mackerel)",
+                    source: "Jayne & Lauder 1995 abstract (bass 0.004-0.012) to the mackerel model's 0.02",
                     measured: snout,
                 },
                 Range {
                     what: "smallest amplitude at x (L)",
                     lo: 0.15,
                     hi: 0.35,
-                    source: "Jayne & Lauder 1995 (rise from ~0.25 L); mackerel fit ~0.25 L",
+                    source: "Jayne & Lauder 1995 abstract (rise from ~0.25 L); mackerel model 0.25 L",
                     measured: |k| k.min_amplitude_x,
                 },
                 Range {
                     what: "smallest amplitude (L)",
                     lo: 0.0,
                     hi: 0.012,
-                    source: "Jayne & Lauder 1995 (≤ snout's 0.012 L); mackerel fit 0.0095 L",
+                    source: "Jayne & Lauder 1995 abstract (first caudal vertebra <= 0.012 L)",
                     measured: smallest,
                 },
                 Range {
                     what: "tail amplitude a(1) (L)",
                     lo: 0.05,
                     hi: 0.11,
-                    source: "Jayne & Lauder 1995; Bainbridge 1958 (A ≈ 0.2 L)",
+                    source: "Jayne & Lauder 1995 abstract (0.053-0.066 L); Bainbridge 1958 (A/2 ~ 0.1 L)",
                     measured: tail,
                 },
                 Range {
                     what: "tail excursion A, peak to peak (L)",
                     lo: 0.16,
                     hi: 0.22,
-                    source: "Bainbridge 1958 (≈ 0.2 L)",
+                    source: "Bainbridge 1958 abstract (about one-fifth of L)",
                     measured: |k| k.tail_amplitude_peak_to_peak,
                 },
                 Range {
                     what: "body wavelength λb (L)",
-                    lo: 0.8,
+                    lo: 0.7,
                     hi: 1.2,
-                    source: "Videler 1993; Videler & Hess 1984",
+                    source: "Webb et al. 1984 abstract (trout 0.72-1.07 L); bonito 1.20 L (JEB 206:2749)",
                     measured: |k| k.wavelength,
                 },
                 Range {
                     what: "Strouhal number",
                     lo: 0.2,
                     hi: 0.4,
-                    source: "Taylor, Nudds & Thomas 2003",
+                    source: "Saadat et al. 2017 abstract (0.2-0.4)",
                     measured: |k| k.strouhal,
                 },
                 Range {
                     what: "stride length (L)",
                     lo: 0.5,
-                    hi: 1.0,
-                    source: "Bainbridge 1958; Videler 1993",
+                    hi: 0.8,
+                    source: "Bainbridge 1958 abstract: V = L(3f-4)/4 gives 0.55-0.75 L",
                     measured: |k| k.stride_length,
-                },
-                Range {
-                    what: "slip U/V",
-                    lo: 0.5,
-                    hi: 0.9,
-                    source: "Videler 1993",
-                    measured: |k| k.slip,
                 },
             ],
         ),
@@ -224,68 +220,90 @@ pub fn published(mode: Mode) -> (&'static str, &'static [Range]) {
             &[
                 Range {
                     what: "snout amplitude a(0) (L)",
-                    lo: 0.025,
-                    hi: 0.1,
-                    source: "Tytell & Lauder 2004 (eel head, from memory, unverified)",
+                    lo: 0.0,
+                    hi: LAMPREY.snout,
+                    source: "at most the lamprey's measured 0.028 L; Gillis 1998, D'Août & Aerts 1999 abstracts: minimal",
                     measured: snout,
                 },
                 Range {
                     what: "smallest amplitude at x (L)",
                     lo: 0.0,
-                    hi: 0.5,
-                    source: "D'Août & Aerts 1999 (eels: head yaw minimal, rising to the tail)",
+                    hi: 0.15,
+                    source: "lamprey measured 0.11 L; D'Août & Aerts 1999 abstract: head yaw minimal",
                     measured: |k| k.min_amplitude_x,
                 },
                 Range {
                     what: "smallest amplitude (L)",
-                    lo: 0.01,
-                    hi: 0.05,
-                    source: "whole body undulates (Gray 1933; Tytell & Lauder 2004)",
+                    lo: 0.0,
+                    hi: 0.02,
+                    source: "lamprey measured 0.017 L; Gillis 1998 abstract: front not undulating",
                     measured: smallest,
                 },
                 Range {
                     what: "tail amplitude a(1) (L)",
-                    lo: 0.05,
-                    hi: 0.11,
-                    source: "Gillis 1998 (≈ 0.08 L); D'Août & Aerts 1999 (≈ 0.075 L)",
+                    lo: 0.07,
+                    hi: 0.09,
+                    source: "Gillis 1998 abstract (0.08 L); D'Août & Aerts 1999 abstract (0.075 L)",
                     measured: tail,
                 },
                 Range {
                     what: "body wavelength λb (L)",
-                    lo: 0.5,
-                    hi: 0.95,
-                    source: "Gillis 1996; Tytell & Lauder 2004",
+                    lo: 0.8 * LAMPREY.wavelength,
+                    hi: 1.2 * LAMPREY.wavelength,
+                    source: "lamprey measured 0.67 L, ± 20 %",
                     measured: |k| k.wavelength,
                 },
                 Range {
                     what: "waves on the body",
                     lo: 1.05,
-                    hi: 2.0,
-                    source: "anguilliform: more than one wave (Gillis 1996)",
+                    hi: 1.2 / LAMPREY.wavelength,
+                    source: "more than one; lamprey measured 1.49, + 20 %",
                     measured: |k| k.waves_on_body,
                 },
                 Range {
                     what: "Strouhal number",
-                    lo: 0.2,
-                    hi: 0.45,
-                    source: "Tytell, Proc. R. Soc. B (eels ≈ 0.32); Borazjani & Sotiropoulos 2009",
+                    lo: 0.25,
+                    hi: 0.4,
+                    source: "Tytell 2004, Proc. R. Soc. B abstract: close to 0.32 at 0.6-1.9 L/s",
                     measured: |k| k.strouhal,
                 },
                 Range {
                     what: "stride length (L)",
-                    lo: 0.3,
-                    hi: 0.8,
-                    source: "Gillis 1998; Tytell 2004",
+                    lo: 0.8 * LAMPREY.stride_length,
+                    hi: 1.2 * LAMPREY.stride_length,
+                    source: "lamprey measured 0.44 L, ± 20 %",
                     measured: |k| k.stride_length,
                 },
                 Range {
                     what: "slip U/V",
-                    lo: 0.4,
-                    hi: 0.9,
-                    source: "Gillis 1998; Tytell 2004",
+                    lo: 0.8 * LAMPREY.slip,
+                    hi: 1.2 * LAMPREY.slip,
+                    source: "lamprey measured 0.65, ± 20 %",
                     measured: |k| k.slip,
                 },
             ],
         ),
     }
 }
+
+/// What `shoal kinematics --midline tests/data/midline/lamprey.csv` measures on fishmechr's sea
+/// lamprey (a test re-measures it and fails if these drift): the anguilliform ranges that the
+/// eel sources give no number for are built from it.
+pub struct LampreyFigures {
+    /// a(0), L.
+    pub snout: f32,
+    /// λb, L.
+    pub wavelength: f32,
+    /// U/f, L.
+    pub stride_length: f32,
+    /// U/V.
+    pub slip: f32,
+}
+
+/// The sea lamprey's measured figures (see [`LampreyFigures`]).
+pub const LAMPREY: LampreyFigures = LampreyFigures {
+    snout: 0.028,
+    wavelength: 0.67,
+    stride_length: 0.44,
+    slip: 0.65,
+};

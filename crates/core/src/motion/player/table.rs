@@ -66,7 +66,11 @@ fn param_bits(params: &MotionParams) -> [u32; 11] {
     } = *params;
     [
         front_amp,
-        f32::from(u8::from(front_wave == wave::FrontWave::Travelling)),
+        f32::from(match front_wave {
+            wave::FrontWave::Recoil => 0u8,
+            wave::FrontWave::Travelling => 1,
+            wave::FrontWave::Anguilliform => 2,
+        }),
         p,
         s,
         l,
@@ -131,18 +135,17 @@ impl WaveTable {
                     // The same expressions as wave::swim_wave, f_front/f_back, f_nt and f_st.
                     let xl = x * l;
                     let xp = wave::x_prime(xl, p, l);
-                    let swim = if xp < 0.0 {
-                        TAU * xp / lambda_prime
-                    } else {
-                        TAU * xp / params.lambda
-                    };
+                    let swim =
+                        wave::swim_argument(xp, params.lambda, lambda_prime, params.front_wave);
                     WaveSample {
                         xp,
-                        amp: if xp < 0.0 {
-                            wave::front_amplitude(xl, p, l, params.front_amp, params.front_wave)
-                        } else {
-                            wave::amplitude(xl, p, l, params.max_amp)
-                        },
+                        amp: wave::swim_amplitude(
+                            xl,
+                            p,
+                            l,
+                            params.max_amp,
+                            (params.front_amp, params.front_wave),
+                        ),
                         swim: swim.sin_cos(),
                         turn: (TAU * xp / wavelength).sin_cos(),
                     }
