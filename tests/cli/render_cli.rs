@@ -166,10 +166,13 @@ fn an_unknown_scene_names_the_scenes_there_are() {
 /// `shoal bench render` prints, per fish count, the draw calls, the fish drawn and culled, the
 /// fish per level of detail and the triangles submitted, which add up: every fish of the bench
 /// world is in view, each drawn at one level, and the triangles are those of the levels in use plus
-/// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail.
+/// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail; culled on the CPU or on the GPU
+/// (`--culling`), the counts are the same.
 #[test]
 fn bench_render_reports_triangles_per_frame() {
-    for (tolerance, full_detail) in [("1", false), ("0", true)] {
+    for (tolerance, full_detail, culling) in
+        [("1", false, "gpu"), ("1", false, "cpu"), ("0", true, "gpu")]
+    {
         let stdout = ok(&shoal(&[
             "bench",
             "render",
@@ -181,6 +184,8 @@ fn bench_render_reports_triangles_per_frame() {
             "1",
             "--lod-tolerance-px",
             tolerance,
+            "--culling",
+            culling,
         ]));
         // "mesh: black_porgy (30 joints), triangles per level of detail: 5616 (error 0.000), …"
         let levels: Vec<u64> = stdout
@@ -204,16 +209,16 @@ fn bench_render_reports_triangles_per_frame() {
         let rows: Vec<Vec<&str>> = stdout
             .lines()
             .map(|l| l.split_whitespace().collect::<Vec<_>>())
-            .filter(|c| c.len() == 10 && c[0].parse::<u64>().is_ok())
+            .filter(|c| c.len() == 11 && c[0].parse::<u64>().is_ok())
             .collect();
         assert_eq!(rows.len(), 2, "{stdout}");
         for (row, fish) in rows.iter().zip([1u64, 12]) {
             assert_eq!(row[0].parse::<u64>().unwrap(), fish);
             // The tick's pose stage on the CPU: the GPU pass's records, by default.
             assert!(row[3].parse::<f64>().unwrap() >= 0.0, "{stdout}");
-            let (drawn, culled): (u64, u64) = (row[6].parse().unwrap(), row[7].parse().unwrap());
+            let (drawn, culled): (u64, u64) = (row[7].parse().unwrap(), row[8].parse().unwrap());
             assert_eq!((drawn, culled), (fish, 0), "{stdout}");
-            let per_lod: Vec<u64> = row[8].split('/').map(|n| n.parse().unwrap()).collect();
+            let per_lod: Vec<u64> = row[9].split('/').map(|n| n.parse().unwrap()).collect();
             assert_eq!(per_lod.iter().sum::<u64>(), fish, "{stdout}");
             if full_detail {
                 assert_eq!(per_lod[0], fish, "{stdout}");
@@ -226,7 +231,7 @@ fn bench_render_reports_triangles_per_frame() {
             let expected: u64 = per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>()
                 + near * levels[2]
                 + (fish - near) * outline;
-            assert_eq!(row[9].parse::<u64>().unwrap(), expected, "{stdout}");
+            assert_eq!(row[10].parse::<u64>().unwrap(), expected, "{stdout}");
         }
     }
 }

@@ -554,6 +554,12 @@ impl Renderer {
         self.culling
     }
 
+    /// Whether `gpu`'s adapter can cull on the GPU ([`Culling::Gpu`]): it runs indirect draws
+    /// and compute shaders.
+    pub fn gpu_culling_supported(gpu: &Gpu) -> bool {
+        cull_pass::gpu_culling_supported(gpu)
+    }
+
     /// Chooses where culling and levels of detail are worked out; [`Culling::Gpu`] falls back
     /// to [`Culling::Cpu`] on an adapter without indirect draws or compute shaders. Returns
     /// the culling now in use.
