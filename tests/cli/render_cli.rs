@@ -389,3 +389,79 @@ fn negative_seconds_and_huge_fish_counts_get_lines_that_say_why() {
         );
     }
 }
+
+/// Compares `actual` with `crates/render/tests/reference/<name>.png` by the rule of the render
+/// crate's reference tests (a pixel differs when a channel differs by more than 16; at most 0.5 %
+/// may), or writes it with `SHOAL_BLESS=1`. On failure the actual image is written beside it.
+fn check_reference(name: &str, actual: &image::RgbImage) {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/render/tests/reference");
+    let path = dir.join(format!("{name}.png"));
+    let actual_path = dir.join(format!("{name}-actual.png"));
+    if std::env::var_os("SHOAL_BLESS").is_some_and(|v| v == "1") {
+        actual.save(&path).unwrap();
+        return;
+    }
+    let reference = image::open(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (SHOAL_BLESS=1 writes it)", path.display()))
+        .to_rgb8();
+    assert_eq!(reference.dimensions(), actual.dimensions(), "{name}");
+    let differing = actual
+        .pixels()
+        .zip(reference.pixels())
+        .filter(|(a, r)| (0..3).any(|c| a[c].abs_diff(r[c]) > 16))
+        .count();
+    let fraction = differing as f64 / f64::from(actual.width() * actual.height());
+    if fraction > 0.005 {
+        actual.save(&actual_path).unwrap();
+        panic!(
+            "{name}: {:.2} % of pixels differ by more than 16; see {}",
+            fraction * 100.0,
+            actual_path.display()
+        );
+    }
+    let _ = std::fs::remove_file(&actual_path);
+}
+
+/// Issue 35's picture check: `shoal render` of 1,000 porgies at 1920×1080 with the default
+/// level-of-detail tolerance and with `--lod-tolerance-px 0` (every fish at full detail)
+/// match their reference images, and differ from each other by a mean of at most 1 grey level
+/// in 255.
+#[test]
+fn a_school_of_1000_at_1080p_looks_the_same_at_both_tolerances() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut images = Vec::new();
+    for (tolerance, name) in [("1", "school_1000_default"), ("0", "school_1000_full")] {
+        let out = dir.path().join(format!("{name}.png"));
+        ok(&shoal(&[
+            "render",
+            "--scene",
+            "porgies",
+            "--fish",
+            "1000",
+            "--size",
+            "1920x1080",
+            "--seconds",
+            "0.5",
+            "--fps",
+            "2",
+            "--lod-tolerance-px",
+            tolerance,
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        let img = image::open(&out).unwrap().to_rgb8();
+        check_reference(name, &img);
+        images.push(img);
+    }
+    let total: u64 = images[0]
+        .as_raw()
+        .iter()
+        .zip(images[1].as_raw())
+        .map(|(&a, &b)| u64::from(a.abs_diff(b)))
+        .sum();
+    let mean = total as f64 / images[0].as_raw().len() as f64;
+    assert!(mean <= 1.0, "mean difference {mean:.3} grey levels");
+    // Not the same picture twice: the default tolerance draws coarser levels somewhere.
+    assert!(mean > 0.0, "the two tolerances drew identical images");
+}

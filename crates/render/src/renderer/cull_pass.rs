@@ -12,6 +12,9 @@
 //! entry of the draw-base uniform (group 2 of the fish pipelines, by dynamic offset), which the
 //! CPU path writes from the CPU.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use bytemuck::{Pod, Zeroable};
 
 use super::{GrowBuffer, RenderTimings, Renderer};
@@ -77,6 +80,17 @@ pub(super) struct IndirectDraw {
     pub num_indices: u32,
 }
 
+/// Where the counts' read-back for the window stands (see [`Renderer::poll_gpu_counts`]).
+#[derive(Debug)]
+enum CountsReadback {
+    /// Nothing pending: the next GPU-culled frame copies its counts.
+    Idle,
+    /// A frame's counts are being copied (submitted with that frame).
+    Copied,
+    /// Being mapped: 0 waiting, 1 mapped, 2 failed.
+    Mapping(Arc<AtomicU8>),
+}
+
 /// The culling pass's buffers (grow-only), its uniform and the frame's draw list.
 #[derive(Debug)]
 pub(super) struct CullBuffers {
@@ -91,6 +105,12 @@ pub(super) struct CullBuffers {
     pub draws: Vec<IndirectDraw>,
     /// Buckets of the last GPU-culled frame (0: none was).
     num_buckets: u32,
+    /// The counts of the latest GPU-culled frame read back (a frame or two old, or as new as
+    /// [`Renderer::read_gpu_counts`]).
+    pub last_counts: RenderTimings,
+    /// Where the counts are copied for reading without waiting (`MAP_READ`).
+    staging: Option<wgpu::Buffer>,
+    readback: CountsReadback,
 }
 
 impl CullBuffers {
@@ -116,6 +136,9 @@ impl CullBuffers {
             scratch_tables: Vec::new(),
             draws: Vec::new(),
             num_buckets: 0,
+            last_counts: RenderTimings::default(),
+            staging: None,
+            readback: CountsReadback::Idle,
         }
     }
 }
@@ -138,7 +161,86 @@ pub(super) fn default_culling(gpu: &Gpu) -> Culling {
     }
 }
 
+/// The counts in the state buffer's first `STATS` + buckets words, over `draws`, into `t`.
+fn apply_counts(t: &mut RenderTimings, words: &[u32], draws: &[IndirectDraw]) {
+    if words.len() < STATS {
+        return;
+    }
+    let counts = &words[STATS..];
+    t.num_fish_drawn = words[0];
+    t.num_fish_culled = words[1];
+    t.num_shadows_drawn = words[2];
+    t.num_outline_shadows = words[3];
+    t.num_fish_per_lod.copy_from_slice(&words[4..4 + MAX_LODS]);
+    t.num_triangles = draws
+        .iter()
+        .map(|d| {
+            let n = counts.get(d.bucket as usize).copied().unwrap_or(0);
+            u64::from(d.num_indices / 3) * u64::from(n)
+        })
+        .sum();
+}
+
 impl Renderer {
+    /// The window's counts without waiting for the GPU: a GPU-culled frame copies its counts
+    /// into a staging buffer (when none is pending), the next frame asks for it to be mapped,
+    /// and a later one reads it once mapped. So [`Renderer::timings`] shows counts a frame or
+    /// two old.
+    fn poll_gpu_counts(&mut self, gpu: &Gpu) {
+        let _ = gpu.device.poll(wgpu::PollType::Poll);
+        let c = &mut self.cull;
+        let Some(staging) = c.staging.as_ref() else {
+            return;
+        };
+        match &c.readback {
+            CountsReadback::Idle => {}
+            CountsReadback::Copied => {
+                let flag = Arc::new(AtomicU8::new(0));
+                let done = flag.clone();
+                staging.map_async(wgpu::MapMode::Read, .., move |r| {
+                    done.store(if r.is_ok() { 1 } else { 2 }, Ordering::Release);
+                });
+                c.readback = CountsReadback::Mapping(flag);
+            }
+            CountsReadback::Mapping(flag) => match flag.load(Ordering::Acquire) {
+                0 => {}
+                state => {
+                    if state == 1 {
+                        if let Ok(range) = staging.slice(..).get_mapped_range() {
+                            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&range);
+                            drop(range);
+                            apply_counts(&mut c.last_counts, &words, &c.draws);
+                        }
+                        staging.unmap();
+                    }
+                    c.readback = CountsReadback::Idle;
+                }
+            },
+        }
+    }
+
+    /// After the culling passes: copies the counts for [`Renderer::poll_gpu_counts`] when no
+    /// read-back is pending.
+    fn copy_gpu_counts(&mut self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder) {
+        let c = &mut self.cull;
+        if !matches!(c.readback, CountsReadback::Idle) {
+            return;
+        }
+        let size = ((STATS + c.num_buckets as usize) * 4) as u64;
+        if c.staging.as_ref().is_none_or(|b| b.size() < size) {
+            c.staging = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("culling counts (window)"),
+                size: size.next_power_of_two(),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(staging) = &c.staging {
+            encoder.copy_buffer_to_buffer(&c.state.buffer, 0, staging, 0, size);
+            c.readback = CountsReadback::Copied;
+        }
+    }
+
     /// The draws of a GPU-culled frame, in the order the CPU path records them: shadows (near
     /// level, then outline, per mesh and material), then opaque fish, then blended fish, per
     /// mesh, level and material. They depend on the meshes only.
@@ -199,6 +301,7 @@ impl Renderer {
         selector: &LodSelector,
         shadow: Option<ShadowProjection>,
     ) {
+        self.poll_gpu_counts(gpu);
         let (device, queue) = (&gpu.device, &gpu.queue);
         self.build_indirect_draws(shadow.is_some());
         let num_buckets = self.num_lod_buckets + 2 * self.meshes.len() as u32;
@@ -294,9 +397,16 @@ impl Renderer {
         }
         let c = &self.cull;
         encoder.clear_buffer(&c.state.buffer, 0, Some(state_bytes));
-        if num_records == 0 && c.draws.is_empty() {
-            return;
+        if num_records > 0 || !c.draws.is_empty() {
+            self.dispatch_cull(gpu, encoder, num_records);
         }
+        self.copy_gpu_counts(device, encoder);
+    }
+
+    /// Records the three culling passes over `num_records` records.
+    fn dispatch_cull(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, num_records: u32) {
+        let device = &gpu.device;
+        let c = &self.cull;
         fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry {
                 binding,

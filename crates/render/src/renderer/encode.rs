@@ -89,11 +89,9 @@ impl Renderer {
         let gpu_cull = self.culling == Culling::Gpu;
         let mut stats = if gpu_cull {
             self.cull_on_gpu(gpu, encoder, input, &frame, size.1);
-            // The counts stay on the GPU until `read_gpu_counts`: keep the last ones read.
-            RenderTimings {
-                num_triangles: 0,
-                ..self.timings
-            }
+            // The counts stay on the GPU: those last read back (a frame or two old, or read by
+            // `read_gpu_counts`).
+            self.cull.last_counts
         } else {
             let stats = self.assign_buckets(input, &frame, size.1);
             self.write_instances(gpu, input);

@@ -531,7 +531,10 @@ impl Renderer {
         self.sample_count
     }
 
-    /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`].
+    /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`]. Culled on
+    /// the GPU ([`Culling::Gpu`]), the counts (fish drawn, culled, per level, shadows,
+    /// triangles) are those read back last, without waiting: a frame or two old;
+    /// [`Renderer::read_gpu_counts`] waits for the last frame's.
     pub fn timings(&self) -> RenderTimings {
         self.timings
     }
