@@ -17,13 +17,38 @@
 //   slot 0 (per vertex, 64 B): position f32x3 @0, normal f32x3 @1, colour f32x4 @2
 //                              (base colour factor × COLOR_0, linear), joints u16x4 @3,
 //                              weights f32x4 @4
-//   slot 1 (per instance, 32 B): palette_offset u32 @5, flags u32 @6 (bit 0: selected),
-//                                tint f32x4 @7 (rgb multiplies the material, a unused)
+//   slot 1: none (the instances are read from group 2, below)
 //   slot 2 (per vertex, 24 B): texture coordinates f32x2 @8 (glTF: v down), tangent f32x4 @9
 //                              (xyz, w = bitangent sign; zero when the mesh has none)
+// Bindings (group 2, the draws' instances; see crates/render/src/renderer/cull_pass.rs):
+//   @binding(0) instances: array<Instance> (storage, read) — every draw's, grouped by draw
+//   @binding(1) draw: DrawBase (uniform, dynamic offset per draw) — the draw's first instance
+//   A draw's instance k is instances[draw.first + k]: the draws start at instance 0, so the
+//   same holds for indirect draws written by the culling pass (cull.wgsl) without
+//   INDIRECT_FIRST_INSTANCE.
 // Prepended: common.wgsl. Appended: skinning.wgsl.
 
 @group(0) @binding(1) var<storage, read> palette: array<mat4x4<f32>>;
+
+struct Instance {
+    palette_offset: u32,
+    // bit 0: selected.
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
+    // rgb multiplies the material; a unused.
+    tint: vec4<f32>,
+};
+
+struct DrawBase {
+    first: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+};
+
+@group(2) @binding(0) var<storage, read> instances: array<Instance>;
+@group(2) @binding(1) var<uniform> draw: DrawBase;
 
 struct MaterialParams {
     // 0 OPAQUE, 1 MASK (discard below alpha_cutoff), 2 BLEND (drawn blended, second pass).
@@ -93,9 +118,7 @@ struct VertexIn {
     @location(2) color: vec4<f32>,
     @location(3) joints: vec4<u32>,
     @location(4) weights: vec4<f32>,
-    @location(5) palette_offset: u32,
-    @location(6) flags: u32,
-    @location(7) tint: vec4<f32>,
+    @builtin(instance_index) instance: u32,
     @location(8) uv: vec2<f32>,
     @location(9) tangent: vec4<f32>,
 };
@@ -112,15 +135,16 @@ struct VertexOut {
 
 @vertex
 fn vs_main(in: VertexIn) -> VertexOut {
-    let m = skin_matrix(in.palette_offset, in.joints, in.weights);
+    let inst = instances[draw.first + in.instance];
+    let m = skin_matrix(inst.palette_offset, in.joints, in.weights);
     let world = m * vec4<f32>(in.position, 1.0);
     let n = (m * vec4<f32>(in.normal, 0.0)).xyz;
     var out: VertexOut;
     out.clip = globals.view_proj * world;
     out.world_pos = world.xyz;
     out.normal = n;
-    out.color = vec4<f32>(in.color.rgb * in.tint.rgb, in.color.a);
-    out.flags = in.flags;
+    out.color = vec4<f32>(in.color.rgb * inst.tint.rgb, in.color.a);
+    out.flags = inst.flags;
     out.uv = in.uv;
     out.tangent = vec4<f32>((m * vec4<f32>(in.tangent.xyz, 0.0)).xyz, in.tangent.w);
     return out;
@@ -220,7 +244,8 @@ struct ShadowOut {
 
 @vertex
 fn vs_shadow(in: VertexIn) -> ShadowOut {
-    let m = skin_matrix(in.palette_offset, in.joints, in.weights);
+    let inst = instances[draw.first + in.instance];
+    let m = skin_matrix(inst.palette_offset, in.joints, in.weights);
     let world = (m * vec4<f32>(in.position, 1.0)).xyz;
     let floor_y = globals.tank_min_fog.y + 0.3;
     let l = globals.light_dir.xyz;

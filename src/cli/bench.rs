@@ -407,6 +407,11 @@ pub struct RenderArgs {
     /// palette on the CPU, uploaded each frame).
     #[arg(long, value_enum, default_value_t = PoseArg::Gpu)]
     pub pose: PoseArg,
+    /// Where the fish are culled and their levels chosen: `gpu` (a compute pass and indirect
+    /// draws, the default; the counts are read back after the last frame) or `cpu`. An adapter
+    /// without indirect draws culls on the CPU either way.
+    #[arg(long, value_enum, default_value_t = super::CullingArg::Gpu)]
+    pub culling: super::CullingArg,
 }
 
 fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
@@ -419,20 +424,28 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let target = OffscreenTarget::new(&gpu, args.size.0, args.size.1);
     println!(
         "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
-         last frame; LOD tolerance {} px; {}; pose ms: the tick's pose stage, CPU, median)",
+         last frame; LOD tolerance {} px; {}; culling: {}; pose ms: the tick's pose stage, \
+         CPU, median; upload ms: the renderer's CPU work before recording the draws, mean; cull \
+         ms: of that, culling and levels of detail)",
         args.size.0,
         args.size.1,
         args.frames,
         args.lod_tolerance_px,
-        args.pose.describe()
+        args.pose.describe(),
+        if args.culling == super::CullingArg::Gpu && Renderer::gpu_culling_supported(&gpu) {
+            "GPU (compute pass, indirect draws)"
+        } else {
+            "CPU"
+        }
     );
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>6} {:>7} {:>7} {:>24} {:>12}",
+        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>8} {:>6} {:>7} {:>7} {:>24} {:>12}",
         "fish",
         "median ms",
         "p99 ms",
         "pose ms",
         "upload ms",
+        "cull ms",
         "draws",
         "drawn",
         "culled",
@@ -448,6 +461,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     for &n in &args.fish {
         let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT)?;
         renderer.set_lod_tolerance_px(args.lod_tolerance_px);
+        renderer.set_culling(args.culling.culling());
         let species = match &args.model {
             None => porgy_species()?,
             Some(path) => model_species(path)?,
@@ -495,6 +509,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let mut times = Vec::with_capacity(args.frames);
         let mut pose_ms = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
+        let mut cull = 0.0;
         for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
             let c = scene.world().counters();
@@ -508,11 +523,13 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             if frame >= 1 {
                 times.push(ms);
                 upload += f64::from(renderer.timings().upload_ms);
+                cull += f64::from(renderer.timings().cull_ms);
             }
         }
         let (median, p99) = shoal_core::world::bench::median_p99(&mut times);
         let (pose, _) = shoal_core::world::bench::median_p99(&mut pose_ms);
-        let t = renderer.timings();
+        // Culled on the GPU, the counts are there until read back.
+        let t = renderer.read_gpu_counts(&gpu)?;
         let per_lod = t
             .num_fish_per_lod
             .iter()
@@ -520,8 +537,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join("/");
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>6} {:>7} {:>7} {:>24} {:>12}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>8.3} {:>6} {:>7} {:>7} {:>24} {:>12}",
             upload / args.frames as f64,
+            cull / args.frames as f64,
             t.num_draw_calls,
             t.num_fish_drawn,
             t.num_fish_culled,

@@ -331,6 +331,25 @@ mod tests {
     }
 }
 
+/// Where `shoal bench render` culls the fish and picks their levels of detail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CullingArg {
+    /// The CPU sorts the instances by draw each frame and uploads them.
+    Cpu,
+    /// A compute pass and indirect draws (the default where the adapter runs indirect draws).
+    Gpu,
+}
+
+impl CullingArg {
+    /// The renderer's setting for it.
+    pub fn culling(self) -> shoal_render::Culling {
+        match self {
+            CullingArg::Cpu => shoal_render::Culling::Cpu,
+            CullingArg::Gpu => shoal_render::Culling::Gpu,
+        }
+    }
+}
+
 /// Where `shoal bench sim` and `shoal bench peer` pose the fish.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PoseArg {

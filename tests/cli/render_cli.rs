@@ -166,10 +166,13 @@ fn an_unknown_scene_names_the_scenes_there_are() {
 /// `shoal bench render` prints, per fish count, the draw calls, the fish drawn and culled, the
 /// fish per level of detail and the triangles submitted, which add up: every fish of the bench
 /// world is in view, each drawn at one level, and the triangles are those of the levels in use plus
-/// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail.
+/// one coarsest-level shadow per fish. With a tolerance of 0 every fish is at full detail; culled on the CPU or on the GPU
+/// (`--culling`), the counts are the same.
 #[test]
 fn bench_render_reports_triangles_per_frame() {
-    for (tolerance, full_detail) in [("1", false), ("0", true)] {
+    for (tolerance, full_detail, culling) in
+        [("1", false, "gpu"), ("1", false, "cpu"), ("0", true, "gpu")]
+    {
         let stdout = ok(&shoal(&[
             "bench",
             "render",
@@ -181,6 +184,8 @@ fn bench_render_reports_triangles_per_frame() {
             "1",
             "--lod-tolerance-px",
             tolerance,
+            "--culling",
+            culling,
         ]));
         // "mesh: black_porgy (30 joints), triangles per level of detail: 5616 (error 0.000), …"
         let levels: Vec<u64> = stdout
@@ -204,16 +209,16 @@ fn bench_render_reports_triangles_per_frame() {
         let rows: Vec<Vec<&str>> = stdout
             .lines()
             .map(|l| l.split_whitespace().collect::<Vec<_>>())
-            .filter(|c| c.len() == 10 && c[0].parse::<u64>().is_ok())
+            .filter(|c| c.len() == 11 && c[0].parse::<u64>().is_ok())
             .collect();
         assert_eq!(rows.len(), 2, "{stdout}");
         for (row, fish) in rows.iter().zip([1u64, 12]) {
             assert_eq!(row[0].parse::<u64>().unwrap(), fish);
             // The tick's pose stage on the CPU: the GPU pass's records, by default.
             assert!(row[3].parse::<f64>().unwrap() >= 0.0, "{stdout}");
-            let (drawn, culled): (u64, u64) = (row[6].parse().unwrap(), row[7].parse().unwrap());
+            let (drawn, culled): (u64, u64) = (row[7].parse().unwrap(), row[8].parse().unwrap());
             assert_eq!((drawn, culled), (fish, 0), "{stdout}");
-            let per_lod: Vec<u64> = row[8].split('/').map(|n| n.parse().unwrap()).collect();
+            let per_lod: Vec<u64> = row[9].split('/').map(|n| n.parse().unwrap()).collect();
             assert_eq!(per_lod.iter().sum::<u64>(), fish, "{stdout}");
             if full_detail {
                 assert_eq!(per_lod[0], fish, "{stdout}");
@@ -226,7 +231,7 @@ fn bench_render_reports_triangles_per_frame() {
             let expected: u64 = per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>()
                 + near * levels[2]
                 + (fish - near) * outline;
-            assert_eq!(row[9].parse::<u64>().unwrap(), expected, "{stdout}");
+            assert_eq!(row[10].parse::<u64>().unwrap(), expected, "{stdout}");
         }
     }
 }
@@ -440,4 +445,80 @@ fn impossible_fish_counts_are_refused_and_large_set_ups_say_so() {
         stderr.contains("setting up 10000 fish") && stderr.contains("set up 10000 fish in"),
         "{stderr}"
     );
+}
+
+/// Compares `actual` with `crates/render/tests/reference/<name>.png` by the rule of the render
+/// crate's reference tests (a pixel differs when a channel differs by more than 16; at most 0.5 %
+/// may), or writes it with `SHOAL_BLESS=1`. On failure the actual image is written beside it.
+fn check_reference(name: &str, actual: &image::RgbImage) {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/render/tests/reference");
+    let path = dir.join(format!("{name}.png"));
+    let actual_path = dir.join(format!("{name}-actual.png"));
+    if std::env::var_os("SHOAL_BLESS").is_some_and(|v| v == "1") {
+        actual.save(&path).unwrap();
+        return;
+    }
+    let reference = image::open(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (SHOAL_BLESS=1 writes it)", path.display()))
+        .to_rgb8();
+    assert_eq!(reference.dimensions(), actual.dimensions(), "{name}");
+    let differing = actual
+        .pixels()
+        .zip(reference.pixels())
+        .filter(|(a, r)| (0..3).any(|c| a[c].abs_diff(r[c]) > 16))
+        .count();
+    let fraction = differing as f64 / f64::from(actual.width() * actual.height());
+    if fraction > 0.005 {
+        actual.save(&actual_path).unwrap();
+        panic!(
+            "{name}: {:.2} % of pixels differ by more than 16; see {}",
+            fraction * 100.0,
+            actual_path.display()
+        );
+    }
+    let _ = std::fs::remove_file(&actual_path);
+}
+
+/// Issue 35's picture check: `shoal render` of 1,000 porgies at 1920×1080 with the default
+/// level-of-detail tolerance and with `--lod-tolerance-px 0` (every fish at full detail)
+/// match their reference images, and differ from each other by a mean of at most 1 grey level
+/// in 255.
+#[test]
+fn a_school_of_1000_at_1080p_looks_the_same_at_both_tolerances() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut images = Vec::new();
+    for (tolerance, name) in [("1", "school_1000_default"), ("0", "school_1000_full")] {
+        let out = dir.path().join(format!("{name}.png"));
+        ok(&shoal(&[
+            "render",
+            "--scene",
+            "porgies",
+            "--fish",
+            "1000",
+            "--size",
+            "1920x1080",
+            "--seconds",
+            "0.5",
+            "--fps",
+            "2",
+            "--lod-tolerance-px",
+            tolerance,
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        let img = image::open(&out).unwrap().to_rgb8();
+        check_reference(name, &img);
+        images.push(img);
+    }
+    let total: u64 = images[0]
+        .as_raw()
+        .iter()
+        .zip(images[1].as_raw())
+        .map(|(&a, &b)| u64::from(a.abs_diff(b)))
+        .sum();
+    let mean = total as f64 / images[0].as_raw().len() as f64;
+    assert!(mean <= 1.0, "mean difference {mean:.3} grey levels");
+    // Not the same picture twice: the default tolerance draws coarser levels somewhere.
+    assert!(mean > 0.0, "the two tolerances drew identical images");
 }

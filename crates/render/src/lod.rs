@@ -137,6 +137,11 @@ impl Frustum {
         Self { planes }
     }
 
+    /// The planes, each `(n, d)`: left, right, bottom, top, near, far.
+    pub fn planes(&self) -> [Vec4; 6] {
+        self.planes
+    }
+
     /// False only when `sphere` lies wholly outside a plane; a sphere touching the frustum, or
     /// one with a NaN in it (never hide what cannot be judged), counts as inside.
     pub fn intersects(&self, sphere: Sphere) -> bool {
@@ -172,6 +177,12 @@ impl ShadowProjection {
             shift,
             stretch: (1.0 + shift[0] * shift[0] + shift[1] * shift[1]).sqrt(),
         }
+    }
+
+    /// The shadow plane's height, the horizontal shift per unit of height (x, z) and the
+    /// stretch (as the GPU culling pass takes them).
+    pub fn parts(&self) -> (f32, [f32; 2], f32) {
+        (self.floor_y, self.shift, self.stretch)
     }
 
     /// A sphere holding the shadow of everything inside `sphere`. The projection moves x and z by

@@ -9,7 +9,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 /// The shader files, by name, with the text compiled into the binary.
-pub const EMBEDDED: [(&str, &str); 7] = [
+pub const EMBEDDED: [(&str, &str); 8] = [
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     (
         "skinning.wgsl",
@@ -26,6 +26,7 @@ pub const EMBEDDED: [(&str, &str); 7] = [
         include_str!("../../../shaders/skin_readback.wgsl"),
     ),
     ("pose.wgsl", include_str!("../../../shaders/pose.wgsl")),
+    ("cull.wgsl", include_str!("../../../shaders/cull.wgsl")),
 ];
 
 /// The text of every shader file.

@@ -6,8 +6,9 @@ use std::time::Instant;
 use bytemuck::Zeroable;
 use glam::{Mat4, Vec3};
 
+use super::cull_pass::DrawKind;
 use super::pose_pass::fish_palette_len;
-use super::{CULLED, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
+use super::{CULLED, Culling, Globals, InstanceRaw, LineVertex, RenderTimings, Renderer};
 use crate::lod::{Frustum, LodSelector, NEAR_SHADOW_LOD, ShadowProjection};
 use crate::{FrameInput, Gpu, RenderError};
 
@@ -84,8 +85,20 @@ impl Renderer {
         let frame = self.write_globals(gpu, input, size);
         self.write_palettes(gpu, input);
         self.record_frame_pose(gpu, encoder, input);
-        let mut stats = self.assign_buckets(input, &frame, size.1);
-        self.write_instances(gpu, input);
+        let t_cull = Instant::now();
+        let gpu_cull = self.culling == Culling::Gpu;
+        let mut stats = if gpu_cull {
+            self.cull_on_gpu(gpu, encoder, input, &frame, size.1);
+            // The counts stay on the GPU: those last read back (a frame or two old, or read by
+            // `read_gpu_counts`).
+            self.cull.last_counts
+        } else {
+            let stats = self.assign_buckets(input, &frame, size.1);
+            self.write_instances(gpu, input);
+            stats
+        };
+        let cull_ms = t_cull.elapsed().as_secs_f32() * 1e3;
+        self.last_frame_gpu_culled = gpu_cull;
         let lines = self.write_lines(gpu, input);
         let t1 = Instant::now();
         let draws =
@@ -93,11 +106,36 @@ impl Renderer {
         let t2 = Instant::now();
         self.timings = RenderTimings {
             upload_ms: (t1 - t0).as_secs_f32() * 1e3,
+            cull_ms,
             draw_ms: (t2 - t1).as_secs_f32() * 1e3,
             num_draw_calls: draws,
             ..stats
         };
         Ok(())
+    }
+
+    /// The frame's culling on the GPU: the same frustum, level selector and shadow projection
+    /// as [`Renderer::assign_buckets`], handed to the culling pass.
+    fn cull_on_gpu(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &FrameInput<'_>,
+        frame: &View,
+        height_px: u32,
+    ) {
+        let frustum = Frustum::from_view_proj(&frame.view_proj);
+        let selector = LodSelector::new(
+            frame.eye,
+            input.camera.fov_y_rad,
+            height_px.max(1),
+            self.lod_tolerance_px,
+        );
+        let shadow = input
+            .look
+            .shadows
+            .then(|| ShadowProjection::new(input.tank.min.y, frame.light));
+        self.record_gpu_cull(gpu, encoder, input, &frustum, &selector, shadow);
     }
 
     /// The globals uniform: camera, tank, fog, caustics, light and water colours.
@@ -270,13 +308,31 @@ impl Renderer {
                 }
             }
         }
-        let instance_bytes: &[u8] = bytemuck::cast_slice(&self.scratch_instances);
-        self.instances
-            .ensure(&gpu.device, instance_bytes.len() as u64);
-        if !instance_bytes.is_empty() {
-            gpu.queue
-                .write_buffer(&self.instances.buffer, 0, instance_bytes);
+        let instance_len = std::mem::size_of_val(self.scratch_instances.as_slice()) as u64;
+        let stride = self.draw_base_stride as usize;
+        self.scratch_bases.clear();
+        self.scratch_bases
+            .resize(self.scratch_ranges.len().max(1) * stride, 0);
+        // Each bucket's first instance, where its draws read it (`DrawBase` in fish.wgsl).
+        for (k, &(begin, _)) in self.scratch_ranges.iter().enumerate() {
+            self.scratch_bases[k * stride..k * stride + 4].copy_from_slice(&begin.to_ne_bytes());
         }
+        let grew = self.instances.ensure(&gpu.device, instance_len)
+            | self
+                .draw_bases
+                .ensure(&gpu.device, self.scratch_bases.len() as u64);
+        if grew {
+            self.rebuild_draw_bind_group(&gpu.device);
+        }
+        if instance_len > 0 {
+            gpu.queue.write_buffer(
+                &self.instances.buffer,
+                0,
+                bytemuck::cast_slice(&self.scratch_instances),
+            );
+        }
+        gpu.queue
+            .write_buffer(&self.draw_bases.buffer, 0, &self.scratch_bases);
     }
 
     /// Lines: tank edges (fogged, depth tested) then overlays (on top).
@@ -356,13 +412,17 @@ impl Renderer {
         pass.draw(0..6, 0..1);
         let mut draws = 2;
 
-        pass.set_vertex_buffer(1, self.instances.buffer.slice(..));
         let mut triangles = 0u64;
-        if shadows {
-            self.draw_shadows(&mut pass, &mut draws, &mut triangles);
+        if self.last_frame_gpu_culled {
+            // The triangles are counted when the counts are read back.
+            self.draw_indirect(&mut pass, &mut draws);
+        } else {
+            if shadows {
+                self.draw_shadows(&mut pass, &mut draws, &mut triangles);
+            }
+            self.draw_fish(&mut pass, &mut draws, &mut triangles);
+            stats.num_triangles = triangles;
         }
-        self.draw_fish(&mut pass, &mut draws, &mut triangles);
-        stats.num_triangles = triangles;
 
         pass.set_vertex_buffer(0, self.lines.buffer.slice(..));
         pass.set_pipeline(&self.pipelines.lines_fogged);
@@ -376,6 +436,45 @@ impl Renderer {
         Ok(draws)
     }
 
+    /// The GPU-culled frame's draws ([`super::cull_pass::CullBuffers::draws`]): every one is
+    /// recorded, its instance count written by the culling pass (0 where nothing is in view).
+    fn draw_indirect(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32) {
+        let mut kind = None;
+        let mut mesh_bound = None;
+        let mut material_bound = None;
+        for (d, draw) in self.cull.draws.iter().enumerate() {
+            if kind != Some(draw.kind) {
+                pass.set_pipeline(match draw.kind {
+                    DrawKind::Shadow => &self.pipelines.shadows,
+                    DrawKind::Opaque => &self.pipelines.fish,
+                    DrawKind::Blend => &self.pipelines.fish_blend,
+                });
+                kind = Some(draw.kind);
+                mesh_bound = None;
+                material_bound = None;
+            }
+            let mesh = &self.meshes[draw.mesh];
+            if mesh_bound != Some(draw.mesh) {
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_vertex_buffer(2, mesh.surface.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                mesh_bound = Some(draw.mesh);
+                material_bound = None;
+            }
+            if material_bound != Some(draw.material) {
+                pass.set_bind_group(1, &mesh.materials[draw.material].bind_group, &[]);
+                material_bound = Some(draw.material);
+            }
+            pass.set_bind_group(
+                2,
+                &self.draw_bind_group,
+                &[draw.bucket * self.draw_base_stride],
+            );
+            pass.draw_indexed_indirect(&self.cull.args.buffer, d as u64 * 20);
+            *draws += 1;
+        }
+    }
+
     /// Shadow draws per mesh and material with shadows in view. Shadows are small and dark: a
     /// fish at one of the levels for a few pixels (coarser than [`NEAR_SHADOW_LOD`]) casts the
     /// mesh's outline shadow level ([`MeshLods::shadow`](crate::lod::MeshLods::shadow)), a
@@ -383,31 +482,47 @@ impl Renderer {
     fn draw_shadows(&self, pass: &mut wgpu::RenderPass<'_>, draws: &mut u32, triangles: &mut u64) {
         pass.set_pipeline(&self.pipelines.shadows);
         let shadow_ranges = self.scratch_ranges[self.num_lod_buckets as usize..].chunks_exact(2);
-        let shadows = self
-            .meshes
-            .iter()
-            .zip(shadow_ranges)
-            .flat_map(|(mesh, ranges)| {
-                let near = NEAR_SHADOW_LOD.min(mesh.levels.len() - 1);
-                [
-                    (mesh, mesh.levels[near], &mesh.level_parts[near], ranges[0]),
-                    (mesh, mesh.shadow_level, &mesh.shadow_parts, ranges[1]),
-                ]
-            });
-        for (mesh, level, parts, (begin, end)) in shadows {
+        let first_shadow = self.num_lod_buckets;
+        let shadows =
+            self.meshes
+                .iter()
+                .zip(shadow_ranges)
+                .enumerate()
+                .flat_map(|(m, (mesh, ranges))| {
+                    let near = NEAR_SHADOW_LOD.min(mesh.levels.len() - 1);
+                    let bucket = first_shadow + 2 * m as u32;
+                    [
+                        (
+                            mesh,
+                            mesh.levels[near],
+                            &mesh.level_parts[near],
+                            ranges[0],
+                            bucket,
+                        ),
+                        (
+                            mesh,
+                            mesh.shadow_level,
+                            &mesh.shadow_parts,
+                            ranges[1],
+                            bucket + 1,
+                        ),
+                    ]
+                });
+        for (mesh, level, parts, (begin, end), bucket) in shadows {
             if end == begin {
                 continue;
             }
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
             pass.set_vertex_buffer(2, mesh.surface.slice(..));
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.set_bind_group(2, &self.draw_bind_group, &[bucket * self.draw_base_stride]);
             for part in parts {
                 pass.set_bind_group(
                     1,
                     &mesh.materials[usize::from(part.material)].bind_group,
                     &[],
                 );
-                pass.draw_indexed(part_range(part), 0, begin..end);
+                pass.draw_indexed(part_range(part), 0, 0..end - begin);
                 *draws += 1;
             }
             *triangles += u64::from(level.num_triangles()) * u64::from(end - begin);
@@ -435,17 +550,25 @@ impl Renderer {
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_vertex_buffer(2, mesh.surface.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (parts, &(begin, end)) in mesh.level_parts.iter().zip(ranges) {
+                for (level, (parts, &(begin, end))) in
+                    mesh.level_parts.iter().zip(ranges).enumerate()
+                {
                     if end == begin {
                         continue;
                     }
+                    let bucket = mesh.first_bucket + level as u32;
+                    pass.set_bind_group(
+                        2,
+                        &self.draw_bind_group,
+                        &[bucket * self.draw_base_stride],
+                    );
                     for part in parts {
                         let material = &mesh.materials[usize::from(part.material)];
                         if material.blend != blend_pass {
                             continue;
                         }
                         pass.set_bind_group(1, &material.bind_group, &[]);
-                        pass.draw_indexed(part_range(part), 0, begin..end);
+                        pass.draw_indexed(part_range(part), 0, 0..end - begin);
                         *triangles += u64::from(part.num_indices / 3) * u64::from(end - begin);
                         *draws += 1;
                     }

@@ -8,6 +8,7 @@
 //! uploads, culling and levels of detail, the scene pass) and [`readback`] (GPU skinning read
 //! back for tests).
 
+mod cull_pass;
 mod encode;
 mod pipelines;
 mod pose_pass;
@@ -23,7 +24,10 @@ use super::lod::{LodLevel, MAX_LODS, MeshBounds};
 use super::material::{self, GpuMaterial};
 use super::shaders::ShaderSources;
 use super::{FrameInput, Gpu, RenderError};
+use cull_pass::CullBuffers;
+pub use cull_pass::Culling;
 use pipelines::{Layouts, build_pipelines};
+use pose_pass::fish_palette_len;
 pub(super) use readback::map_read;
 
 /// Depth buffer format.
@@ -39,6 +43,10 @@ pub struct RenderTimings {
     /// Culling, choosing levels of detail, sorting instances and writing the palette, instance
     /// and line buffers.
     pub upload_ms: f32,
+    /// Of `upload_ms`, culling and levels of detail: on the CPU ([`Culling::Cpu`]) choosing
+    /// each instance's draws and writing the instances sorted by draw; on the GPU
+    /// ([`Culling::Gpu`]) writing one record per instance and recording the culling pass.
+    pub cull_ms: f32,
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
     /// Number of draw calls in the scene pass (background, floor, one or two per species'
@@ -188,6 +196,10 @@ struct Pipelines {
     skin_readback: wgpu::ComputePipeline,
     /// The GPU pose pass (`pose.wgsl`).
     pose: wgpu::ComputePipeline,
+    /// The GPU culling pass (`cull.wgsl`): per record, once, per record.
+    cull_count: wgpu::ComputePipeline,
+    cull_offsets: wgpu::ComputePipeline,
+    cull_scatter: wgpu::ComputePipeline,
 }
 
 /// The GPU pose pass's input buffers (grow-only) and its uniform.
@@ -237,11 +249,29 @@ pub struct Renderer {
     material_layout: wgpu::BindGroupLayout,
     readback_layout: wgpu::BindGroupLayout,
     pose_layout: wgpu::BindGroupLayout,
+    draw_layout: wgpu::BindGroupLayout,
+    cull_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     palettes: GrowBuffer,
     /// The GPU pose pass's inputs (see [`super::GpuPoseFrame`]), written each frame it runs.
     pose: PoseBuffers,
+    /// Every draw's instances, grouped by draw (written by the CPU or by the culling pass).
     instances: GrowBuffer,
+    /// Per bucket, at [`Renderer::draw_base_stride`] bytes: its first instance in `instances`
+    /// (`DrawBase` in `fish.wgsl`, bound by dynamic offset per draw).
+    draw_bases: GrowBuffer,
+    /// Bytes between two buckets' entries of `draw_bases` (the adapter's uniform offset
+    /// alignment).
+    draw_base_stride: u32,
+    /// Group 2 of the fish pipelines: `instances` and `draw_bases`.
+    draw_bind_group: wgpu::BindGroup,
+    /// The GPU culling pass's buffers.
+    cull: CullBuffers,
+    culling: Culling,
+    culling_supported: bool,
+    /// Whether the last frame was culled on the GPU (its counts are still there).
+    last_frame_gpu_culled: bool,
+    scratch_bases: Vec<u8>,
     lines: GrowBuffer,
     bind_group: wgpu::BindGroup,
     pipelines: Pipelines,
@@ -367,6 +397,48 @@ impl Renderer {
                 storage_entry(6, true),
             ],
         });
+        let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fish draw bind group layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(DRAW_BASE_SIZE),
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let cull_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("culling pass bind group layout"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                uniform_entry(2),
+                storage_entry(3, true),
+                storage_entry(4, false),
+                storage_entry(5, false),
+                storage_entry(6, false),
+                storage_entry(7, false),
+            ],
+        });
+        let draw_base_stride = device
+            .limits()
+            .min_uniform_buffer_offset_alignment
+            .max(DRAW_BASE_SIZE as u32);
         let pose = PoseBuffers::new(device);
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals uniform"),
@@ -383,9 +455,17 @@ impl Renderer {
         let instances = GrowBuffer::new(
             device,
             "fish instances",
-            wgpu::BufferUsages::VERTEX,
+            wgpu::BufferUsages::STORAGE,
             32 * 1024,
         );
+        let draw_bases = GrowBuffer::new(
+            device,
+            "fish draw bases",
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
+            64 * u64::from(draw_base_stride),
+        );
+        let draw_bind_group =
+            make_draw_bind_group(device, &draw_layout, &instances.buffer, &draw_bases.buffer);
         let lines = GrowBuffer::new(
             device,
             "line vertices",
@@ -398,8 +478,11 @@ impl Renderer {
             material: &material_layout,
             readback: &readback_layout,
             pose: &pose_layout,
+            draw: &draw_layout,
+            cull: &cull_layout,
         };
         let pipelines = build_pipelines(device, &sources, &layouts, color_format, sample_count)?;
+        let culling_supported = cull_pass::gpu_culling_supported(gpu);
         Ok(Self {
             color_format,
             sample_count,
@@ -407,10 +490,20 @@ impl Renderer {
             material_layout,
             readback_layout,
             pose_layout,
+            draw_layout,
+            cull_layout,
             globals,
             palettes,
             pose,
             instances,
+            draw_bases,
+            draw_base_stride,
+            draw_bind_group,
+            cull: CullBuffers::new(device),
+            culling: cull_pass::default_culling(gpu),
+            culling_supported,
+            last_frame_gpu_culled: false,
+            scratch_bases: Vec::new(),
             lines,
             bind_group,
             pipelines,
@@ -438,7 +531,10 @@ impl Renderer {
         self.sample_count
     }
 
-    /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`].
+    /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`]. Culled on
+    /// the GPU ([`Culling::Gpu`]), the counts (fish drawn, culled, per level, shadows,
+    /// triangles) are those read back last, without waiting: a frame or two old;
+    /// [`Renderer::read_gpu_counts`] waits for the last frame's.
     pub fn timings(&self) -> RenderTimings {
         self.timings
     }
@@ -455,6 +551,40 @@ impl Renderer {
         self.lod_tolerance_px = tolerance_px.max(0.0);
     }
 
+    /// How culling and levels of detail are worked out ([`Culling::Gpu`] by default where the
+    /// adapter runs indirect draws, unless the environment variable `SHOAL_CULLING` is `cpu`).
+    pub fn culling(&self) -> Culling {
+        self.culling
+    }
+
+    /// Whether `gpu`'s adapter can cull on the GPU ([`Culling::Gpu`]): it runs indirect draws
+    /// and compute shaders.
+    pub fn gpu_culling_supported(gpu: &Gpu) -> bool {
+        cull_pass::gpu_culling_supported(gpu)
+    }
+
+    /// Chooses where culling and levels of detail are worked out; [`Culling::Gpu`] falls back
+    /// to [`Culling::Cpu`] on an adapter without indirect draws or compute shaders. Returns
+    /// the culling now in use.
+    pub fn set_culling(&mut self, culling: Culling) -> Culling {
+        self.culling = if self.culling_supported {
+            culling
+        } else {
+            Culling::Cpu
+        };
+        self.culling
+    }
+
+    /// Makes group 2 of the fish pipelines again after its buffers were replaced.
+    fn rebuild_draw_bind_group(&mut self, device: &wgpu::Device) {
+        self.draw_bind_group = make_draw_bind_group(
+            device,
+            &self.draw_layout,
+            &self.instances.buffer,
+            &self.draw_bases.buffer,
+        );
+    }
+
     /// Rebuilds every pipeline from `sources`. On a WGSL or pipeline error, returns it and keeps
     /// drawing with the previous pipelines (never panics on bad shader text).
     pub fn reload_shaders(&mut self, gpu: &Gpu, sources: ShaderSources) -> Result<(), RenderError> {
@@ -463,6 +593,8 @@ impl Renderer {
             material: &self.material_layout,
             readback: &self.readback_layout,
             pose: &self.pose_layout,
+            draw: &self.draw_layout,
+            cull: &self.cull_layout,
         };
         let pipelines = build_pipelines(
             &gpu.device,
@@ -539,6 +671,37 @@ impl Renderer {
         self.timings.draw_ms += t.elapsed().as_secs_f32() * 1e3;
         Ok(())
     }
+}
+
+/// Bytes of one draw's entry of the draw-base uniform (`DrawBase` in `fish.wgsl`).
+const DRAW_BASE_SIZE: u64 = 16;
+
+/// Group 2 of the fish pipelines: the instances and the draw-base uniform (one entry bound per
+/// draw by dynamic offset).
+fn make_draw_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    instances: &wgpu::Buffer,
+    bases: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("fish draw bind group"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: instances.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: bases,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(DRAW_BASE_SIZE),
+                }),
+            },
+        ],
+    })
 }
 
 /// Group 0 of the scene pipelines: the globals uniform and the palette buffer.

@@ -1,7 +1,7 @@
 //! Shader modules and pipelines: compiled inside validation error scopes so a bad shader is an
 //! error (and the previous pipelines keep drawing), never a panic.
 
-use super::{DEPTH_FORMAT, InstanceRaw, LineVertex, Pipelines, SurfaceVertex, Vertex};
+use super::{DEPTH_FORMAT, LineVertex, Pipelines, SurfaceVertex, Vertex};
 use crate::RenderError;
 use crate::shaders::ShaderSources;
 
@@ -15,6 +15,10 @@ pub(super) struct Layouts<'a> {
     pub readback: &'a wgpu::BindGroupLayout,
     /// The GPU pose pass's only group.
     pub pose: &'a wgpu::BindGroupLayout,
+    /// Group 2 of the fish pipelines: the draws' instances and the draw-base uniform.
+    pub draw: &'a wgpu::BindGroupLayout,
+    /// The GPU culling pass's only group.
+    pub cull: &'a wgpu::BindGroupLayout,
 }
 
 /// The compiled shader modules.
@@ -24,6 +28,7 @@ struct Modules {
     lines: wgpu::ShaderModule,
     readback: wgpu::ShaderModule,
     pose: wgpu::ShaderModule,
+    cull: wgpu::ShaderModule,
 }
 
 /// Compiles every pipeline inside a validation error scope so a bad shader returns an error.
@@ -42,6 +47,9 @@ pub(super) fn build_pipelines(
     let (lines_fogged, lines_overlay) = f.lines(&modules.lines);
     let skin_readback = f.skin_readback(&modules.readback);
     let pose = f.compute(&modules.pose, layouts.pose, "pose", "cs_pose");
+    let cull_count = f.compute(&modules.cull, layouts.cull, "culling count", "cs_count");
+    let cull_offsets = f.compute(&modules.cull, layouts.cull, "culling offsets", "cs_offsets");
+    let cull_scatter = f.compute(&modules.cull, layouts.cull, "culling scatter", "cs_scatter");
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(RenderError::Shader {
             file: "(pipeline)".into(),
@@ -58,10 +66,13 @@ pub(super) fn build_pipelines(
         lines_overlay,
         skin_readback,
         pose,
+        cull_count,
+        cull_offsets,
+        cull_scatter,
     })
 }
 
-/// Composes and compiles the five shader modules; the first that fails is the error, with a map of
+/// Composes and compiles the shader modules; the first that fails is the error, with a map of
 /// the files its compiled text joins.
 fn compile_modules(device: &wgpu::Device, sources: &ShaderSources) -> Result<Modules, RenderError> {
     let module =
@@ -89,6 +100,7 @@ fn compile_modules(device: &wgpu::Device, sources: &ShaderSources) -> Result<Mod
         lines: module("lines.wgsl", true, false)?,
         readback: module("skin_readback.wgsl", false, true)?,
         pose: module("pose.wgsl", false, false)?,
+        cull: module("cull.wgsl", false, false)?,
     })
 }
 
@@ -130,7 +142,11 @@ impl<'a> Factory<'a> {
         });
         let fish_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("fish pipeline layout"),
-            bind_group_layouts: &[Some(layouts.scene), Some(layouts.material)],
+            bind_group_layouts: &[
+                Some(layouts.scene),
+                Some(layouts.material),
+                Some(layouts.draw),
+            ],
             immediate_size: 0,
         });
         Self {
@@ -223,8 +239,9 @@ impl<'a> Factory<'a> {
         (background, floor)
     }
 
-    /// Opaque fish, blended fish and fish shadows: the same mesh vertices, per-instance data,
-    /// texture coordinates and tangents, different blending and depth.
+    /// Opaque fish, blended fish and fish shadows: the same mesh vertices, texture coordinates
+    /// and tangents (slots 0 and 2; the instances are read from group 2), different blending
+    /// and depth.
     fn fish(
         &self,
         module: &wgpu::ShaderModule,
@@ -236,17 +253,6 @@ impl<'a> Factory<'a> {
         let vertex_attrs = wgpu::vertex_attr_array![
             0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Uint16x4, 4 => Float32x4
         ];
-        let instance_attrs = wgpu::vertex_attr_array![5 => Uint32, 6 => Uint32, 7 => Float32x4];
-        // The instance's tint sits after 8 bytes of padding: give attribute 7 its real offset.
-        let instance_attrs = [
-            instance_attrs[0],
-            instance_attrs[1],
-            wgpu::VertexAttribute {
-                format: wgpu::VertexFormat::Float32x4,
-                offset: 16,
-                shader_location: 7,
-            },
-        ];
         let surface_attrs = wgpu::vertex_attr_array![8 => Float32x2, 9 => Float32x4];
         let buffers = [
             Some(wgpu::VertexBufferLayout {
@@ -254,11 +260,7 @@ impl<'a> Factory<'a> {
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &vertex_attrs,
             }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attrs,
-            }),
+            None,
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<SurfaceVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,

@@ -4,6 +4,7 @@
 //! linked the whole dependency tree again.
 
 mod common;
+mod render_cull;
 mod render_lod;
 mod render_materials;
 mod render_reference;

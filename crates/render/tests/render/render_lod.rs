@@ -88,6 +88,8 @@ fn expected_triangles(renderer: &Renderer, mesh: MeshId) -> u64 {
 fn fish_behind_or_beside_the_camera_are_culled() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     let fish = TestFish::demo();
     let mesh = renderer.upload_mesh(&gpu, &fish.upload()).unwrap();
     let camera = Camera {
@@ -154,6 +156,8 @@ fn fish_behind_or_beside_the_camera_are_culled() {
 fn a_shadow_in_view_is_drawn_for_a_fish_out_of_view() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     let fish = TestFish::demo();
     let mesh = renderer.upload_mesh(&gpu, &fish.upload()).unwrap();
     let camera = Camera {
@@ -327,6 +331,8 @@ fn lod_index_lists_are_quarter_steps_over_the_same_vertices() {
 fn a_far_fish_uses_a_coarser_level_than_a_near_one() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     let rig = porgy();
     let mesh = renderer.upload_mesh(&gpu, &rig.upload()).unwrap();
     let nj = rig.num_joints();

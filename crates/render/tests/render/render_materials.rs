@@ -114,6 +114,8 @@ fn render(
     look: Look,
 ) -> (image::RgbaImage, shoal_render::RenderTimings) {
     let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     for m in meshes {
         renderer.upload_mesh(gpu, m).unwrap();
     }

@@ -123,6 +123,8 @@ fn aquarium_with_fish_rocks_and_food() {
     use shoal_render::props::PropMesh;
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     let fish = TestFish::demo();
     let fish_mesh = renderer.upload_mesh(&gpu, &fish.upload()).unwrap();
     let rock = renderer
@@ -359,6 +361,8 @@ fn skinned_fish_closeup_with_skeleton_overlay() {
 fn instanced_school_is_one_draw_call() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+    // Pins the CPU path's counts and draw calls (render_cull checks the GPU path against it).
+    renderer.set_culling(shoal_render::Culling::Cpu);
     let fish = TestFish::demo();
     let mesh = renderer.upload_mesh(&gpu, &fish.upload()).unwrap();
     let nj = fish.num_joints();

@@ -79,7 +79,7 @@ fn broken_shader_is_reported_and_previous_pipeline_keeps_drawing() {
     // A type error that parses (validation, not parsing, must catch it).
     let bad_type = ShaderSources::embedded()
         .get("fish.wgsl")
-        .replace("out.flags = in.flags;", "out.flags = in.tint;");
+        .replace("out.flags = inst.flags;", "out.flags = inst.tint;");
     assert!(
         renderer
             .reload_shaders(&gpu, with_file("fish.wgsl", &bad_type))
