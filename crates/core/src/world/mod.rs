@@ -37,6 +37,7 @@ mod fish;
 mod food;
 pub mod grid;
 mod index;
+pub mod lod;
 pub mod measures;
 mod nearest;
 mod perception;
@@ -63,6 +64,7 @@ pub use contact::{drift, resolve_contact};
 pub use crowd::Crowd;
 pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
+pub use lod::{Lod, LodBand, LodCounts, LodError};
 pub use registry::Species;
 pub use state::{EATEN_HISTORY, FoodDrops, WorldState, random_point};
 pub use tick::{Behavior, Pipeline, TICK_DT, step};
@@ -147,6 +149,12 @@ pub struct World {
     pose: PoseBuffers,
     counters: StageCounters,
     rejected_motion_steps: u64,
+    /// The behaviour level-of-detail settings (`lod.rs`).
+    lod: Lod,
+    /// How the last schedule fell.
+    lod_counts: LodCounts,
+    /// The last schedule's per-fish marks (a buffer kept between ticks).
+    lod_marks: Vec<u8>,
 }
 
 impl World {
@@ -166,6 +174,9 @@ impl World {
             pose: PoseBuffers::default(),
             counters: StageCounters::default(),
             rejected_motion_steps: 0,
+            lod: Lod::default(),
+            lod_counts: LodCounts::default(),
+            lod_marks: Vec::new(),
         }
     }
 

@@ -139,6 +139,7 @@ impl WorldState {
             + vec(&f.rngs)
             + vec(&f.contact)
             + vec(&f.steer)
+            + vec(&f.last_decided)
             + vec(&self.foods)
             + self.eaten.capacity() * std::mem::size_of::<(FoodId, Food)>()
             + vec(&self.obstacles)

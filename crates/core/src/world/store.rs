@@ -55,6 +55,9 @@ pub(crate) struct FishStore {
     pub rngs: Vec<Pcg32>,
     pub contact: Vec<bool>,
     pub steer: Vec<SteerMemo>,
+    /// The tick each fish last decided (0 before its first decision): the level-of-detail
+    /// schedule wakes a slow fish only if it has not decided for a whole base period.
+    pub last_decided: Vec<u64>,
 }
 
 impl FishStore {
@@ -95,6 +98,7 @@ impl FishStore {
         self.rngs.push(Pcg32::seed_from_u64(fish.seed));
         self.contact.push(false);
         self.steer.push(SteerMemo::default());
+        self.last_decided.push(0);
         id
     }
 
@@ -135,6 +139,7 @@ impl FishStore {
         self.rngs.swap_remove(dense);
         self.contact.swap_remove(dense);
         self.steer.swap_remove(dense);
+        self.last_decided.swap_remove(dense);
         if let Some(moved) = self.ids.get(dense) {
             self.dense_of[moved.index as usize] = dense as u32;
         }
