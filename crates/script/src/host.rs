@@ -386,7 +386,11 @@ impl ScriptHost {
                     },
                 });
             }
-            Err(e) => return Err(LoadError::Run { message: describe(&e) }),
+            Err(e) => {
+                return Err(LoadError::Run {
+                    message: describe(&e),
+                });
+            }
         }
         Ok(t)
     }

@@ -255,7 +255,11 @@ impl LodDesc {
     pub fn to_lod(&self) -> shoal_core::world::Lod {
         let mut lod = shoal_core::world::Lod {
             on: self.on.unwrap_or(false),
-            focus: self.focus.iter().map(|p| glam::Vec3::from_array(*p)).collect(),
+            focus: self
+                .focus
+                .iter()
+                .map(|p| glam::Vec3::from_array(*p))
+                .collect(),
             ..Default::default()
         };
         if let Some(bands) = &self.bands {
@@ -754,7 +758,10 @@ pub fn validate_scene(desc: &SceneDesc) -> Result<(), SceneValueError> {
             // The core's message starts with the field under `lod`.
             let text = e.to_string();
             let (field, why) = text.split_once(": ").unwrap_or(("", &text));
-            return Err(bad(format!("lod.{field}"), ValueProblem::Lod(why.to_owned())));
+            return Err(bad(
+                format!("lod.{field}"),
+                ValueProblem::Lod(why.to_owned()),
+            ));
         }
     }
     for (i, c) in desc.currents.iter().enumerate() {

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use glam::Vec2;
 use shoal_app::{AppOptions, Aquarium, Showable};
 use shoal_core::world::FishId;
@@ -581,5 +581,58 @@ fn a_value_written_as_an_expression_is_replaced_only_after_confirmation() {
     assert_eq!(
         std::fs::read_to_string(&porgy).unwrap(),
         porgy_src.replacen("s = 25 * 2,", &format!("s = {s} --[[was: 25 * 2]],"), 1)
+    );
+}
+
+/// The timings section shows how many decisions a tick makes and, with behaviour level of
+/// detail on, how the fish fall into its bands: the selected fish is near a focus (full rate),
+/// a fish far from it and from the camera is in the slow band.
+#[test]
+fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
+    let scripts = scripts_with(&[(
+        "scenes/lod_panel.lua",
+        r#"return {
+  tank = { min = {-2000, 0, -400}, max = {2000, 400, 400} },
+  lod = { on = true, bands = { {radius = 200, every = 1}, {every = 4} } },
+  fish = {
+    { species = "black_porgy", behavior = "wander", pos = {1500, 200, 0}, heading = 0 },
+    { species = "black_porgy", behavior = "wander", pos = {-1500, 200, 0}, heading = 0 },
+  },
+}"#,
+    )]);
+    let sim = Simulation::from_scene_with_scripts(
+        &repo(),
+        scripts.path(),
+        Path::new("scenes/lod_panel.lua"),
+        3,
+    )
+    .expect("the test scene loads");
+    let options = AppOptions {
+        select: Some(sim.world().fish_id_slice()[0]),
+        ..AppOptions::default()
+    };
+    let mut aq = Aquarium::new(Box::new(sim), options);
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    let counts = *aq.scene.world().lod_counts();
+    assert_eq!(
+        counts.fish[..2],
+        [1, 1],
+        "the selected fish near, the other far"
+    );
+    let mut h = harness(aq);
+    h.run();
+    let label = h
+        .query_by_label_contains("behaviour level of detail on: band 1 (1/1)")
+        .expect("the bands' line")
+        .accesskit_node()
+        .label()
+        .unwrap_or_default();
+    assert!(label.starts_with("decisions "), "{label}");
+    assert!(label.contains("/1 fish, band 2 (1/4) "), "{label}");
+    assert!(
+        label.starts_with(&format!("decisions {} this tick", counts.total())),
+        "{label} vs {counts:?}"
     );
 }

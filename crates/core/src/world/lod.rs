@@ -220,7 +220,12 @@ impl World {
         out.clear();
         let tick = self.state.tick;
         let mut marks = std::mem::take(&mut self.lod_marks);
+        let mut alert = std::mem::take(&mut self.lod_alert);
+        if self.lod.on && self.lod.wake {
+            self.mark_alerts(&mut alert);
+        }
         {
+            let alert = &alert;
             let world: &World = self;
             let f = &world.state.fish;
             let lod = &world.lod;
@@ -244,7 +249,7 @@ impl World {
                     return 1 + band as u8;
                 }
                 let idle = tick.saturating_sub(f.last_decided[d]);
-                if lod.wake && p > base && idle >= base && world.event_near(d) {
+                if lod.wake && p > base && idle >= base && world.event_near(d, alert) {
                     return (1 + band as u8) | WOKEN;
                 }
                 0
@@ -278,13 +283,67 @@ impl World {
             out.push((f.ids[d], f.species[d]));
         }
         self.lod_marks = marks;
+        self.lod_alert = alert;
         self.lod_counts = counts;
+    }
+
+    /// Marks, per dense fish, whether a predator of another species or a pellet is within its
+    /// view range, from one grid query around each predator and pellet (there are far fewer of
+    /// them than fish, so this costs a few thousand candidate visits where a query per fish
+    /// would cost one per fish). Leaves `alert` empty when the grid is not exact (fish spawned
+    /// or despawned since its rebuild): [`World::event_near`] then scans them itself.
+    fn mark_alerts(&self, alert: &mut Vec<bool>) {
+        alert.clear();
+        let f = &self.state.fish;
+        if !(self.index.grid_exact && self.index.grid_positions_current) {
+            return;
+        }
+        alert.resize(f.len(), false);
+        let species = &self.catalog.species;
+        let reach = species
+            .iter()
+            .map(|s| s.desc.view_range)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .fold(0.0f32, f32::max);
+        if reach <= 0.0 {
+            return;
+        }
+        let view2 = |d: usize| {
+            let r = species[usize::from(f.species[d].0)].desc.view_range;
+            if r.is_finite() && r > 0.0 {
+                r * r
+            } else {
+                -1.0
+            }
+        };
+        for spot in &self.index.predator_spots {
+            self.index
+                .grid
+                .for_each_within(spot.pos(), reach, |key, _, d2| {
+                    let d = key as usize;
+                    if f.species[d] != spot.species() && d2 <= view2(d) {
+                        alert[d] = true;
+                    }
+                    true
+                });
+        }
+        for (_, pellet) in self.state.foods.iter().filter(|(_, p)| !p.eaten) {
+            self.index
+                .grid
+                .for_each_within(pellet.pos, reach, |key, _, d2| {
+                    let d = key as usize;
+                    if d2 <= view2(d) {
+                        alert[d] = true;
+                    }
+                    true
+                });
+        }
     }
 
     /// Whether something needs dense fish `d`'s reaction now (see the module docs): contact,
     /// a wall or rock within two body lengths ahead, a predator of another species or a pellet
-    /// within its view range.
-    fn event_near(&self, d: usize) -> bool {
+    /// within its view range (from `alert`, [`World::mark_alerts`]'s marks, when it has them).
+    fn event_near(&self, d: usize, alert: &[bool]) -> bool {
         let f = &self.state.fish;
         if f.contact[d] {
             return true;
@@ -304,35 +363,24 @@ impl World {
         {
             return true;
         }
+        if let Some(&a) = alert.get(d) {
+            return a;
+        }
         let range = species.view_range;
         if !(range.is_finite() && range > 0.0) {
             return false;
         }
         let r2 = range * range;
         let me = f.species[d];
-        if self
-            .index
-            .predator_spots
-            .iter()
-            .any(|s| s.species() != me && s.pos().distance_squared(root.pos) <= r2)
-        {
-            return true;
-        }
-        let foods = &self.state.foods;
-        if foods.is_empty() {
-            return false;
-        }
-        let mut found = false;
-        if self.index.food_in_grid > 0 {
-            self.index
-                .food_grid
-                .for_each_within(root.pos, range, |key, _, _| {
-                    found |= !foods[key as usize].1.eaten;
-                    !found
-                });
-        }
-        found
-            || foods[self.index.food_in_grid.min(foods.len())..]
+        let predator = self.index.predators.iter().any(|&p| {
+            self.state.fish.dense(p).is_some_and(|o| {
+                f.species[o] != me && f.roots[o].pos.distance_squared(root.pos) <= r2
+            })
+        });
+        predator
+            || self
+                .state
+                .foods
                 .iter()
                 .any(|(_, p)| !p.eaten && p.pos.distance_squared(root.pos) <= r2)
     }

@@ -155,6 +155,8 @@ pub struct World {
     lod_counts: LodCounts,
     /// The last schedule's per-fish marks (a buffer kept between ticks).
     lod_marks: Vec<u8>,
+    /// The last schedule's per-fish alerts (predator or pellet in view; a buffer).
+    lod_alert: Vec<bool>,
 }
 
 impl World {
@@ -177,6 +179,7 @@ impl World {
             lod: Lod::default(),
             lod_counts: LodCounts::default(),
             lod_marks: Vec::new(),
+            lod_alert: Vec::new(),
         }
     }
 

@@ -181,7 +181,10 @@ impl World {
                 continue;
             }
             last = Some(b);
-            if !names.iter().any(|n| std::sync::Arc::ptr_eq(n, b) || **n == **b) {
+            if !names
+                .iter()
+                .any(|n| std::sync::Arc::ptr_eq(n, b) || **n == **b)
+            {
                 names.push(std::sync::Arc::clone(b));
             }
         }

@@ -326,12 +326,10 @@ impl Simulation {
         world.set_food_drops(food_drops(desc));
         world.set_food_physics(food_physics(desc));
         if let Some(lod) = &desc.lod {
-            world
-                .set_lod(lod.to_lod())
-                .map_err(|e| ScriptError::Data {
-                    file: "scene lod".into(),
-                    why: e.to_string(),
-                })?;
+            world.set_lod(lod.to_lod()).map_err(|e| ScriptError::Data {
+                file: "scene lod".into(),
+                why: e.to_string(),
+            })?;
         }
         let scripts = Scripts {
             lanes,
