@@ -11,13 +11,16 @@
 //!
 //! An **event wakes** a slow fish at once: when a fish not due has not decided for a whole base
 //! period `P` and any of these holds, it decides this tick —
-//! it touched the tank or a rock on the last motion step; a wall or a rock lies within two body
-//! lengths ahead; a predator of another species is within its view range; a pellet is within
-//! its view range. Each is a handful of comparisons (the predators and pellets come from the
-//! grid stage's packed lists), so the check costs far less than a decision.
+//! it touched the tank or a rock on the last motion step, or a wall or a rock lies within two
+//! body lengths ahead (while these last, it decides every base period); a predator of another
+//! species or a pellet came within its view range since its last decision (a fish that decided
+//! with it in view has reacted, and keeps swimming on that). Each is a handful of comparisons
+//! (the predators and pellets mark the fish around them from one grid query each), so the check
+//! costs far less than a decision.
 //!
 //! The schedule reads only the tick, the fish's slot indices, their state (positions, headings,
-//! contact, the tick each last decided) and the focus points, which are inputs (a recording
+//! contact, the tick each last decided and whether something was in view then) and the focus
+//! points, which are inputs (a recording
 //! keeps them). So a run with level of detail on is as deterministic as one without: the same
 //! whatever the number of lanes or threads, and a replay is bit-exact.
 
@@ -180,6 +183,9 @@ impl LodCounts {
 /// One fish's entry of a tick's schedule: 0 not due, else `1 + band` (+ [`WOKEN`] if an event
 /// woke it).
 const WOKEN: u8 = 0x80;
+/// Set in a fish's mark when a predator or pellet is in its view range this tick (what it
+/// remembers as `alerted` when it decides).
+const ALERT: u8 = 0x40;
 
 impl World {
     /// The level-of-detail settings.
@@ -245,12 +251,24 @@ impl World {
                 let p = (base * u64::from(lod.bands[band].every))
                     .min(cap.max(1))
                     .max(1);
-                if phase.is_multiple_of(p) {
-                    return 1 + band as u8;
-                }
+                let due = phase.is_multiple_of(p);
                 let idle = tick.saturating_sub(f.last_decided[d]);
-                if lod.wake && p > base && idle >= base && world.event_near(d, alert) {
-                    return (1 + band as u8) | WOKEN;
+                // Only fish that could be woken, or that decide now (they remember it), ask.
+                let could_wake = lod.wake && p > base && idle >= base;
+                if !(due || could_wake) {
+                    return 0;
+                }
+                let alert = lod.wake && world.alerted_now(d, alert);
+                let alert_bit = if alert { ALERT } else { 0 };
+                if due {
+                    return (1 + band as u8) | alert_bit;
+                }
+                // A predator or pellet wakes the fish when it came into view since its last
+                // decision (a fish that decided with it in view has reacted and goes on with
+                // that); contact and a wall or rock ahead wake it every base period while
+                // they last.
+                if (alert && !f.alerted[d]) || world.obstacle_near(d) {
+                    return (1 + band as u8) | WOKEN | alert_bit;
                 }
                 0
             }));
@@ -276,10 +294,11 @@ impl World {
             if m == 0 {
                 continue;
             }
-            let band = usize::from((m & !WOKEN) - 1);
+            let band = usize::from((m & !(WOKEN | ALERT)) - 1);
             counts.decisions[band] += 1;
             counts.woken += u32::from(m & WOKEN != 0);
             f.last_decided[d] = tick;
+            f.alerted[d] = m & ALERT != 0;
             out.push((f.ids[d], f.species[d]));
         }
         self.lod_marks = marks;
@@ -291,7 +310,7 @@ impl World {
     /// view range, from one grid query around each predator and pellet (there are far fewer of
     /// them than fish, so this costs a few thousand candidate visits where a query per fish
     /// would cost one per fish). Leaves `alert` empty when the grid is not exact (fish spawned
-    /// or despawned since its rebuild): [`World::event_near`] then scans them itself.
+    /// or despawned since its rebuild): [`World::alerted_now`] then scans them itself.
     fn mark_alerts(&self, alert: &mut Vec<bool>) {
         alert.clear();
         let f = &self.state.fish;
@@ -340,10 +359,9 @@ impl World {
         }
     }
 
-    /// Whether something needs dense fish `d`'s reaction now (see the module docs): contact,
-    /// a wall or rock within two body lengths ahead, a predator of another species or a pellet
-    /// within its view range (from `alert`, [`World::mark_alerts`]'s marks, when it has them).
-    fn event_near(&self, d: usize, alert: &[bool]) -> bool {
+    /// Whether dense fish `d` touched the tank or a rock on the last motion step, or has the
+    /// tank wall or a rock within two body lengths straight ahead.
+    fn obstacle_near(&self, d: usize) -> bool {
         let f = &self.state.fish;
         if f.contact[d] {
             return true;
@@ -355,25 +373,30 @@ impl World {
         if ahead.cmplt(tank.min).any() || ahead.cmpgt(tank.max).any() {
             return true;
         }
-        if self
-            .state
+        self.state
             .obstacles
             .iter()
             .any(|o| o.pos.distance_squared(ahead) <= o.radius * o.radius)
-        {
-            return true;
-        }
+    }
+
+    /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:
+    /// from `alert` ([`World::mark_alerts`]'s marks) when it has them, else scanned.
+    fn alerted_now(&self, d: usize, alert: &[bool]) -> bool {
         if let Some(&a) = alert.get(d) {
             return a;
         }
-        let range = species.view_range;
+        let f = &self.state.fish;
+        let root = &f.roots[d];
+        let range = self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .view_range;
         if !(range.is_finite() && range > 0.0) {
             return false;
         }
         let r2 = range * range;
         let me = f.species[d];
         let predator = self.index.predators.iter().any(|&p| {
-            self.state.fish.dense(p).is_some_and(|o| {
+            f.dense(p).is_some_and(|o| {
                 f.species[o] != me && f.roots[o].pos.distance_squared(root.pos) <= r2
             })
         });

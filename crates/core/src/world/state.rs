@@ -140,6 +140,7 @@ impl WorldState {
             + vec(&f.contact)
             + vec(&f.steer)
             + vec(&f.last_decided)
+            + vec(&f.alerted)
             + vec(&self.foods)
             + self.eaten.capacity() * std::mem::size_of::<(FoodId, Food)>()
             + vec(&self.obstacles)
