@@ -184,7 +184,12 @@ fn fmt_estimate(e: &Estimate) -> String {
 }
 
 fn print_table(c: &Comparison) {
-    if c.changed.is_empty() {
+    if c.changed.is_empty() && c.a.lod != c.b.lod {
+        println!(
+            "A and B have the same scripts; only behaviour level of detail differs (--lod-a, \
+             --lod-b)"
+        );
+    } else if c.changed.is_empty() {
         println!(
             "A and B have the same scripts: every measure but decision cost (a timing) should be \
              the same"
