@@ -19,6 +19,7 @@
 ---@field perceive? fun(fish: shoal.Fish): table?     # perception layer: summarise what the fish senses
 ---@field intend? fun(fish: shoal.Fish, percepts: table?): string?  # intention layer: pick a goal
 ---@field behave? fun(fish: shoal.Fish, intention: string?, percepts: table?)  # behaviour layer: issue motions
+---@field min_decision_hz? number  # level of detail never lets this behaviour's fish decide less often (0, 60]
 
 ---The table a behaviour gets for its fish. It persists for the fish's life, across reloads.
 ---@class shoal.Fish
@@ -115,6 +116,16 @@
 ---@field start? number         # time of the first drop, seconds (default `every`)
 ---@field region? shoal.Box     # where pellets appear (default a thin layer under the surface)
 
+---@class (exact) shoal.LodBand
+---@field radius? number        # outer radius from the nearest focus, units (left out: everywhere; last band only)
+---@field every integer         # decide this many times less often than the species' decision_hz (1 to 600)
+
+---@class (exact) shoal.Lod
+---@field on? boolean           # level of detail on by default for this scene (`--lod on|off` overrides)
+---@field focus? shoal.Vec3[]   # focus points for headless runs (the window uses its camera and selection)
+---@field bands? shoal.LodBand[]  # nearest first; default {radius=600, every=1}, {radius=1500, every=2}, {every=4}
+---@field wake? boolean         # events (contact, wall or rock ahead, predator or pellet in view) wake slow fish (default true)
+
 ---@class (exact) shoal.Obstacle
 ---@field pos shoal.Vec3
 ---@field radius number         # > 0
@@ -136,6 +147,7 @@
 ---@field obstacles? shoal.Obstacle[]
 ---@field currents? shoal.Current[]
 ---@field measures? table<string, fun(fish: shoal.Fish): number|boolean|nil>  # the scene's own measures, sampled once per simulated second for every fish (docs/measures.md)
+---@field lod? shoal.Lod        # behaviour level of detail (docs/lod.md)
 
 ---@class (exact) shoal.MotionParams
 ---@field p? number             # pivot, fraction of body length from the head (> 0.1424)

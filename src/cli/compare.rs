@@ -39,8 +39,15 @@ pub struct Args {
     #[arg(long, value_parser = compare::parse_shard_arg)]
     pub shard: Option<compare::ShardArg>,
     /// Merge the JSON of shards of one experiment instead of running one.
-    #[arg(long, num_args = 1.., value_name = "SHARD.json", conflicts_with_all = ["a", "b", "seeds", "seconds", "shard", "scene"])]
+    #[arg(long, num_args = 1.., value_name = "SHARD.json", conflicts_with_all = ["a", "b", "seeds", "seconds", "shard", "scene", "lod_a", "lod_b"])]
     pub merge: Vec<PathBuf>,
+    /// Behaviour level of detail for version A (default: the scene's).
+    #[arg(long, value_name = "on|off")]
+    pub lod_a: Option<super::OnOff>,
+    /// Behaviour level of detail for version B (default: the scene's). `--a S --b S --lod-a off
+    /// --lod-b on` measures what level of detail changes in what the fish do.
+    #[arg(long, value_name = "on|off")]
+    pub lod_b: Option<super::OnOff>,
     /// Print the comparison as JSON (every run's measures and the summary).
     #[arg(long)]
     pub json: bool,
@@ -123,11 +130,18 @@ fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
     let seeds_here = compare::shard_seeds(seeds, shard_of);
     let threads = rayon::current_num_threads();
     let shard = shard_of.map_or(String::new(), |(i, n)| format!(" (shard {i}/{n})"));
+    let lod = |v: Option<super::OnOff>| match v {
+        Some(super::OnOff::On) => " (level of detail on)",
+        Some(super::OnOff::Off) => " (level of detail off)",
+        None => "",
+    };
     if !args.json {
         println!(
-            "comparing A = {} and B = {} on {scene}: {} seeds{shard} × {seconds} s, {} runs on {threads} threads",
+            "comparing A = {}{} and B = {}{} on {scene}: {} seeds{shard} × {seconds} s, {} runs on {threads} threads",
             a.display(),
+            lod(args.lod_a),
             b.display(),
+            lod(args.lod_b),
             seeds_here.len(),
             2 * seeds_here.len()
         );
@@ -140,6 +154,8 @@ fn run_experiment(args: &Args) -> anyhow::Result<Comparison> {
         seeds,
         shard: shard_of,
         seconds,
+        lod_a: args.lod_a.map(super::OnOff::on),
+        lod_b: args.lod_b.map(super::OnOff::on),
     })?)
 }
 
@@ -192,7 +208,12 @@ fn fmt_estimate(e: &Estimate) -> String {
 }
 
 fn print_table(c: &Comparison) {
-    if c.changed.is_empty() {
+    if c.changed.is_empty() && c.a.lod != c.b.lod {
+        println!(
+            "A and B have the same scripts; only behaviour level of detail differs (--lod-a, \
+             --lod-b)"
+        );
+    } else if c.changed.is_empty() {
         println!(
             "A and B have the same scripts: every measure but decision cost (a timing) should be \
              the same"

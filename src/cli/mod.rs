@@ -117,6 +117,45 @@ pub struct ScriptsArg {
     pub scripts: Option<std::path::PathBuf>,
 }
 
+/// On or off, as `--lod` takes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+impl OnOff {
+    /// `true` for on.
+    pub fn on(self) -> bool {
+        self == OnOff::On
+    }
+}
+
+/// `--lod on|off`: behaviour level of detail (default: the scene's `lod.on`, else off).
+#[derive(Debug, Default, Clone, clap::Args)]
+pub struct LodArg {
+    /// Behaviour level of detail: fish far from the focus decide less often, and events wake
+    /// them (docs/lod.md). Default: the scene's `lod.on`, else off.
+    #[arg(long, value_name = "on|off")]
+    pub lod: Option<OnOff>,
+}
+
+impl LodArg {
+    /// Applies the flag to `sim`, if given.
+    pub fn apply(&self, sim: &mut shoal_script::Simulation) {
+        if let Some(v) = self.lod {
+            sim.set_lod_on(v.on());
+        }
+    }
+
+    /// The flag as on/off, if given.
+    pub fn on(&self) -> Option<bool> {
+        self.lod.map(OnOff::on)
+    }
+}
+
 /// Where the scripts come from, and the root the assets are found under.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScriptSource {

@@ -57,6 +57,9 @@ pub struct Args {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Behaviour level of detail (`--lod on|off`).
+    #[command(flatten)]
+    pub lod: super::LodArg,
 }
 
 /// Where `shoal render` looks from (see [`Args::camera`]).
@@ -206,6 +209,7 @@ pub fn load_scene(
     scene: Option<&Path>,
     seed: Option<u64>,
     fish: Option<usize>,
+    lod: &super::LodArg,
 ) -> anyhow::Result<Box<dyn Showable>> {
     let root = &source.root;
     let seed_or_1 = seed.unwrap_or(1);
@@ -216,7 +220,7 @@ pub fn load_scene(
                 path.display()
             );
         }
-        let sim = Simulation::from_scene_reporting(
+        let mut sim = Simulation::from_scene_reporting(
             root,
             &source.scripts,
             path,
@@ -224,12 +228,19 @@ pub fn load_scene(
             &mut super::SpawnProgress::new(),
         )
         .with_context(|| format!("loading scene `{}`", path.display()))?;
+        lod.apply(&mut sim);
         if let Some(line) = super::borrowed_models_line(&sim) {
             println!("{line}");
         }
         Ok(Box::new(sim))
     };
     let porgies = || -> anyhow::Result<Box<dyn Showable>> {
+        if lod.lod.is_some() {
+            anyhow::bail!(
+                "--lod applies to Lua scenes: the `porgies` scene's built-in behaviour has no \
+                 behaviour scripts to schedule (pass a Lua scene with --scene NAME)"
+            );
+        }
         if let Some(n) = fish.filter(|&n| n == 0 || n > MAX_PORGIES) {
             let would_take = shoal_core::world::footprint::human(
                 shoal_core::world::footprint::estimate_bytes(n as u64),
@@ -336,6 +347,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         args.scene.as_deref(),
         args.seed,
         args.fish,
+        &args.lod,
     )?);
     let select = check_select(args.select, scene.world())?;
     if args.camera == CameraSpec::Follow && select.is_none() {

@@ -57,6 +57,10 @@ pub struct Args {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Behaviour level of detail (`--lod on|off`); the window focuses it on the camera's focus
+    /// and the selected fish.
+    #[command(flatten)]
+    pub lod: super::LodArg,
     /// Debugging the behaviours from an editor (`--dap [ADDR]`). While a breakpoint holds the
     /// simulation, the window does not redraw.
     #[command(flatten)]
@@ -91,7 +95,13 @@ fn run_with(args: &Args, source: &super::ScriptSource) -> anyhow::Result<ExitCod
     if let Some(spec) = &args.split {
         return run_split(args, source, spec);
     }
-    let sim = super::render::load_scene(source, args.scene.as_deref(), args.seed, args.fish)?;
+    let sim = super::render::load_scene(
+        source,
+        args.scene.as_deref(),
+        args.seed,
+        args.fish,
+        &args.lod,
+    )?;
     let select = super::render::check_select(args.select, sim.world())?;
     let presented = run_window(sim, options(args, select))?;
     println!("presented {presented} frames");
@@ -114,6 +124,17 @@ fn options(args: &Args, select: Option<FishId>) -> AppOptions {
 /// `shoal run --open RUN [--at T]`.
 fn open(args: &Args, source: &super::ScriptSource, path: &Path) -> anyhow::Result<ExitCode> {
     let run = Run::read(path)?;
+    if let Some(lod) = args.lod.on()
+        && lod != run.header.lod
+    {
+        anyhow::bail!(
+            "--lod {}: {} was recorded with level of detail {}, and opening it runs it as it \
+             was recorded (leave --lod out)",
+            if lod { "on" } else { "off" },
+            path.display(),
+            if run.header.lod { "on" } else { "off" }
+        );
+    }
     let at = args.at.unwrap_or(0.0);
     let name = path.display().to_string();
     let (sim, tick) = shoal_script::timeline::resume(&run, &source.root, &source.scripts, at)
@@ -209,12 +230,14 @@ fn run_split(args: &Args, source: &super::ScriptSource, spec: &str) -> anyhow::R
         )
         .with_context(|| format!("loading scene `{scene}` of {which}"))
     };
-    let a_sim = load(&source.scripts, "A")?;
+    let mut a_sim = load(&source.scripts, "A")?;
+    args.lod.apply(&mut a_sim);
     if let Some(line) = super::borrowed_models_line(&a_sim) {
         println!("{line}");
     }
     let mut b_sim = load(&b.scripts, &format!("B ({})", b.label))?;
     b_sim.set_lanes(a_sim.num_lanes())?;
+    args.lod.apply(&mut b_sim);
     let select = super::render::check_select(args.select, a_sim.world())?;
     let versions = SplitVersions {
         a: source.scripts.display().to_string(),

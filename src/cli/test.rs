@@ -30,6 +30,9 @@ pub struct Args {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    /// Behaviour level of detail in every test world (`--lod on|off`; default: each scene's).
+    #[command(flatten)]
+    pub lod: super::LodArg,
     /// Debugging the behaviours from an editor (`--dap [ADDR]`).
     #[command(flatten)]
     pub dap: super::DapArg,
@@ -74,6 +77,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         filter: args.filter.clone(),
         trace_dir: args.trace.clone(),
         root: root.clone(),
+        lod: args.lod.on(),
     };
     let debugger = args.dap.start()?;
     if !args.watch {

@@ -36,6 +36,8 @@ pub struct RecordArgs {
     /// Where the scripts come from (`--scripts DIR`, `SHOAL_SCRIPTS`).
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
+    #[command(flatten)]
+    pub lod: super::LodArg,
 }
 
 /// Arguments of `shoal replay`.
@@ -134,13 +136,16 @@ pub fn record(args: RecordArgs) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         lanes,
         seconds: args.seconds,
+        lod: args.lod.on(),
     })?;
     run.write(&args.out)?;
     let fish = run.frames.last().map_or(0, Vec::len);
     println!(
-        "recorded {:.2} s of {scene} (seed {}, {lanes} lanes, {fish} fish, {} scripts) to {}",
+        "recorded {:.2} s of {scene} (seed {}, {lanes} lanes, level of detail {}, {fish} fish, \
+         {} scripts) to {}",
         run.seconds(),
         args.seed,
+        if run.header.lod { "on" } else { "off" },
         run.header.scripts.len(),
         args.out.display()
     );

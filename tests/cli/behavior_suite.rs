@@ -11,6 +11,7 @@ fn root() -> PathBuf {
 
 fn options() -> RunOptions {
     RunOptions {
+        lod: None,
         filter: None,
         trace_dir: None,
         root: root(),
@@ -81,6 +82,7 @@ end)
     );
     for trace in [&trace_a, &trace_b] {
         let opts = RunOptions {
+            lod: None,
             trace_dir: Some(trace.clone()),
             ..options()
         };
@@ -128,6 +130,7 @@ fn test_failure_names_file_line_expected_actual_and_time() {
         "test(\"too far\", function(t)\n  local w = t:world{ seed = 1 }\n  local f = w:spawn{ species = \"black_porgy\", pos = {0, 200, 0} }\n  f:swim(50)\n  w:run(2)\n  t:near(f.pos[1], 0, 1, \"fish stays put\")\nend)\n",
     );
     let opts = RunOptions {
+        lod: None,
         trace_dir: Some(trace.clone()),
         ..options()
     };
@@ -211,6 +214,7 @@ fn test_discovery_and_filter() {
     let files = testing::discover(&[dir.path().to_path_buf()]).unwrap();
     assert_eq!(files.len(), 2, "{files:?}");
     let opts = RunOptions {
+        lod: None,
         filter: Some("gam".into()),
         ..options()
     };
@@ -251,6 +255,7 @@ fn run_source(name: &str, source: &str, trace: Option<&Path>) -> Vec<testing::Te
     let dir = tempfile::tempdir().unwrap();
     let file = write(dir.path(), name, source);
     let opts = RunOptions {
+        lod: None,
         trace_dir: trace.map(Path::to_path_buf),
         ..options()
     };
@@ -587,6 +592,7 @@ end)
 "#,
     );
     let opts = RunOptions {
+        lod: None,
         trace_dir: Some(trace.clone()),
         ..options()
     };

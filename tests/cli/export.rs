@@ -233,6 +233,7 @@ fn run_with_a_spawn(root: &Path, ticks: usize, spawn_tick: u64) -> Run {
         seed: 3,
         lanes: 1,
         seconds: 0.0,
+        lod: None,
     })
     .unwrap();
     let inputs = vec![TimedInput {

@@ -17,6 +17,7 @@ fn record(root: &Path, lanes: usize, seconds: f64) -> Run {
         seed: 5,
         lanes,
         seconds,
+        lod: None,
     })
     .unwrap()
 }

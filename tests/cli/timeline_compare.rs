@@ -23,6 +23,8 @@ fn spec<'a>(
         seeds: 4,
         shard,
         seconds: 3.0,
+        lod_a: None,
+        lod_b: None,
     }
 }
 
@@ -288,6 +290,7 @@ fn replay_is_exact_on_every_shipped_scene() {
                 seed: 7,
                 lanes,
                 seconds,
+                lod: None,
             })
             .unwrap();
             // A whole second, a tick between, and the very start.

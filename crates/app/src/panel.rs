@@ -995,6 +995,7 @@ fn timings(ui: &mut egui::Ui, scene: &DynScene, st: &UiState) {
             ui.end_row();
         }
     });
+    ui.label(behaviour_lod_line(scene.world()));
     let c = &st.render_counts;
     ui.label(format!(
         "fish drawn {} (per level of detail, full first: {:?}), culled {}; shadows {}",
@@ -1004,6 +1005,37 @@ fn timings(ui: &mut egui::Ui, scene: &DynScene, st: &UiState) {
         "{} triangles, {} draw calls",
         c.num_triangles, c.num_draw_calls
     ));
+}
+
+/// The last tick's behaviour decisions and, with level of detail on, how they fell per band:
+/// `decisions 412 this tick; behaviour level of detail on: band 1 120/130 fish, band 2 …, 3
+/// woken`.
+pub(super) fn behaviour_lod_line(world: &shoal_core::world::World) -> String {
+    let c = world.lod_counts();
+    if !world.lod().on {
+        return format!(
+            "decisions {} this tick; behaviour level of detail off ({} scripted fish at full rate)",
+            c.total(),
+            c.fish[0]
+        );
+    }
+    let bands = (0..usize::from(c.bands))
+        .map(|k| {
+            let every = world.lod().bands.get(k).map_or(1, |b| b.every);
+            format!(
+                "band {} (1/{every}) {}/{} fish",
+                k + 1,
+                c.decisions[k],
+                c.fish[k]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "decisions {} this tick; behaviour level of detail on: {bands}; {} woken",
+        c.total(),
+        c.woken
+    )
 }
 
 /// The console: script errors, reloads, requests; newest at the bottom.

@@ -320,6 +320,15 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     } else {
         0.0
     };
+    // Behaviour level of detail focuses where the designer looks: the camera's target and the
+    // selected fish.
+    let mut focus = vec![ui.camera.target];
+    if let Some(root) = ui.selected.and_then(|id| scene.world().root(id)) {
+        focus.push(root.pos);
+    }
+    if scene.world().lod().focus != focus {
+        scene.sim_mut().world_mut().set_lod_focus(focus);
+    }
     let before = scene.time_s();
     let before_tick = scene.world().tick_count();
     let seeking = ui.seek_to.is_some();

@@ -140,6 +140,17 @@ enum LoadError {
         /// The file as shown.
         file: String,
     },
+    /// `min_decision_hz` is not a number in (0, 60].
+    #[error(
+        "{file}: min_decision_hz must be a number in (0, 60] (decisions per second the level of \
+         detail may not go below), got {got}"
+    )]
+    MinRate {
+        /// The file as shown.
+        file: String,
+        /// What it holds.
+        got: String,
+    },
 }
 
 /// One Lua state: the fish of one script lane.
@@ -290,6 +301,17 @@ impl ScriptHost {
         self.modules[i].table.is_some().then_some(i)
     }
 
+    /// The module's `min_decision_hz` (checked when it loaded), if it asks for one: the
+    /// level-of-detail schedule never lets its fish decide less often.
+    pub fn min_decision_hz(&self, module: ModuleIndex) -> Option<f64> {
+        let t = self.modules.get(module)?.table.as_ref()?;
+        match t.raw_get::<Value>("min_decision_hz").ok()? {
+            Value::Integer(n) => Some(n as f64),
+            Value::Number(x) => Some(x),
+            _ => None,
+        }
+    }
+
     /// (Re)loads module `i`; on failure keeps the previous table and records the error.
     fn load_module(&mut self, i: ModuleIndex, time_s: f64) -> bool {
         let path = self.modules[i].path.clone();
@@ -349,6 +371,26 @@ impl ScriptHost {
             return Err(LoadError::NoLayers {
                 file: display.to_owned(),
             });
+        }
+        match t.raw_get::<Value>("min_decision_hz") {
+            Ok(Value::Nil) => {}
+            Ok(Value::Integer(n)) if (1..=60).contains(&n) => {}
+            Ok(Value::Number(x)) if x > 0.0 && x <= 60.0 => {}
+            Ok(v) => {
+                return Err(LoadError::MinRate {
+                    file: display.to_owned(),
+                    got: match v {
+                        Value::Integer(n) => n.to_string(),
+                        Value::Number(x) => x.to_string(),
+                        v => format!("a {}", v.type_name()),
+                    },
+                });
+            }
+            Err(e) => {
+                return Err(LoadError::Run {
+                    message: describe(&e),
+                });
+            }
         }
         Ok(t)
     }

@@ -219,6 +219,10 @@ pub struct SceneDesc {
     /// run's value is the mean over fish and samples.
     #[serde(default)]
     pub measures: Vec<String>,
+    /// Behaviour level of detail (`shoal_core::world::lod`): its default and where it focuses
+    /// when no window does.
+    #[serde(default)]
+    pub lod: Option<LodDesc>,
 }
 
 /// A scene file's value read into a [`SceneDesc`]: its `measures` checked (see
@@ -299,6 +303,65 @@ pub fn take_measures(scene: &Table, file: &str) -> Result<Vec<String>, FieldErro
         .map_err(lua_err)?;
     scene.raw_set("measures", seq).map_err(lua_err)?;
     Ok(names)
+}
+
+/// A scene's `lod` table: `lod = { on = true, focus = { {0, 150, 0} },
+/// bands = { {radius = 600, every = 1}, {radius = 1500, every = 2}, {every = 4} }, wake = true }`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LodDesc {
+    /// Whether level of detail is on by default for this scene (`--lod` overrides it).
+    #[serde(default)]
+    pub on: Option<bool>,
+    /// Focus points for headless runs (a window focuses on its camera and selection instead).
+    #[serde(default)]
+    pub focus: Vec<[f32; 3]>,
+    /// The bands, nearest first (default: 600 units at full rate, 1,500 at half, a quarter
+    /// beyond); the last band's radius may be left out (it reaches everywhere).
+    #[serde(default)]
+    pub bands: Option<Vec<LodBandDesc>>,
+    /// Whether events wake slow fish (default true).
+    #[serde(default)]
+    pub wake: Option<bool>,
+}
+
+/// One band of a scene's `lod.bands`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LodBandDesc {
+    /// Outer radius, world units (left out: everywhere; only the last band).
+    #[serde(default)]
+    pub radius: Option<f32>,
+    /// Decide this many times less often than the species' rate (1 to 600).
+    pub every: u32,
+}
+
+impl LodDesc {
+    /// The level-of-detail settings this table asks for (`on` as given, default off).
+    pub fn to_lod(&self) -> shoal_core::world::Lod {
+        let mut lod = shoal_core::world::Lod {
+            on: self.on.unwrap_or(false),
+            focus: self
+                .focus
+                .iter()
+                .map(|p| glam::Vec3::from_array(*p))
+                .collect(),
+            ..Default::default()
+        };
+        if let Some(bands) = &self.bands {
+            lod.bands = bands
+                .iter()
+                .map(|b| shoal_core::world::LodBand {
+                    radius: b.radius.unwrap_or(f32::INFINITY),
+                    every: b.every,
+                })
+                .collect();
+        }
+        if let Some(w) = self.wake {
+            lod.wake = w;
+        }
+        lod
+    }
 }
 
 /// A species file, read.
@@ -650,6 +713,9 @@ pub enum ValueProblem {
     /// `params` that is not a table.
     #[error("expected a table, got {0}")]
     NotATable(serde_json::Value),
+    /// A level-of-detail band or focus out of range.
+    #[error("{0}")]
+    Lod(String),
 }
 
 /// Checks the numbers of a scene against their ranges; the error names the field (as
@@ -757,6 +823,32 @@ pub fn validate_scene(desc: &SceneDesc) -> Result<(), SceneValueError> {
             &format!("obstacles[{}].radius", i + 1),
             "world units",
         )?;
+    }
+    if let Some(lod) = &desc.lod {
+        for (i, p) in lod.focus.iter().enumerate() {
+            finite3(p, &format!("lod.focus[{}]", i + 1))?;
+        }
+        if let Some(bands) = &lod.bands {
+            for (i, b) in bands.iter().enumerate() {
+                if b.radius.is_none() && i + 1 != bands.len() {
+                    return Err(bad(
+                        format!("lod.bands[{}].radius", i + 1),
+                        ValueProblem::Lod(
+                            "missing: only the last band may leave its radius out".into(),
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Err(e) = lod.to_lod().validate() {
+            // The core's message starts with the field under `lod`.
+            let text = e.to_string();
+            let (field, why) = text.split_once(": ").unwrap_or(("", &text));
+            return Err(bad(
+                format!("lod.{field}"),
+                ValueProblem::Lod(why.to_owned()),
+            ));
+        }
     }
     for (i, c) in desc.currents.iter().enumerate() {
         finite3(&c.pos, &format!("currents[{}].pos", i + 1))?;

@@ -641,3 +641,57 @@ fn a_value_written_as_an_expression_is_replaced_only_after_confirmation() {
         porgy_src.replacen("s = 25 * 2,", &format!("s = {s} --[[was: 25 * 2]],"), 1)
     );
 }
+
+/// The timings section shows how many decisions a tick makes and, with behaviour level of
+/// detail on, how the fish fall into its bands: the selected fish is near a focus (full rate),
+/// a fish far from it and from the camera is in the slow band.
+#[test]
+fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
+    let scripts = scripts_with(&[(
+        "scenes/lod_panel.lua",
+        r#"return {
+  tank = { min = {-2000, 0, -400}, max = {2000, 400, 400} },
+  lod = { on = true, bands = { {radius = 200, every = 1}, {every = 4} } },
+  fish = {
+    { species = "black_porgy", behavior = "wander", pos = {1500, 200, 0}, heading = 0 },
+    { species = "black_porgy", behavior = "wander", pos = {-1500, 200, 0}, heading = 0 },
+  },
+}"#,
+    )]);
+    let sim = Simulation::from_scene_with_scripts(
+        &repo(),
+        scripts.path(),
+        Path::new("scenes/lod_panel.lua"),
+        3,
+    )
+    .expect("the test scene loads");
+    let options = AppOptions {
+        select: Some(sim.world().fish_id_slice()[0]),
+        ..AppOptions::default()
+    };
+    let mut aq = Aquarium::new(Box::new(sim), options);
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    let counts = *aq.scene.world().lod_counts();
+    assert_eq!(
+        counts.fish[..2],
+        [1, 1],
+        "the selected fish near, the other far"
+    );
+    let mut h = harness(aq);
+    h.run();
+    // The whole line, as the counts of the last tick say it should read.
+    let line = format!(
+        "decisions {} this tick; behaviour level of detail on: band 1 (1/1) {}/1 fish, \
+         band 2 (1/4) {}/1 fish; {} woken",
+        counts.total(),
+        counts.decisions[0],
+        counts.decisions[1],
+        counts.woken
+    );
+    assert!(
+        h.query_by_label_contains(&line).is_some(),
+        "no panel line {line:?}"
+    );
+}

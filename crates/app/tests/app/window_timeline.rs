@@ -325,6 +325,7 @@ fn a_recording_opens_at_its_moment_and_playing_on_follows_or_leaves_it() {
         seed: 3,
         lanes: 2,
         seconds: 4.0,
+        lod: None,
     })
     .unwrap();
     let mut h = harness(open_recording(&root, &run, 1.5));

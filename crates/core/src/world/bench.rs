@@ -124,6 +124,13 @@ pub struct SimBenchResult {
     /// CPU microseconds of sensor queries per decision; `None` where not timed per decision
     /// (the Rust driver senses in one parallel batch).
     pub sense_us_per_decision: Option<f64>,
+    /// Whether behaviour level of detail was on.
+    pub lod: bool,
+    /// Decisions per tick (mean) in each level-of-detail band, nearest first (one band when
+    /// it is off; empty for a behaviour that does not schedule through the world).
+    pub band_decisions_per_tick: Vec<f64>,
+    /// Of the decisions per tick, how many an event woke (mean).
+    pub woken_per_tick: f64,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -146,12 +153,21 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
     }
     let mut wall = Vec::with_capacity(ticks);
     let mut stages: Vec<StageCounters> = Vec::with_capacity(ticks);
+    let mut bands = [0u64; super::lod::MAX_BANDS];
+    let (mut woken, mut num_bands) = (0u64, 0usize);
     for _ in 0..ticks {
         let start = Instant::now();
         sim.tick();
         wall.push(start.elapsed().as_secs_f64() * 1e3);
         stages.push(*sim.world().counters());
+        let lod = sim.world().lod_counts();
+        for (b, n) in bands.iter_mut().zip(lod.decisions) {
+            *b += u64::from(n);
+        }
+        woken += u64::from(lod.woken);
+        num_bands = num_bands.max(usize::from(lod.bands));
     }
+    let per_tick = |n: u64| n as f64 / ticks.max(1) as f64;
     let world = sim.world();
     let fish = world.num_fish();
     let (mut in_view, mut nearest, mut sampled) = (0usize, 0.0f64, 0usize);
@@ -212,6 +228,9 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
         } else {
             None
         },
+        lod: world.lod().on,
+        band_decisions_per_tick: bands[..num_bands].iter().map(|&n| per_tick(n)).collect(),
+        woken_per_tick: per_tick(woken),
     }
 }
 

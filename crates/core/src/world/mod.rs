@@ -38,6 +38,7 @@ mod food;
 pub mod footprint;
 pub mod grid;
 mod index;
+pub mod lod;
 pub mod measures;
 mod nearest;
 mod perception;
@@ -64,6 +65,7 @@ pub use contact::{drift, resolve_contact};
 pub use crowd::Crowd;
 pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
+pub use lod::{Lod, LodBand, LodCounts, LodError};
 pub use registry::Species;
 pub use state::{EATEN_HISTORY, FoodDrops, WorldState, random_point};
 pub use tick::{Behavior, Pipeline, TICK_DT, step};
@@ -148,6 +150,14 @@ pub struct World {
     pose: PoseBuffers,
     counters: StageCounters,
     rejected_motion_steps: u64,
+    /// The behaviour level-of-detail settings (`lod.rs`).
+    lod: Lod,
+    /// How the last schedule fell.
+    lod_counts: LodCounts,
+    /// The last schedule's per-fish marks (a buffer kept between ticks).
+    lod_marks: Vec<u8>,
+    /// The last schedule's per-fish alerts (predator or pellet in view; a buffer).
+    lod_alert: Vec<bool>,
 }
 
 impl World {
@@ -167,6 +177,10 @@ impl World {
             pose: PoseBuffers::default(),
             counters: StageCounters::default(),
             rejected_motion_steps: 0,
+            lod: Lod::default(),
+            lod_counts: LodCounts::default(),
+            lod_marks: Vec::new(),
+            lod_alert: Vec::new(),
         }
     }
 

@@ -158,6 +158,16 @@ impl PredatorSpot {
             dense,
         }
     }
+
+    /// Its position when the spots were packed.
+    pub(super) fn pos(&self) -> Vec3 {
+        self.pos
+    }
+
+    /// Its species.
+    pub(super) fn species(&self) -> SpeciesId {
+        self.species
+    }
 }
 
 #[cfg(test)]

@@ -172,6 +172,25 @@ impl World {
             .and_then(|d| self.state.fish.behaviors[d].as_ref())
     }
 
+    /// The distinct behaviours the fish run, in the order first met (dense order).
+    pub fn behavior_names(&self) -> Vec<std::sync::Arc<str>> {
+        let mut names: Vec<std::sync::Arc<str>> = Vec::new();
+        let mut last: Option<&std::sync::Arc<str>> = None;
+        for b in self.state.fish.behaviors.iter().flatten() {
+            if last.is_some_and(|l| std::sync::Arc::ptr_eq(l, b)) {
+                continue;
+            }
+            last = Some(b);
+            if !names
+                .iter()
+                .any(|n| std::sync::Arc::ptr_eq(n, b) || **n == **b)
+            {
+                names.push(std::sync::Arc::clone(b));
+            }
+        }
+        names
+    }
+
     /// Sets (or clears) the behaviour a fish runs. False if `id` is stale.
     pub fn set_behavior(&mut self, id: FishId, behavior: Option<String>) -> bool {
         let Some(d) = self.state.fish.dense(id) else {

@@ -139,6 +139,8 @@ impl WorldState {
             + vec(&f.rngs)
             + vec(&f.contact)
             + vec(&f.steer)
+            + vec(&f.last_decided)
+            + vec(&f.alerted)
             + vec(&self.foods)
             + self.eaten.capacity() * std::mem::size_of::<(FoodId, Food)>()
             + vec(&self.obstacles)

@@ -55,6 +55,12 @@ pub(crate) struct FishStore {
     pub rngs: Vec<Pcg32>,
     pub contact: Vec<bool>,
     pub steer: Vec<SteerMemo>,
+    /// The tick each fish last decided (0 before its first decision): the level-of-detail
+    /// schedule wakes a slow fish only if it has not decided for a whole base period.
+    pub last_decided: Vec<u64>,
+    /// Whether a predator or pellet was in the fish's view range when it last decided (the
+    /// level-of-detail schedule wakes it when one comes into view, not while one stays).
+    pub alerted: Vec<bool>,
 }
 
 impl FishStore {
@@ -95,6 +101,8 @@ impl FishStore {
         self.rngs.push(Pcg32::seed_from_u64(fish.seed));
         self.contact.push(false);
         self.steer.push(SteerMemo::default());
+        self.last_decided.push(0);
+        self.alerted.push(false);
         id
     }
 
@@ -135,6 +143,8 @@ impl FishStore {
         self.rngs.swap_remove(dense);
         self.contact.swap_remove(dense);
         self.steer.swap_remove(dense);
+        self.last_decided.swap_remove(dense);
+        self.alerted.swap_remove(dense);
         if let Some(moved) = self.ids.get(dense) {
             self.dense_of[moved.index as usize] = dense as u32;
         }

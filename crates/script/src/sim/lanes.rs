@@ -291,6 +291,11 @@ pub struct Scripts {
     pub(super) species: Vec<SpeciesSlot>,
     /// The debugger breakpoints come from, if one is attached (then there is one lane).
     pub(super) debugger: Option<Arc<Debugger>>,
+    /// Per behaviour running this tick: the longest period its `min_decision_hz` allows
+    /// (`u64::MAX`: none asked).
+    pub(super) min_periods: Vec<(Arc<str>, u64)>,
+    /// This tick's decisions in order (a buffer kept between ticks).
+    pub(super) due: Vec<(FishId, SpeciesId)>,
 }
 
 impl Behavior for Scripts {
@@ -299,25 +304,54 @@ impl Behavior for Scripts {
     fn decide(&mut self, world: &mut Arc<World>) {
         use rayon::prelude::*;
         let start = Instant::now();
-        let tick = world.tick_count();
         let time_s = world.time();
         let num_lanes = self.lanes.len();
         for lane in &mut self.lanes {
             lane.num_due = 0;
         }
-        // Only picking the fish is sequential; each lane finds their modules and tables.
-        let mut order = 0u32;
-        for (id, sid) in world.scripted_fish() {
-            let period = self
-                .species
-                .get(usize::from(sid.0))
-                .map_or(6, |s| s.period_ticks);
-            if !(tick + u64::from(id.index)).is_multiple_of(period) {
+        // The behaviours' minimum rates (`min_decision_hz`), read from lane 0's modules for
+        // every behaviour a fish runs now: the schedule below must not depend on which lane
+        // happened to load a module first.
+        self.min_periods.clear();
+        let names = if world.lod().on {
+            world.behavior_names()
+        } else {
+            Vec::new()
+        };
+        for name in names {
+            if self.min_periods.iter().any(|(n, _)| **n == *name) {
                 continue;
             }
-            self.lanes[lane_index(id, num_lanes)].push(id, sid, order);
-            order += 1;
+            let host = &mut self.lanes[0].host;
+            let cap = host
+                .module(&name, time_s)
+                .and_then(|m| host.min_decision_hz(m))
+                .map_or(u64::MAX, |hz| {
+                    (shoal_core::world::TICK_HZ / hz).floor().max(1.0) as u64
+                });
+            self.min_periods.push((name, cap));
         }
+        let species = &self.species;
+        let min_periods = &self.min_periods;
+        let mut due = std::mem::take(&mut self.due);
+        exclusive(world).schedule_decisions(
+            |sid, behavior| {
+                let base = species
+                    .get(usize::from(sid.0))
+                    .map_or(6, |s| s.period_ticks);
+                let cap = min_periods
+                    .iter()
+                    .find(|(n, _)| **n == *behavior)
+                    .map_or(u64::MAX, |(_, c)| *c);
+                (base, cap)
+            },
+            &mut due,
+        );
+        // Only picking the lanes is sequential; each lane finds their modules and tables.
+        for (order, &(id, sid)) in due.iter().enumerate() {
+            self.lanes[lane_index(id, num_lanes)].push(id, sid, order as u32);
+        }
+        self.due = due;
         let w = exclusive(world);
         for lane in &mut self.lanes {
             for d in &mut lane.due[..lane.num_due] {

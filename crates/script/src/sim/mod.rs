@@ -125,6 +125,8 @@ pub struct Simulation {
     sample_every: Option<std::time::Duration>,
     /// The scene's own measures and what they have sampled (see [`Simulation::measures`]).
     measures: measures::Measures,
+    /// `--lod on|off`, if given: it overrides the scene's default, also across restarts.
+    lod_override: Option<bool>,
 }
 
 /// A model a simulation took from the source tree's `assets/` because its own models
@@ -271,6 +273,7 @@ impl Simulation {
             obstacles: Vec::new(),
             currents: Vec::new(),
             measures: Vec::new(),
+            lod: None,
         };
         Self::with_host(root, host, &desc, seed)
     }
@@ -291,6 +294,24 @@ impl Simulation {
         self.rebuild_lanes(self.host().limits(), 1)?;
         self.sim.behavior.debugger = Some(debugger);
         Ok(())
+    }
+
+    /// Turns behaviour level of detail on or off (`--lod on|off`), overriding the scene's
+    /// default (its `lod.on`); the bands and focus stay the scene's.
+    pub fn set_lod_on(&mut self, on: bool) {
+        self.lod_override = Some(on);
+        let mut lod = self.sim.world().lod().clone();
+        lod.on = on;
+        self.sim
+            .world_mut()
+            .set_lod(lod)
+            .expect("the level of detail was checked when it was set");
+    }
+
+    /// Moves the level-of-detail focus points (a window's camera focus and selected fish). An
+    /// input: a recording keeps it ([`crate::timeline::inputs::Input::LodFocus`]).
+    pub fn set_lod_focus(&mut self, focus: Vec<Vec3>) {
+        self.sim.world_mut().set_lod_focus(focus);
     }
 
     /// Number of script lanes.
@@ -361,10 +382,18 @@ impl Simulation {
         let mut world = World::new(tank, seed);
         world.set_food_drops(food_drops(desc));
         world.set_food_physics(food_physics(desc));
+        if let Some(lod) = &desc.lod {
+            world.set_lod(lod.to_lod()).map_err(|e| ScriptError::Data {
+                file: "scene lod".into(),
+                why: e.to_string(),
+            })?;
+        }
         let scripts = Scripts {
             lanes,
             species: Vec::new(),
             debugger,
+            min_periods: Vec::new(),
+            due: Vec::new(),
         };
         Ok(Self {
             sim: Pipeline::new(world, scripts),
@@ -385,6 +414,7 @@ impl Simulation {
             profile_since_s: 0.0,
             sample_every: None,
             measures: measures::Measures::default(),
+            lod_override: None,
         })
     }
 
@@ -408,6 +438,9 @@ impl Simulation {
             let s = self.sim.world().species(SpeciesId(i as u16)).clone();
             world.add_species(s);
         }
+        world
+            .set_lod(self.sim.world().lod().clone())
+            .expect("the level of detail was checked when it was set");
         // The scene's generator and food drops go on in the new tank.
         *world.scene_rng() = self.sim.world_mut().scene_rng().clone();
         world.set_food_drops(self.scene.as_ref().and_then(food_drops));

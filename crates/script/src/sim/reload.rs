@@ -203,6 +203,10 @@ impl Simulation {
             fresh.set_lanes(self.sim.behavior.lanes.len())?;
         }
         fresh.watcher = self.watcher.take();
+        // `--lod on|off` outlasts the restart; the scene's bands and focus are the edited file's.
+        if let Some(on) = self.lod_override {
+            fresh.set_lod_on(on);
+        }
         *self = fresh;
         Ok(())
     }

@@ -25,6 +25,9 @@ pub struct RunOptions {
     pub trace_dir: Option<PathBuf>,
     /// Repository root: `scripts/` (behaviours, species, scenes) and `assets/` live under it.
     pub root: PathBuf,
+    /// `--lod on|off`: behaviour level of detail in every test world (`None`: each scene's
+    /// default).
+    pub lod: Option<bool>,
 }
 
 /// One failed check (or the error that ended a test).

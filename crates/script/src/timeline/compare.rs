@@ -221,6 +221,9 @@ pub struct Version {
     pub scripts: BTreeMap<String, u32>,
     /// Each seed's run.
     pub runs: Vec<RunMeasures>,
+    /// Behaviour level of detail as `--lod-a`/`--lod-b` set it (`None`: the scene's default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod: Option<bool>,
 }
 
 /// A comparison, or one shard of one (its JSON is what `--json` prints and `--merge` reads).
@@ -266,6 +269,10 @@ pub struct CompareSpec<'a> {
     pub shard: Option<(u32, u32)>,
     /// Simulated seconds per run.
     pub seconds: f64,
+    /// Behaviour level of detail for A (`--lod-a on|off`; `None`: the scene's default).
+    pub lod_a: Option<bool>,
+    /// The same for B (`--lod-b`).
+    pub lod_b: Option<bool>,
 }
 
 /// The seeds a shard runs.
@@ -465,8 +472,12 @@ pub fn compare(spec: &CompareSpec<'_>) -> Result<Comparison, TimelineError> {
     let results: Vec<Result<(usize, RunMeasures), TimelineError>> = jobs
         .par_iter()
         .map(|&(v, seed)| {
-            let dir = if v == 0 { spec.a } else { spec.b };
-            measure_run(spec.root, dir, spec.scene, seed, spec.seconds).map(|m| (v, m))
+            let (dir, lod) = if v == 0 {
+                (spec.a, spec.lod_a)
+            } else {
+                (spec.b, spec.lod_b)
+            };
+            measure_run(spec.root, dir, spec.scene, seed, spec.seconds, lod).map(|m| (v, m))
         })
         .collect();
     let mut runs: [Vec<RunMeasures>; 2] = [Vec::new(), Vec::new()];
@@ -487,11 +498,13 @@ pub fn compare(spec: &CompareSpec<'_>) -> Result<Comparison, TimelineError> {
             dir: spec.a.display().to_string(),
             scripts: ha,
             runs: ra,
+            lod: spec.lod_a,
         },
         b: Version {
             dir: spec.b.display().to_string(),
             scripts: hb,
             runs: rb,
+            lod: spec.lod_b,
         },
         summary: Vec::new(),
     }))
@@ -606,7 +619,9 @@ pub fn merge(parts: Vec<(String, Comparison)>) -> Result<Comparison, MergeError>
         let same = part.scene == all.scene
             && part.seconds == all.seconds
             && part.a.scripts == all.a.scripts
-            && part.b.scripts == all.b.scripts;
+            && part.b.scripts == all.b.scripts
+            && part.a.lod == all.a.lod
+            && part.b.lod == all.b.lod;
         if !same {
             return Err(MergeError::OtherExperiment {
                 name,
@@ -636,6 +651,7 @@ pub fn measure_run(
     scene: &str,
     seed: u64,
     seconds: f64,
+    lod: Option<bool>,
 ) -> Result<RunMeasures, TimelineError> {
     let mut sim = Simulation::from_scene_with_scripts(root, scripts, Path::new(scene), seed)
         .map_err(|e| TimelineError::Invalid(format!("{}: {e}", scripts.display())))?;
@@ -650,6 +666,9 @@ pub fn measure_run(
             scripts.display(),
             builtin_keys().collect::<Vec<_>>().join(", ")
         )));
+    }
+    if let Some(on) = lod {
+        sim.set_lod_on(on);
     }
     // The experiment's parallelism is across runs; one lane per run keeps each on one core.
     sim.set_lanes(1)?;

@@ -95,6 +95,12 @@ pub enum Input {
         /// The new behaviour (none: the fish only plays requested motions).
         behavior: Option<String>,
     },
+    /// The level-of-detail focus moved (a window's camera or selection, `t:world{focus = …}`):
+    /// the schedule reads it, so a replay must see it at the same tick.
+    LodFocus {
+        /// The focus points (none: every fish in the last band).
+        points: Vec<Vec3>,
+    },
 }
 
 /// An input and the tick it happened at: after the tick's frame, before the next tick.
@@ -174,6 +180,10 @@ pub fn apply(sim: &mut Simulation, input: &Input) -> Result<Applied, InputError>
             Ok(Applied::Switched(
                 sim.world_mut().set_behavior(id, behavior.clone()),
             ))
+        }
+        Input::LodFocus { points } => {
+            sim.set_lod_focus(points.clone());
+            Ok(Applied::Done)
         }
     }
 }

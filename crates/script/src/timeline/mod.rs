@@ -85,6 +85,8 @@ pub struct RecordSpec<'a> {
     pub lanes: usize,
     /// Seconds to record.
     pub seconds: f64,
+    /// Behaviour level of detail on or off (`--lod`); `None`: the scene's default.
+    pub lod: Option<bool>,
 }
 
 fn ticks_of(seconds: f64) -> Result<usize, TimelineError> {
@@ -104,6 +106,9 @@ fn load(spec: &RecordSpec<'_>) -> Result<Simulation, TimelineError> {
         spec.seed,
     )?;
     sim.set_lanes(spec.lanes)?;
+    if let Some(on) = spec.lod {
+        sim.set_lod_on(on);
+    }
     Ok(sim)
 }
 
@@ -162,6 +167,7 @@ pub fn record(spec: &RecordSpec<'_>) -> Result<Run, TimelineError> {
             scripts,
             replay_of: None,
             inputs: Vec::new(),
+            lod: sim.world().lod().on,
         },
         frames,
     })
@@ -244,6 +250,7 @@ pub fn resume(
         seed: run.header.seed,
         lanes: run.header.lanes,
         seconds: 0.0,
+        lod: Some(run.header.lod),
     })?;
     // Species a test spawned load on first use: load the same ones, in the same order, so
     // the state's species ids mean the same.
@@ -289,6 +296,7 @@ pub fn replay_recorded(
         seed: run.header.seed,
         lanes: run.header.lanes,
         seconds: 0.0,
+        lod: Some(run.header.lod),
     })
     .map_err(|e| match e {
         // Name the recorded scripts as the recording's, not by the temporary directory.

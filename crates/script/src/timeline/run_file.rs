@@ -75,6 +75,10 @@ pub struct RunHeader {
     /// spawns, food, rocks, motion requests); empty for a scene simply run. Format 2.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub inputs: Vec<super::inputs::TimedInput>,
+    /// Whether behaviour level of detail was on (recordings from before it existed: off). Its
+    /// bands and headless focus are the recorded scene's; a focus that moved is in `inputs`.
+    #[serde(default)]
+    pub lod: bool,
 }
 
 /// One fish's pose in a frame.
@@ -447,6 +451,11 @@ fn check_input(input: &super::inputs::Input) -> Result<(), String> {
             finite("pos", &pos.to_array())?;
             if !(radius.is_finite() && *radius > 0.0) {
                 return Err(format!("radius: {radius} is not a positive number"));
+            }
+        }
+        Input::LodFocus { points } => {
+            for p in points {
+                finite("points", &p.to_array())?;
             }
         }
         Input::Motion { .. } | Input::SetBehavior { .. } => {}

@@ -12,6 +12,7 @@ mod script_behaviors;
 mod script_console;
 mod script_hostile;
 mod script_lanes;
+mod script_lod;
 mod script_profile;
 mod script_reload;
 mod script_sandbox;

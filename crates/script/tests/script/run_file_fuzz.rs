@@ -28,6 +28,7 @@ fn recording() -> Run {
         seed: 5,
         lanes: 1,
         seconds: 0.5,
+        lod: None,
     })
     .unwrap()
 }

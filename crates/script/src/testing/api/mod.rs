@@ -79,6 +79,8 @@ struct TestState {
     worlds: Vec<Cell<WorldState>>,
     /// Keep what a recording of each world needs (`--trace`): every tick's poses.
     record_runs: bool,
+    /// `--lod on|off` for every world the test makes (`None`: the scene's default).
+    lod: Option<bool>,
 }
 
 /// Why a test world cannot be written as a recording (`--trace`): said under the test, beside
@@ -183,6 +185,7 @@ impl WorldState {
                 scripts: rec.scripts.clone(),
                 replay_of: None,
                 inputs: self.inputs.clone(),
+                lod: self.sim.world().lod().on,
             },
             frames,
         })

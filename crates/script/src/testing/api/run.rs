@@ -196,6 +196,7 @@ pub(super) fn run_one(
         last_time: 0.0,
         worlds: Vec::new(),
         record_runs: options.trace_dir.is_some(),
+        lod: options.lod,
     });
     let result = lua
         .create_userdata(TestHandle(state.clone()))
@@ -226,6 +227,7 @@ pub(super) fn run_one(
                 last_time: s.last_time,
                 worlds: s.worlds.clone(),
                 record_runs: s.record_runs,
+                lod: s.lod,
             }
         });
     // Script errors first: they are usually why a check failed.

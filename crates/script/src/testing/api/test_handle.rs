@@ -138,11 +138,14 @@ impl UserData for TestHandle {
             } else {
                 None
             };
-            let sim = match &scene {
+            let mut sim = match &scene {
                 Some(scene) => Simulation::from_scene(&root, Path::new(scene), seed),
                 None => Simulation::empty(&root, seed),
             }
             .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            if let Some(on) = this.0.borrow().lod {
+                sim.set_lod_on(on);
+            }
             let recording = this
                 .0
                 .borrow()

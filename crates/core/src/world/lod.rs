@@ -1,0 +1,410 @@
+//! Behaviour level of detail: which scripted fish decide on a tick (issue 34).
+//!
+//! Each fish's decision rate follows how much it matters. Its **band** comes from its distance
+//! to the nearest focus point (the window's camera focus and selected fish, or a focus the scene
+//! declares; with no focus every fish is in the last band): band `k` holds the fish within
+//! `bands[k].radius` and beyond the bands before it. A fish whose species decides every `P`
+//! ticks decides, in band `k`, every `P × bands[k].every` ticks, on the ticks where
+//! `(tick + slot index) % period == 0` — the phase spreads one band's decisions evenly over its
+//! period instead of firing them on one frame. A behaviour module may ask for a minimum rate
+//! (`min_decision_hz`): the period is then never longer than that rate's.
+//!
+//! An **event wakes** a slow fish at once: when a fish not due has not decided for a whole base
+//! period `P` and any of these holds, it decides this tick —
+//! it touched the tank or a rock on the last motion step, or a wall or a rock lies within two
+//! body lengths ahead (while these last, it decides every base period); a predator of another
+//! species or a pellet came within its view range since its last decision (a fish that decided
+//! with it in view has reacted, and keeps swimming on that). Each is a handful of comparisons
+//! (the predators and pellets mark the fish around them from one grid query each), so the check
+//! costs far less than a decision.
+//!
+//! The schedule reads only the tick, the fish's slot indices, their state (positions, headings,
+//! contact, the tick each last decided and whether something was in view then) and the focus
+//! points, which are inputs (a recording
+//! keeps them). So a run with level of detail on is as deterministic as one without: the same
+//! whatever the number of lanes or threads, and a replay is bit-exact.
+
+use glam::Vec3;
+
+use super::sense::forward;
+use super::{FishId, SpeciesId, World};
+
+/// Most bands a schedule may have.
+pub const MAX_BANDS: usize = 6;
+
+/// One band of the schedule: the fish within `radius` of a focus (and beyond the bands before)
+/// decide `every` times less often than their species' rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LodBand {
+    /// Outer radius, world units (the last band's is infinite, whatever it says).
+    pub radius: f32,
+    /// Period multiplier, ≥ 1.
+    pub every: u32,
+}
+
+/// The behaviour level-of-detail settings of a world (configuration, not state: the focus
+/// points are inputs, set from outside each tick they change).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lod {
+    /// Whether the schedule applies (off: every fish decides at its species' rate).
+    pub on: bool,
+    /// The bands, nearest first (1 to [`MAX_BANDS`]; radii increasing).
+    pub bands: Vec<LodBand>,
+    /// Focus points; none: every fish is in the last band.
+    pub focus: Vec<Vec3>,
+    /// Whether events wake slow fish (see the module docs).
+    pub wake: bool,
+}
+
+impl Default for Lod {
+    fn default() -> Self {
+        Self {
+            on: false,
+            bands: default_bands(),
+            focus: Vec::new(),
+            wake: true,
+        }
+    }
+}
+
+/// The default bands: full rate within 600 units of a focus (about six porgy lengths), half
+/// rate to 1,500, a quarter beyond.
+pub fn default_bands() -> Vec<LodBand> {
+    vec![
+        LodBand {
+            radius: 600.0,
+            every: 1,
+        },
+        LodBand {
+            radius: 1500.0,
+            every: 2,
+        },
+        LodBand {
+            radius: f32::INFINITY,
+            every: 4,
+        },
+    ]
+}
+
+/// Why a schedule was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LodError {
+    /// No band, or more than [`MAX_BANDS`].
+    #[error("bands: expected 1 to {MAX_BANDS} bands, got {0}")]
+    BandCount(usize),
+    /// A band's radius is not positive, or not larger than the band's before.
+    #[error("bands[{band}].radius: {radius} must be positive and larger than the band before's")]
+    Radius {
+        /// The band (1-based, as Lua counts).
+        band: usize,
+        /// Its radius.
+        radius: f32,
+    },
+    /// A band's period multiplier is 0 or above 600.
+    #[error("bands[{band}].every: {every} must be a whole number from 1 to 600")]
+    Every {
+        /// The band (1-based).
+        band: usize,
+        /// Its multiplier.
+        every: u32,
+    },
+    /// A focus point is not finite.
+    #[error("focus: {0} is not a finite point")]
+    Focus(Vec3),
+}
+
+impl Lod {
+    /// Checks the bands and focus points.
+    pub fn validate(&self) -> Result<(), LodError> {
+        if self.bands.is_empty() || self.bands.len() > MAX_BANDS {
+            return Err(LodError::BandCount(self.bands.len()));
+        }
+        let mut last = 0.0f32;
+        for (k, b) in self.bands.iter().enumerate() {
+            let is_last = k + 1 == self.bands.len();
+            if !(b.radius > last || (is_last && b.radius.is_infinite())) || b.radius.is_nan() {
+                return Err(LodError::Radius {
+                    band: k + 1,
+                    radius: b.radius,
+                });
+            }
+            if b.every == 0 || b.every > 600 {
+                return Err(LodError::Every {
+                    band: k + 1,
+                    every: b.every,
+                });
+            }
+            last = b.radius;
+        }
+        if let Some(p) = self.focus.iter().find(|p| !p.is_finite()) {
+            return Err(LodError::Focus(*p));
+        }
+        Ok(())
+    }
+
+    /// The band of a fish at `pos`.
+    pub fn band_of(&self, pos: Vec3) -> usize {
+        let last = self.bands.len().saturating_sub(1);
+        let Some(d2) = self
+            .focus
+            .iter()
+            .map(|f| f.distance_squared(pos))
+            .min_by(f32::total_cmp)
+        else {
+            return last;
+        };
+        self.bands[..last]
+            .iter()
+            .position(|b| d2 <= b.radius * b.radius)
+            .unwrap_or(last)
+    }
+}
+
+/// How a tick's decisions fell (see [`World::lod_counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LodCounts {
+    /// Scripted fish per band (band 0 only when level of detail is off).
+    pub fish: [u32; MAX_BANDS],
+    /// Decisions per band, wakes included.
+    pub decisions: [u32; MAX_BANDS],
+    /// Decisions an event caused (fish that were not due by their band).
+    pub woken: u32,
+    /// Bands in use.
+    pub bands: u8,
+}
+
+impl LodCounts {
+    /// Decisions in all bands.
+    pub fn total(&self) -> u32 {
+        self.decisions.iter().sum()
+    }
+}
+
+/// One fish's entry of a tick's schedule: 0 not due, else `1 + band` (+ [`WOKEN`] if an event
+/// woke it).
+const WOKEN: u8 = 0x80;
+/// Set in a fish's mark when a predator or pellet is in its view range this tick (what it
+/// remembers as `alerted` when it decides).
+const ALERT: u8 = 0x40;
+
+impl World {
+    /// The level-of-detail settings.
+    pub fn lod(&self) -> &Lod {
+        &self.lod
+    }
+
+    /// Replaces the level-of-detail settings (checked first).
+    pub fn set_lod(&mut self, lod: Lod) -> Result<(), LodError> {
+        lod.validate()?;
+        self.lod = lod;
+        Ok(())
+    }
+
+    /// Moves the focus points (the camera's focus, the selected fish): an input, so a
+    /// recording must keep it. Non-finite points are dropped.
+    pub fn set_lod_focus(&mut self, focus: Vec<Vec3>) {
+        self.lod.focus = focus.into_iter().filter(|p| p.is_finite()).collect();
+    }
+
+    /// How the last schedule ([`World::schedule_decisions`]) fell.
+    pub fn lod_counts(&self) -> &LodCounts {
+        &self.lod_counts
+    }
+
+    /// The scripted fish due to decide this tick, in dense order, into `out` (cleared), and
+    /// marks them as having decided now. `period(species, behaviour)` gives a fish's base
+    /// period in ticks and the longest period its behaviour allows (`u64::MAX`: no minimum
+    /// rate). With level of detail off a fish is due when `(tick + slot) % base == 0`, as
+    /// always; with it on, see the module docs. The per-fish work runs over rayon's threads;
+    /// the result does not depend on their number.
+    pub fn schedule_decisions(
+        &mut self,
+        period: impl Fn(SpeciesId, &str) -> (u64, u64) + Sync,
+        out: &mut Vec<(FishId, SpeciesId)>,
+    ) {
+        use rayon::prelude::*;
+        out.clear();
+        let tick = self.state.tick;
+        let mut marks = std::mem::take(&mut self.lod_marks);
+        let mut alert = std::mem::take(&mut self.lod_alert);
+        if self.lod.on && self.lod.wake {
+            self.mark_alerts(&mut alert);
+        }
+        {
+            let alert = &alert;
+            let world: &World = self;
+            let f = &world.state.fish;
+            let lod = &world.lod;
+            let on = lod.on;
+            marks.clear();
+            marks.par_extend((0..f.len()).into_par_iter().with_min_len(2048).map(|d| {
+                let Some(behavior) = &f.behaviors[d] else {
+                    return 0;
+                };
+                let (base, cap) = period(f.species[d], behavior);
+                let base = base.max(1);
+                let phase = tick + u64::from(f.ids[d].index);
+                if !on {
+                    return u8::from(phase.is_multiple_of(base));
+                }
+                let band = lod.band_of(f.roots[d].pos);
+                let p = (base * u64::from(lod.bands[band].every))
+                    .min(cap.max(1))
+                    .max(1);
+                let due = phase.is_multiple_of(p);
+                let idle = tick.saturating_sub(f.last_decided[d]);
+                // Only fish that could be woken, or that decide now (they remember it), ask.
+                let could_wake = lod.wake && p > base && idle >= base;
+                if !(due || could_wake) {
+                    return 0;
+                }
+                let alert = lod.wake && world.alerted_now(d, alert);
+                let alert_bit = if alert { ALERT } else { 0 };
+                if due {
+                    return (1 + band as u8) | alert_bit;
+                }
+                // A predator or pellet wakes the fish when it came into view since its last
+                // decision (a fish that decided with it in view has reacted and goes on with
+                // that); contact and a wall or rock ahead wake it every base period while
+                // they last.
+                if (alert && !f.alerted[d]) || world.obstacle_near(d) {
+                    return (1 + band as u8) | WOKEN | alert_bit;
+                }
+                0
+            }));
+        }
+        let mut counts = LodCounts {
+            bands: if self.lod.on {
+                self.lod.bands.len() as u8
+            } else {
+                1
+            },
+            ..LodCounts::default()
+        };
+        let f = &mut self.state.fish;
+        for (d, &m) in marks.iter().enumerate() {
+            if f.behaviors[d].is_none() {
+                continue;
+            }
+            if !self.lod.on {
+                counts.fish[0] += 1;
+            } else {
+                counts.fish[self.lod.band_of(f.roots[d].pos)] += 1;
+            }
+            if m == 0 {
+                continue;
+            }
+            let band = usize::from((m & !(WOKEN | ALERT)) - 1);
+            counts.decisions[band] += 1;
+            counts.woken += u32::from(m & WOKEN != 0);
+            f.last_decided[d] = tick;
+            f.alerted[d] = m & ALERT != 0;
+            out.push((f.ids[d], f.species[d]));
+        }
+        self.lod_marks = marks;
+        self.lod_alert = alert;
+        self.lod_counts = counts;
+    }
+
+    /// Marks, per dense fish, whether a predator of another species or a pellet is within its
+    /// view range, from one grid query around each predator and pellet (there are far fewer of
+    /// them than fish, so this costs a few thousand candidate visits where a query per fish
+    /// would cost one per fish). Leaves `alert` empty when the grid is not exact (fish spawned
+    /// or despawned since its rebuild): [`World::alerted_now`] then scans them itself.
+    fn mark_alerts(&self, alert: &mut Vec<bool>) {
+        alert.clear();
+        let f = &self.state.fish;
+        if !(self.index.grid_exact && self.index.grid_positions_current) {
+            return;
+        }
+        alert.resize(f.len(), false);
+        let species = &self.catalog.species;
+        let reach = species
+            .iter()
+            .map(|s| s.desc.view_range)
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .fold(0.0f32, f32::max);
+        if reach <= 0.0 {
+            return;
+        }
+        let view2 = |d: usize| {
+            let r = species[usize::from(f.species[d].0)].desc.view_range;
+            if r.is_finite() && r > 0.0 {
+                r * r
+            } else {
+                -1.0
+            }
+        };
+        for spot in &self.index.predator_spots {
+            self.index
+                .grid
+                .for_each_within(spot.pos(), reach, |key, _, d2| {
+                    let d = key as usize;
+                    if f.species[d] != spot.species() && d2 <= view2(d) {
+                        alert[d] = true;
+                    }
+                    true
+                });
+        }
+        for (_, pellet) in self.state.foods.iter().filter(|(_, p)| !p.eaten) {
+            self.index
+                .grid
+                .for_each_within(pellet.pos, reach, |key, _, d2| {
+                    let d = key as usize;
+                    if d2 <= view2(d) {
+                        alert[d] = true;
+                    }
+                    true
+                });
+        }
+    }
+
+    /// Whether dense fish `d` touched the tank or a rock on the last motion step, or has the
+    /// tank wall or a rock within two body lengths straight ahead.
+    fn obstacle_near(&self, d: usize) -> bool {
+        let f = &self.state.fish;
+        if f.contact[d] {
+            return true;
+        }
+        let root = &f.roots[d];
+        let species = &self.catalog.species[usize::from(f.species[d].0)].desc;
+        let ahead = root.pos + forward(root.heading, root.pitch) * (2.0 * species.motion.l);
+        let tank = &self.state.tank;
+        if ahead.cmplt(tank.min).any() || ahead.cmpgt(tank.max).any() {
+            return true;
+        }
+        self.state
+            .obstacles
+            .iter()
+            .any(|o| o.pos.distance_squared(ahead) <= o.radius * o.radius)
+    }
+
+    /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:
+    /// from `alert` ([`World::mark_alerts`]'s marks) when it has them, else scanned.
+    fn alerted_now(&self, d: usize, alert: &[bool]) -> bool {
+        if let Some(&a) = alert.get(d) {
+            return a;
+        }
+        let f = &self.state.fish;
+        let root = &f.roots[d];
+        let range = self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .view_range;
+        if !(range.is_finite() && range > 0.0) {
+            return false;
+        }
+        let r2 = range * range;
+        let me = f.species[d];
+        let predator = self.index.predators.iter().any(|&p| {
+            f.dense(p).is_some_and(|o| {
+                f.species[o] != me && f.roots[o].pos.distance_squared(root.pos) <= r2
+            })
+        });
+        predator
+            || self
+                .state
+                .foods
+                .iter()
+                .any(|(_, p)| !p.eaten && p.pos.distance_squared(root.pos) <= r2)
+    }
+}

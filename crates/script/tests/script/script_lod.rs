@@ -1,0 +1,370 @@
+//! Behaviour level of detail (issue 34): the schedule's bands, phases, wake events and minimum
+//! rates, and that a run with it on is as deterministic as one without — across lane counts and
+//! in a bit-exact replay, a moving focus included.
+
+use crate::common;
+
+use std::path::Path;
+
+use glam::Vec3;
+use shoal_core::world::{FishId, Lod, LodBand};
+use shoal_script::Simulation;
+use shoal_script::timeline::inputs::{Input, TimedInput};
+use shoal_script::timeline::{self, RecordSpec};
+
+/// A behaviour that counts its decisions and never moves its fish.
+const COUNTER: &str =
+    "return { tick = function(fish)\n  fish.memory.n = (fish.memory.n or 0) + 1\nend }\n";
+
+/// A scratch repository whose `probe` behaviour is `src`, with the test species loaded.
+fn probe(src: &str, lanes: usize) -> (tempfile::TempDir, Simulation) {
+    let (dir, root) = common::scratch_repo();
+    std::fs::write(root.join("scripts/behaviors/probe.lua"), src).unwrap();
+    let mut sim = common::sim_in(&root, 3);
+    sim.set_lanes(lanes).unwrap();
+    (dir, sim)
+}
+
+/// A still fish (speed 0, heading +x) running `probe` at `pos`.
+fn still(sim: &mut Simulation, pos: Vec3) -> FishId {
+    sim.spawn("black_porgy", pos, 0.0, 0.0, Some(0.0), Some("probe"))
+        .unwrap()
+}
+
+fn decisions(sim: &Simulation, id: FishId) -> u64 {
+    sim.memory_json(id)["n"].as_u64().unwrap_or(0)
+}
+
+/// Twelve still fish in mid-water, far from the walls and from each other's view of anything.
+fn row(sim: &mut Simulation, x: f32) -> Vec<FishId> {
+    (0..12)
+        .map(|k| {
+            still(
+                sim,
+                Vec3::new(x, 120.0 + 12.0 * k as f32, -100.0 + 15.0 * k as f32),
+            )
+        })
+        .collect()
+}
+
+fn bands(radii: [f32; 2]) -> Vec<LodBand> {
+    vec![
+        LodBand {
+            radius: radii[0],
+            every: 1,
+        },
+        LodBand {
+            radius: radii[1],
+            every: 2,
+        },
+        LodBand {
+            radius: f32::INFINITY,
+            every: 4,
+        },
+    ]
+}
+
+/// Off, every fish decides at its species' 10 Hz: 8 times in 48 ticks. On with no focus, every
+/// fish is in the last band (a quarter of the rate): exactly twice, each on its own phase, so no
+/// tick holds more than its share.
+#[test]
+fn test_without_a_focus_every_fish_decides_at_the_last_bands_rate() {
+    for (on, expected) in [(false, 8), (true, 2)] {
+        let (_d, mut sim) = probe(COUNTER, 2);
+        sim.set_lod_on(on);
+        let fish = row(&mut sim, 0.0);
+        let mut per_tick = Vec::new();
+        for _ in 0..48 {
+            sim.step();
+            per_tick.push(sim.world().lod_counts().total());
+        }
+        for &id in &fish {
+            assert_eq!(decisions(&sim, id), expected, "lod {on}, fish {id:?}");
+        }
+        let most = *per_tick.iter().max().unwrap();
+        let share = if on {
+            12usize.div_ceil(24)
+        } else {
+            12usize.div_ceil(6)
+        };
+        assert!(
+            most as usize <= share,
+            "lod {on}: a tick made {most} decisions, more than the phase spread allows ({share}): {per_tick:?}"
+        );
+        assert_eq!(sim.world().lod_counts().woken, 0);
+    }
+}
+
+/// With a focus, each fish's band follows its distance: full rate near it, half in the middle
+/// band, a quarter beyond; the counts per band say so.
+#[test]
+fn test_bands_follow_the_distance_to_the_focus() {
+    let (_d, mut sim) = probe(COUNTER, 3);
+    sim.world_mut()
+        .set_lod(Lod {
+            on: true,
+            bands: bands([150.0, 450.0]),
+            focus: vec![Vec3::new(-300.0, 180.0, 0.0)],
+            wake: true,
+        })
+        .unwrap();
+    let near = row(&mut sim, -300.0);
+    let middle = row(&mut sim, 0.0);
+    let far = row(&mut sim, 300.0);
+    let mut per_band = [0u32; 3];
+    for _ in 0..48 {
+        sim.step();
+        let c = sim.world().lod_counts();
+        assert_eq!(c.fish[..3], [12, 12, 12], "fish per band");
+        for (b, n) in per_band.iter_mut().zip(c.decisions) {
+            *b += n;
+        }
+    }
+    for (fish, expected) in [(&near, 8), (&middle, 4), (&far, 2)] {
+        for &id in fish {
+            assert_eq!(decisions(&sim, id), expected, "fish {id:?}");
+        }
+    }
+    assert_eq!(per_band, [96, 48, 24]);
+    // Moving the focus moves the bands: now the far row is near.
+    sim.set_lod_focus(vec![Vec3::new(300.0, 180.0, 0.0)]);
+    let before: Vec<u64> = far.iter().map(|&id| decisions(&sim, id)).collect();
+    for _ in 0..48 {
+        sim.step();
+    }
+    for (&id, b) in far.iter().zip(before) {
+        assert_eq!(decisions(&sim, id), b + 8, "fish {id:?} near the new focus");
+    }
+}
+
+/// A pellet in view wakes a slow fish at once (it decides on the next tick although its band
+/// would wait), and fish with nothing near them sleep on.
+#[test]
+fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
+    let (_d, mut sim) = probe(COUNTER, 2);
+    sim.set_lod_on(true);
+    let fish = row(&mut sim, -200.0);
+    let far = still(&mut sim, Vec3::new(350.0, 200.0, 200.0));
+    for _ in 0..10 {
+        sim.step();
+    }
+    // Slot 0 decided on tick 0 (its phase in the last band is tick 0, 24, …).
+    let first = fish[0];
+    assert_eq!(first.index, 0);
+    assert_eq!(decisions(&sim, first), 1);
+    let far_before = decisions(&sim, far);
+    let pos = sim.world().root(first).unwrap().pos;
+    sim.world_mut().add_food(pos + Vec3::new(20.0, 0.0, 0.0));
+    sim.step();
+    assert_eq!(
+        decisions(&sim, first),
+        2,
+        "the pellet woke the fish beside it"
+    );
+    assert!(sim.world().lod_counts().woken >= 1);
+    assert_eq!(decisions(&sim, far), far_before, "the far fish saw nothing");
+    // A fish heading into the wall, one body length from it, is woken as soon as it may be.
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.set_lod_on(true);
+    let l = sim
+        .world()
+        .species(sim.world().species_by_name("black_porgy").unwrap())
+        .body_length();
+    let walled = still(&mut sim, Vec3::new(500.0 - l, 200.0, 0.0));
+    let free = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
+    for _ in 0..48 {
+        sim.step();
+    }
+    // Woken each base period (every 6 ticks), not every tick.
+    assert_eq!(decisions(&sim, walled), 8);
+    assert_eq!(decisions(&sim, free), 2);
+}
+
+/// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
+/// a load error that names the file and the field.
+#[test]
+fn test_a_behaviour_may_ask_for_a_minimum_rate() {
+    let src = "return { min_decision_hz = 10, tick = function(fish)\n  fish.memory.n = (fish.memory.n or 0) + 1\nend }\n";
+    let (_d, mut sim) = probe(src, 2);
+    sim.set_lod_on(true);
+    let fish = row(&mut sim, 0.0);
+    for _ in 0..48 {
+        sim.step();
+    }
+    common::assert_no_script_errors(&sim);
+    for &id in &fish {
+        assert_eq!(decisions(&sim, id), 8, "fish {id:?} at its minimum rate");
+    }
+    let (_d, mut sim) = probe(
+        "return { min_decision_hz = 0, tick = function(fish) end }\n",
+        1,
+    );
+    sim.set_lod_on(true);
+    still(&mut sim, Vec3::new(0.0, 200.0, 0.0));
+    sim.step();
+    let errors = sim.error_messages();
+    assert!(
+        errors.iter().any(|e| e.contains("behaviors/probe.lua")
+            && e.contains("min_decision_hz must be a number in (0, 60]")
+            && e.contains("got 0")),
+        "{errors:?}"
+    );
+}
+
+/// Every fish's root, as bits.
+fn roots(sim: &Simulation) -> Vec<[u32; 5]> {
+    let w = sim.world();
+    w.fish_ids()
+        .map(|id| {
+            let r = w.root(id).unwrap();
+            let p = r.pos.to_array().map(f32::to_bits);
+            [p[0], p[1], p[2], r.heading.to_bits(), r.speed.to_bits()]
+        })
+        .collect()
+}
+
+/// The default scene with level of detail on and a focus in one corner runs the same in one,
+/// two or four lanes; and it really schedules (fewer decisions than with it off).
+#[test]
+fn test_with_level_of_detail_on_the_lanes_do_not_change_the_run() {
+    let mut runs = Vec::new();
+    let mut decided = Vec::new();
+    for (lanes, on) in [(1, true), (2, true), (4, true), (2, false)] {
+        let mut sim =
+            Simulation::from_scene(common::repo(), Path::new("scenes/default.lua"), 5).unwrap();
+        sim.set_lanes(lanes).unwrap();
+        sim.set_lod_on(on);
+        let lod = Lod {
+            bands: bands([300.0, 700.0]),
+            focus: vec![Vec3::new(-500.0, 200.0, -300.0)],
+            ..sim.world().lod().clone()
+        };
+        sim.world_mut().set_lod(lod).unwrap();
+        let mut n = 0u64;
+        for _ in 0..600 {
+            sim.step();
+            n += u64::from(sim.world().lod_counts().total());
+        }
+        common::assert_no_script_errors(&sim);
+        if on {
+            runs.push((lanes, roots(&sim)));
+        }
+        decided.push(n);
+    }
+    for (lanes, r) in &runs[1..] {
+        assert_eq!(
+            &runs[0].1, r,
+            "1 lane and {lanes} lanes differ with level of detail on"
+        );
+    }
+    assert!(
+        decided[0] < decided[3],
+        "level of detail on decided {} times in 10 s, off {}",
+        decided[0],
+        decided[3]
+    );
+}
+
+/// A recording made with level of detail on, whose focus moves mid-run (the window's camera, an
+/// input), replays bit for bit; without the focus input the replay parts from it, so the
+/// recording really depends on it.
+#[test]
+fn test_a_recording_with_level_of_detail_and_a_moving_focus_replays_bit_exactly() {
+    let root = common::repo();
+    let scripts = root.join("scripts");
+    let spec = RecordSpec {
+        root,
+        scripts: &scripts,
+        scene: "scenes/default.lua",
+        seed: 9,
+        lanes: 2,
+        seconds: 0.0,
+        lod: Some(true),
+    };
+    let mut run = timeline::record(&spec).unwrap();
+    assert!(run.header.lod, "the header says level of detail was on");
+    // The same run, by hand, with the focus moving to a corner at tick 30.
+    let mut sim = Simulation::from_scene_with_scripts(
+        root,
+        &scripts,
+        Path::new("scenes/default.lua"),
+        spec.seed,
+    )
+    .unwrap();
+    sim.set_lanes(2).unwrap();
+    sim.set_lod_on(true);
+    let focus = TimedInput {
+        tick: 30,
+        input: Input::LodFocus {
+            points: vec![Vec3::new(-500.0, 0.0, -300.0)],
+        },
+    };
+    for _ in 0..180 {
+        sim.step();
+        run.frames.push(timeline::poses(sim.world()));
+        if sim.world().tick_count() == focus.tick {
+            timeline::inputs::apply(&mut sim, &focus.input).unwrap();
+        }
+    }
+    run.header.inputs = vec![focus];
+    // Through the file format, as a replay reads it.
+    let bytes = run.to_bytes();
+    let read =
+        shoal_script::timeline::run_file::Run::from_bytes(&bytes, Path::new("t.shoalrun")).unwrap();
+    assert_eq!(read.header.inputs, run.header.inputs);
+    timeline::replay_recorded(&read, root, 180, |_, _| Ok(())).expect("replays bit for bit");
+    let mut without = read.clone();
+    without.header.inputs.clear();
+    let err = timeline::replay_recorded(&without, root, 180, |_, _| Ok(()))
+        .err()
+        .expect("without the focus the run differs");
+    assert!(err.to_string().contains("tick"), "{err}");
+}
+
+/// A scene sets the default and the bands; bad fields are named with their path.
+#[test]
+fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
+    let (_dir, root) = common::scratch_repo();
+    let write = |body: &str| {
+        std::fs::write(
+            root.join("scripts/scenes/lod.lua"),
+            format!("return {{ tank = {{ min = {{-200, 0, -200}}, max = {{200, 300, 200}} }}, {body} }}\n"),
+        )
+        .unwrap();
+        Simulation::from_scene(&root, Path::new("scenes/lod.lua"), 1)
+    };
+    let sim = write(
+        "lod = { on = true, focus = { {0, 100, 0} }, bands = { {radius = 100, every = 1}, {every = 3} } }",
+    )
+    .unwrap();
+    let lod = sim.world().lod();
+    assert!(lod.on);
+    assert_eq!(lod.focus, [Vec3::new(0.0, 100.0, 0.0)]);
+    assert_eq!(lod.bands.len(), 2);
+    assert_eq!(lod.bands[1].every, 3);
+    assert!(lod.bands[1].radius.is_infinite());
+    for (body, wanted) in [
+        ("lod = { bandz = {} }", "bands"),
+        ("lod = { on = 'yes' }", "lod.on"),
+        (
+            "lod = { bands = { {radius = 100, every = 0} } }",
+            "lod.bands[1].every: 0 must be a whole number from 1 to 600",
+        ),
+        (
+            "lod = { bands = { {radius = 300, every = 1}, {radius = 200, every = 2} } }",
+            "lod.bands[2].radius: 200",
+        ),
+        (
+            "lod = { bands = { {every = 1}, {radius = 200, every = 2} } }",
+            "lod.bands[1].radius",
+        ),
+        ("lod = { focus = { {0, 0/0, 0} } }", "lod.focus[1]"),
+    ] {
+        let err = match write(body) {
+            Ok(_) => panic!("{body} was accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("scenes/lod.lua"), "{body}: {err}");
+        assert!(err.contains(wanted), "{body}: {err}");
+    }
+}
