@@ -12,7 +12,7 @@ use shoal_core::motion::{
 const RATE_HZ: f32 = 240.0;
 
 /// Strouhal number and tail excursion measured from the player's output, at 0.5 … 3 body
-/// lengths per second: St = f·A/U in [0.2, 0.4] (Taylor, Nudds & Thomas 2003) and peak-to-peak
+/// lengths per second: St = f·A/U in [0.2, 0.4] (Saadat et al. 2017, docs/motion.md) and peak-to-peak
 /// tail excursion within 10 % of 0.2 body lengths (Bainbridge 1958).
 #[test]
 fn test_steady_swim_is_biologically_sane_across_speeds() {

@@ -1,7 +1,8 @@
 //! Swimming kinematics measured the way fish biologists measure them, from sampled midlines.
 //!
 //! Biologists film a fish swimming steadily, digitise its midline frame by frame and report a
-//! handful of numbers (Videler 1993, *Fish Swimming*, ch. 6; Jayne & Lauder 1995). This module
+//! handful of numbers (Jayne & Lauder 1995; Webb et al. 1984; the sources and where in them are
+//! listed in docs/motion.md). This module
 //! does the same to *our* fish: [`record_swim`] plays a steady swim on the motion layer and samples
 //! the posed midline (the chain a renderer draws, not the wave parameters) at stations along the
 //! body; [`analyze`] turns any such series into [`Kinematics`]. `analyze` is a pure function of
@@ -464,8 +465,9 @@ mod tests {
         }
     }
 
-    /// Videler & Hess (1984)'s mackerel envelope as commonly fitted: 0.02 − 0.0825x + 0.1625x².
-    fn mackerel(x: f32) -> f32 {
+    /// A synthetic carangiform-like envelope with a known answer (0.02 − 0.0825x + 0.1625x²: a
+    /// small snout amplitude, a quietest point near 0.25 L, 0.1 L at the tail); not a citation.
+    fn synthetic_envelope(x: f32) -> f32 {
         0.02 - 0.0825 * x + 0.1625 * x * x
     }
 
@@ -474,17 +476,17 @@ mod tests {
         // f = 2 Hz, λ = 0.9 L, U = 1.2 L/s, over 3.3 s. The tail tip y = a·sin(2π/0.9 − 4π·t)
         // crosses upwards where its argument is π (mod 2π): t = 0.306 + 0.5·k s, k = 0 … 5, so
         // six crossings, five whole beats.
-        let k = analyze(&synthetic(mackerel, 0.9, 2.0, 1.2, 3.3)).unwrap();
+        let k = analyze(&synthetic(synthetic_envelope, 0.9, 2.0, 1.2, 3.3)).unwrap();
         assert!((k.tail_beat_hz - 2.0).abs() < 0.01, "{}", k.tail_beat_hz);
         assert_eq!(k.num_beats, 5);
         assert!((k.speed_body_lengths_per_s - 1.2).abs() < 1e-3);
         for p in &k.envelope {
             assert!(
-                (p.amplitude - mackerel(p.x)).abs() < 1e-3,
+                (p.amplitude - synthetic_envelope(p.x)).abs() < 1e-3,
                 "a({}) = {} vs {}",
                 p.x,
                 p.amplitude,
-                mackerel(p.x)
+                synthetic_envelope(p.x)
             );
         }
         assert!((k.tail_amplitude_peak_to_peak - 0.2).abs() < 2e-3);
@@ -498,13 +500,13 @@ mod tests {
         assert!((k.stride_length - 0.6).abs() < 0.01);
         assert!((k.slip - 1.2 / 1.8).abs() < 0.01);
         assert!((k.strouhal - 2.0 * 0.2 / 1.2).abs() < 0.01);
-        // The mackerel's envelope is smallest at x = 0.0825 / 0.325 ≈ 0.25.
+        // The synthetic_envelope's envelope is smallest at x = 0.0825 / 0.325 ≈ 0.25.
         assert!(
             (k.min_amplitude_x - 0.25).abs() < 0.03,
             "{}",
             k.min_amplitude_x
         );
-        assert!((k.amplitude_at(0.525) - mackerel(0.525)).abs() < 2e-3);
+        assert!((k.amplitude_at(0.525) - synthetic_envelope(0.525)).abs() < 2e-3);
     }
 
     #[test]
@@ -523,7 +525,7 @@ mod tests {
 
     #[test]
     fn test_bad_series_are_named() {
-        let good = synthetic(mackerel, 0.9, 2.0, 1.2, 3.0);
+        let good = synthetic(synthetic_envelope, 0.9, 2.0, 1.2, 3.0);
         let mut s = good.clone();
         s.lateral.pop();
         assert!(matches!(
@@ -543,13 +545,13 @@ mod tests {
             Err(KinematicsError::Malformed { .. })
         ));
         // One beat only.
-        let s = synthetic(mackerel, 0.9, 2.0, 1.2, 0.8);
+        let s = synthetic(synthetic_envelope, 0.9, 2.0, 1.2, 0.8);
         assert!(matches!(
             analyze(&s),
             Err(KinematicsError::TooFewBeats { .. })
         ));
         // A fish beating on the spot.
-        let s = synthetic(mackerel, 0.9, 2.0, 0.0, 3.0);
+        let s = synthetic(synthetic_envelope, 0.9, 2.0, 0.0, 3.0);
         assert!(matches!(
             analyze(&s),
             Err(KinematicsError::NotSwimming { .. })
