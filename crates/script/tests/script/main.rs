@@ -21,3 +21,4 @@ mod script_snapshot;
 mod script_strings;
 mod script_types;
 mod script_watchdog;
+mod timeline_plot;
