@@ -135,23 +135,36 @@ impl Aquarium {
     /// on: picks the rock, current zone or start region there and starts dragging it. True
     /// when it picked one (the press then neither turns the camera nor selects a fish).
     pub fn press_in_view(&mut self, at: Vec2, size: Vec2) -> bool {
-        self.ui.press_picked = self.ui.edit_scene
-            && self.ui.split.is_none()
-            && !self.ui.shift
-            && super::scene_view::press(&mut self.ui, at, size);
-        self.ui.press_picked
+        let ui = &mut self.ui;
+        ui.press_picked = false;
+        if ui.edit_scene
+            && ui.split.is_none()
+            && !ui.shift
+            && let Some(desc) = ui.scene_edits.live()
+        {
+            match super::scene_view::press(&ui.camera, desc, at, size) {
+                Some((item, grab)) => {
+                    ui.picked = Some(item);
+                    ui.grab = grab;
+                    ui.press_picked = true;
+                }
+                None => ui.picked = None,
+            }
+        }
+        ui.press_picked
     }
 
     /// The pointer moved to `at` while a press in the view holds an item: it moves there over
     /// its plane, live (the whole drag is one undo step). False when nothing is dragged.
     pub fn drag_in_view(&mut self, at: Vec2, size: Vec2) -> bool {
-        if self.ui.grab.is_none() {
+        let Some(grab) = self.ui.grab else {
             return false;
-        }
+        };
         let tank = self.scene.world().tank();
         let bounds = (tank.min, tank.max);
-        if let Some(desc) = super::scene_view::dragged(&self.ui, at, size, bounds)
-            && let Err(e) = self.ui.scene_edits.edit(self.scene.sim_mut(), desc, true)
+        if let Some(desc) = self.ui.scene_edits.live().and_then(|live| {
+            super::scene_view::dragged(&self.ui.camera, grab, live, at, size, bounds)
+        }) && let Err(e) = self.ui.scene_edits.edit(self.scene.sim_mut(), desc, true)
         {
             self.ui.log(e.to_string());
         }

@@ -7,7 +7,6 @@
 use glam::{Vec2, Vec3};
 
 use super::scene_edit::{Item, UNIT_DECIMALS, round_f32};
-use super::ui_state::UiState;
 use shoal_render::{Camera, OverlayLine};
 use shoal_script::scene::SceneDesc;
 
@@ -132,32 +131,36 @@ fn on_plane(camera: &Camera, at: Vec2, size: Vec2, y: f32) -> Option<Vec3> {
     (t > 0.0).then(|| ray.origin + ray.dir * t)
 }
 
-/// A press in the view at `at` with "edit scene" on: picks the item there and starts dragging
-/// it. True when an item was picked (the press is then not the camera's).
-pub(super) fn press(ui: &mut UiState, at: Vec2, size: Vec2) -> bool {
-    let Some(desc) = ui.scene_edits.live() else {
-        return false;
-    };
-    let Some(item) = pick(&ui.camera, at, size, desc) else {
-        ui.picked = None;
-        return false;
-    };
+/// A press in the view at `at` with "edit scene" on, over the live scene `desc`: the item
+/// there, if any, and the drag it starts (`None` when the pointer is off its plane).
+pub(super) fn press(
+    camera: &Camera,
+    desc: &SceneDesc,
+    at: Vec2,
+    size: Vec2,
+) -> Option<(Item, Option<Grab>)> {
+    let item = pick(camera, at, size, desc)?;
     let c = centre(desc, item).unwrap_or_default();
-    ui.picked = Some(item);
-    ui.grab = on_plane(&ui.camera, at, size, c.y).map(|hit| Grab {
+    let grab = on_plane(camera, at, size, c.y).map(|hit| Grab {
         item,
         offset: c - hit,
         plane_y: c.y,
     });
-    true
+    Some((item, grab))
 }
 
-/// The pointer moved to `at` while dragging: the scene with the dragged item there (kept in
-/// the tank), or `None` when nothing is dragged or the pointer is off the plane.
-pub(super) fn dragged(ui: &UiState, at: Vec2, size: Vec2, tank: (Vec3, Vec3)) -> Option<SceneDesc> {
-    let grab = ui.grab?;
-    let hit = on_plane(&ui.camera, at, size, grab.plane_y)?;
-    let mut desc = ui.scene_edits.live()?.clone();
+/// The pointer moved to `at` while dragging `grab`: the live scene `desc` with the dragged item
+/// there (kept in the tank), or `None` when the pointer is off the plane.
+pub(super) fn dragged(
+    camera: &Camera,
+    grab: Grab,
+    desc: &SceneDesc,
+    at: Vec2,
+    size: Vec2,
+    tank: (Vec3, Vec3),
+) -> Option<SceneDesc> {
+    let hit = on_plane(camera, at, size, grab.plane_y)?;
+    let mut desc = desc.clone();
     let to = (hit + grab.offset).clamp(tank.0, tank.1);
     move_to(&mut desc, grab.item, to);
     Some(desc)
