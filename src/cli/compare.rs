@@ -231,8 +231,27 @@ fn print_table(c: &Comparison) {
     );
     for m in &c.summary {
         let verdict = if m.significant { "  significant" } else { "" };
+        // A scene measure that failed on some samples is a mean over the others: say so on its
+        // row, where the verdict is read (stderr has the first error).
+        let failed: Vec<String> = [("A", &c.a), ("B", &c.b)]
+            .into_iter()
+            .filter_map(|(version, v)| {
+                let count: u64 = v
+                    .runs
+                    .iter()
+                    .filter_map(|r| r.measure_errors.get(&m.measure))
+                    .map(|e| e.count)
+                    .sum();
+                (count > 0).then(|| format!("{version} failed {count}×"))
+            })
+            .collect();
+        let failed = if failed.is_empty() {
+            String::new()
+        } else {
+            format!("  ({}: over the samples that worked)", failed.join(", "))
+        };
         println!(
-            "  {:<24} {:>36} {:>36} {:>36}{verdict}",
+            "  {:<24} {:>36} {:>36} {:>36}{verdict}{failed}",
             m.label,
             fmt_estimate(&m.a),
             fmt_estimate(&m.b),

@@ -359,3 +359,51 @@ fn the_history_bench_reports_cost_size_and_seek() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--fish needs positive counts"));
 }
+
+/// A scene measure that fails on some samples is averaged over the others, which can make a
+/// broken B look better; its row in the table says how often each version failed, beside the
+/// verdict, and stderr gives the first error with its file and line.
+#[test]
+fn a_measure_that_fails_on_some_samples_is_flagged_on_its_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let scripts = common::repo().join("scripts");
+    let b = dir.path().join("b");
+    common::copy_dir(&scripts, &b);
+    let scene = b.join("scenes/default.lua");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let broken = text.replace(
+        "return fish.intention == \"flee\"",
+        "return fish.intention == \"flee\" or fish.memory.nope.x",
+    );
+    assert_ne!(broken, text, "the default scene's `fleeing` measure moved");
+    std::fs::write(&scene, broken).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["compare", "--a"])
+        .arg(&scripts)
+        .arg("--b")
+        .arg(&b)
+        .args(["--seeds", "2", "--seconds", "3"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stderr}");
+    let row = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("fleeing"))
+        .unwrap_or_else(|| panic!("no fleeing row: {stdout}"));
+    assert!(
+        row.contains("(B failed ") && row.contains("over the samples that worked"),
+        "{row}"
+    );
+    assert!(!row.contains("A failed"), "{row}");
+    let other = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("predator_distance_l"))
+        .unwrap();
+    assert!(!other.contains("failed"), "{other}");
+    assert!(stderr.contains("scenes/default.lua:52:"), "{stderr}");
+}
