@@ -167,31 +167,8 @@ fn text_report(subject: &Subject, ms: &[Measurement]) -> String {
         );
     }
     out.push('\n');
-    type Row = (&'static str, fn(&Kinematics) -> f32, usize);
-    let rows: [Row; 11] = [
-        ("speed U (L/s)", |k| k.speed_body_lengths_per_s, 3),
-        ("tail-beat frequency f (Hz)", |k| k.tail_beat_hz, 2),
-        (
-            "tail amplitude A, peak-to-peak (L)",
-            |k| k.tail_amplitude_peak_to_peak,
-            3,
-        ),
-        ("body wavelength λb (L)", |k| k.wavelength, 2),
-        ("waves on the body", |k| k.waves_on_body, 2),
-        ("wave speed V (L/s)", |k| k.wave_speed_body_lengths_per_s, 2),
-        ("stride length U/f (L)", |k| k.stride_length, 2),
-        ("slip U/V", |k| k.slip, 2),
-        ("Strouhal number f·A/U", |k| k.strouhal, 2),
-        ("snout amplitude a(0) (L)", |k| k.envelope[0].amplitude, 3),
-        ("smallest amplitude at x", |k| k.min_amplitude_x, 2),
-    ];
-    for (label, get, digits) in rows {
-        let _ = write!(out, "{label:<34}");
-        for m in ms {
-            let _ = write!(out, "{:>9.digits$}", get(&m.kinematics));
-        }
-        out.push('\n');
-    }
+    let ks: Vec<&Kinematics> = ms.iter().map(|m| &m.kinematics).collect();
+    write_measure_rows(&mut out, &ks, 9, "snout amplitude a(0) (L)");
     let _ = writeln!(out, "\nenvelope a(x), half peak-to-peak (L):");
     for i in 0..=10 {
         let x = i as f32 / 10.0;
@@ -382,7 +359,27 @@ fn midline_text(
         let _ = write!(out, "{c:>14}");
     }
     out.push('\n');
-    type Row = (&'static str, fn(&Kinematics) -> f32, usize);
+    let ks: Vec<&Kinematics> = columns.iter().map(|(_, k)| *k).collect();
+    write_measure_rows(&mut out, &ks, 14, "head amplitude a(0) (L)");
+    let _ = writeln!(out, "\nenvelope a(x), half peak-to-peak (L):");
+    for j in 0..=10 {
+        let x = j as f32 / 10.0;
+        let _ = write!(out, "  x = {x:.1}{:<25}", "");
+        for (_, k) in &columns {
+            let _ = write!(out, "{:>14.3}", k.amplitude_at(x));
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(out, "\nmidline: {MIDLINE_DEFINITION}\n\n{DEFINITIONS}");
+    out
+}
+
+/// The measures' rows of the species table and the midline table: one row per measure, one
+/// column of `width` characters per kinematics; the a(0) row is labelled `a0_label` (the
+/// species table's "snout", an animal's "head").
+fn write_measure_rows(out: &mut String, columns: &[&Kinematics], width: usize, a0_label: &str) {
+    use std::fmt::Write as _;
+    type Row<'a> = (&'a str, fn(&Kinematics) -> f32, usize);
     let rows: [Row; 11] = [
         ("speed U (L/s)", |k| k.speed_body_lengths_per_s, 3),
         ("tail-beat frequency f (Hz)", |k| k.tail_beat_hz, 2),
@@ -397,25 +394,14 @@ fn midline_text(
         ("stride length U/f (L)", |k| k.stride_length, 2),
         ("slip U/V", |k| k.slip, 2),
         ("Strouhal number f·A/U", |k| k.strouhal, 2),
-        ("head amplitude a(0) (L)", |k| k.envelope[0].amplitude, 3),
+        (a0_label, |k| k.envelope[0].amplitude, 3),
         ("smallest amplitude at x", |k| k.min_amplitude_x, 2),
     ];
     for (label, get, digits) in rows {
         let _ = write!(out, "{label:<34}");
-        for (_, k) in &columns {
-            let _ = write!(out, "{:>14.digits$}", get(k));
+        for k in columns {
+            let _ = write!(out, "{:>width$.digits$}", get(k));
         }
         out.push('\n');
     }
-    let _ = writeln!(out, "\nenvelope a(x), half peak-to-peak (L):");
-    for j in 0..=10 {
-        let x = j as f32 / 10.0;
-        let _ = write!(out, "  x = {x:.1}{:<25}", "");
-        for (_, k) in &columns {
-            let _ = write!(out, "{:>14.3}", k.amplitude_at(x));
-        }
-        out.push('\n');
-    }
-    let _ = writeln!(out, "\nmidline: {MIDLINE_DEFINITION}\n\n{DEFINITIONS}");
-    out
 }
