@@ -114,16 +114,15 @@ impl Renderer {
         Ok(())
     }
 
-    /// The frame's culling on the GPU: the same frustum, level selector and shadow projection
-    /// as [`Renderer::assign_buckets`], handed to the culling pass.
-    fn cull_on_gpu(
-        &mut self,
-        gpu: &Gpu,
-        encoder: &mut wgpu::CommandEncoder,
+    /// What both cullings (GPU and CPU) judge each fish by: the view's frustum, the level
+    /// selector for the view's height in pixels and the tolerance, and the shadow projection when
+    /// shadows are drawn.
+    fn cull_inputs(
+        &self,
         input: &FrameInput<'_>,
         frame: &View,
         height_px: u32,
-    ) {
+    ) -> (Frustum, LodSelector, Option<ShadowProjection>) {
         let frustum = Frustum::from_view_proj(&frame.view_proj);
         let selector = LodSelector::new(
             frame.eye,
@@ -135,6 +134,20 @@ impl Renderer {
             .look
             .shadows
             .then(|| ShadowProjection::new(input.tank.min.y, frame.light));
+        (frustum, selector, shadow)
+    }
+
+    /// The frame's culling on the GPU: the same frustum, level selector and shadow projection
+    /// as [`Renderer::assign_buckets`] ([`Self::cull_inputs`]), handed to the culling pass.
+    fn cull_on_gpu(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &FrameInput<'_>,
+        frame: &View,
+        height_px: u32,
+    ) {
+        let (frustum, selector, shadow) = self.cull_inputs(input, frame, height_px);
         self.record_gpu_cull(gpu, encoder, input, &frustum, &selector, shadow);
     }
 
@@ -204,17 +217,7 @@ impl Renderer {
         frame: &View,
         height_px: u32,
     ) -> RenderTimings {
-        let frustum = Frustum::from_view_proj(&frame.view_proj);
-        let selector = LodSelector::new(
-            frame.eye,
-            input.camera.fov_y_rad,
-            height_px.max(1),
-            self.lod_tolerance_px,
-        );
-        let shadow = input
-            .look
-            .shadows
-            .then(|| ShadowProjection::new(input.tank.min.y, frame.light));
+        let (frustum, selector, shadow) = self.cull_inputs(input, frame, height_px);
         let num_buckets = self.num_lod_buckets as usize + 2 * self.meshes.len();
         self.scratch_ranges.clear();
         self.scratch_ranges.resize(num_buckets, (0, 0));
