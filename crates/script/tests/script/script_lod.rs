@@ -519,11 +519,11 @@ fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
         ),
         (
             "lod = { bands = { {radius = 100, every = 1, cap = -1}, {every = 2} } }",
-            "cap",
+            "lod.bands[1].cap: got -1, expected a whole number",
         ),
         (
             "lod = { bands = { {radius = 100, every = 1, capp = 5}, {every = 2} } }",
-            "cap",
+            "lod.bands[1].capp: unknown key \"capp\"; did you mean \"cap\"?",
         ),
     ] {
         let err = match write(body) {
