@@ -119,6 +119,7 @@
 ---@class (exact) shoal.LodBand
 ---@field radius? number        # outer radius from the nearest focus, units (left out: everywhere; last band only)
 ---@field every integer         # decide this many times less often than the species' decision_hz (1 to 600)
+---@field cap? integer          # at most this many scripted fish hold the band: the nearest to a focus keep it, the rest drop to the next (not on the last band)
 
 ---@class (exact) shoal.Lod
 ---@field on? boolean           # level of detail on by default for this scene (`--lod on|off` overrides)

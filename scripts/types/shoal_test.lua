@@ -13,6 +13,8 @@
 ---@field tank? {min: shoal.Vec3, max: shoal.Vec3}  # the tank's corners
 ---@field scratch? boolean         # a private copy of scripts/ and assets/ (for `w:write_script`)
 ---@field allow_errors? boolean    # script errors are expected (check them with `w:errors()`)
+---@field lod? boolean             # behaviour level of detail on or off in this world, whatever `shoal test --lod` says (default: `--lod`, else the scene's)
+---@field focus? shoal.Vec3|shoal.Vec3[]  # level-of-detail focus point(s): fish near them decide at full rate (default: the scene's, else none)
 
 ---What `w:spawn` takes.
 ---@class (exact) shoal.TestSpawn

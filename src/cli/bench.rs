@@ -91,6 +91,11 @@ pub struct SimArgs {
     /// Script lanes (Lua states deciding in parallel; Lua driver). Default: one per thread.
     #[arg(long)]
     pub lanes: Option<usize>,
+    /// Threads: a rayon pool of N for the Rust stages (motion, pose records, grid, the
+    /// schedule) and, unless `--lanes` says otherwise, N script lanes. Default: rayon's (one
+    /// per core, or `RAYON_NUM_THREADS`). For the scaling: `--threads 1`, then 2, 4…
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Benchmark this Lua scene (a `.lua` file, or the name of one in `scripts/scenes/`: its fish
     /// and scripts) instead of the constant-density layout;
     /// `--fish` and `--driver` do not apply.
@@ -140,6 +145,22 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 }
 
 fn run_sim(args: SimArgs) -> anyhow::Result<ExitCode> {
+    let Some(threads) = args.threads else {
+        return run_sim_here(args);
+    };
+    if threads == 0 {
+        anyhow::bail!("--threads 0: expected at least 1 thread");
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .with_context(|| format!("starting a pool of {threads} threads"))?;
+    // Everything inside, so the script lanes default to the pool's size too.
+    pool.install(|| run_sim_here(args))
+}
+
+/// `shoal bench sim` in the current rayon pool.
+fn run_sim_here(args: SimArgs) -> anyhow::Result<ExitCode> {
     if !(args.seconds.is_finite() && args.seconds > 0.0) {
         anyhow::bail!("--seconds {} must be a positive number", args.seconds);
     }

@@ -53,6 +53,115 @@ fn test_shipped_behavior_suite_passes() {
     );
 }
 
+/// The whole shipped suite passes with behaviour level of detail on in every world (`shoal test
+/// --lod on`): the tests that count decisions pin their own setting or focus.
+#[test]
+fn test_shipped_behavior_suite_passes_with_level_of_detail_on() {
+    let files = testing::discover(&[root().join("tests/behavior")]).unwrap();
+    let opts = RunOptions {
+        lod: Some(true),
+        ..options()
+    };
+    let outcomes = testing::run_files(&files, &opts, |_| {});
+    assert!(outcomes.len() >= 12);
+    let failed: Vec<String> = outcomes
+        .iter()
+        .filter(|o| !o.passed())
+        .map(testing::format_outcome)
+        .collect();
+    assert!(
+        failed.is_empty(),
+        "failing with --lod on:\n{}",
+        failed.join("\n")
+    );
+}
+
+/// `t:world{lod = ...}` pins level of detail for its world whatever `--lod` says, and
+/// `t:world{focus = ...}` keeps the fish near it at full rate: with `--lod on`, a probe that
+/// counts its decisions makes all 20 of two seconds in both, and 5 (a quarter) in a world that
+/// pins neither. Bad values and the unknown-key list name the new keys.
+#[test]
+fn test_world_options_pin_level_of_detail_and_its_focus() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "lod_test.lua",
+        r#"
+local COUNTER = "return { behave = function(fish) fish.memory.n = (fish.memory.n or 0) + 1 end }"
+local function count(t, opts)
+  opts.scratch = true
+  local w = t:world(opts)
+  w:write_script("behaviors/counter.lua", COUNTER)
+  local fish = w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, speed = 0,
+                        behavior = "counter" }
+  w:run(2)
+  return fish.memory.n
+end
+test("pinned off", function(t)
+  local n = count(t, { seed = 1, lod = false })
+  t:expect(n == 20, "20 decisions with lod = false, got " .. tostring(n))
+end)
+test("focus on the probe", function(t)
+  local n = count(t, { seed = 1, focus = {0, 200, 0} })
+  t:expect(n == 20, "20 decisions at the focus, got " .. tostring(n))
+end)
+test("a list of focus points", function(t)
+  local n = count(t, { seed = 1, focus = { {900, 200, 0}, {0, 200, 0} } })
+  t:expect(n == 20, "20 decisions at the second focus, got " .. tostring(n))
+end)
+test("neither", function(t)
+  local n = count(t, { seed = 1 })
+  t:expect(n == 5, "a quarter of the rate with --lod on and no focus, got " .. tostring(n))
+end)
+test("bad lod", function(t) t:world{ lod = "yes" } end)
+test("bad focus", function(t) t:world{ focus = { {0, 1} } } end)
+test("typo", function(t) t:world{ focuss = {0, 0, 0} } end)
+"#,
+    );
+    let opts = RunOptions {
+        lod: Some(true),
+        ..options()
+    };
+    let outcomes = testing::run_files(std::slice::from_ref(&file), &opts, |_| {});
+    let by_name = |name: &str| {
+        outcomes
+            .iter()
+            .find(|o| o.name == name)
+            .unwrap_or_else(|| panic!("no outcome {name}"))
+    };
+    for name in [
+        "pinned off",
+        "focus on the probe",
+        "a list of focus points",
+        "neither",
+    ] {
+        assert!(
+            by_name(name).passed(),
+            "{}",
+            testing::format_outcome(by_name(name))
+        );
+    }
+    let message = |name: &str| {
+        let o = by_name(name);
+        assert!(!o.passed(), "{name} passed");
+        testing::format_outcome(o)
+    };
+    let bad_lod = message("bad lod");
+    assert!(
+        bad_lod.contains("t:world lod must be true or false") && bad_lod.contains("lod_test.lua:"),
+        "{bad_lod}"
+    );
+    let bad_focus = message("bad focus");
+    assert!(bad_focus.contains("t:world focus[1][3]"), "{bad_focus}");
+    let typo = message("typo");
+    assert!(
+        typo.contains("unknown key `focuss`")
+            && typo.contains("did you mean `focus`")
+            && typo.contains("lod, focus"),
+        "{typo}"
+    );
+}
+
 /// The same test run twice gives bit-identical trajectories.
 #[test]
 fn test_runs_are_bit_identical() {

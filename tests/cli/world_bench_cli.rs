@@ -217,3 +217,36 @@ fn pose_on_the_gpu_leaves_the_skeleton_stage_to_the_pass() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--pose") && err.contains("gpu"), "{err}");
 }
+
+/// `--threads N` runs the bench in a rayon pool of N (the result says so) with N script lanes;
+/// 0 is refused, naming the flag.
+#[test]
+fn threads_sets_the_pool_and_the_lanes() {
+    let report = bench(&["--driver", "lua", "--fish", "30", "--threads", "3"]);
+    check(&report, &[30]);
+    assert_eq!(report["results"][0]["threads"].as_u64(), Some(3));
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "bench",
+            "sim",
+            "--seconds",
+            "0.2",
+            "--fish",
+            "30",
+            "--threads",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("script lanes: 3"), "{text}");
+    assert!(text.contains("3 threads"), "{text}");
+    let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
+        .args(["bench", "sim", "--threads", "0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--threads 0"));
+}

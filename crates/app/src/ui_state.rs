@@ -311,6 +311,18 @@ pub(super) fn seek(scene: &mut DynScene, ui: &mut UiState, time_s: f64) {
     ui.scrub_s = scene.world().time();
 }
 
+/// Moves `scene`'s level-of-detail focus to the camera's target and the selected fish (where it
+/// is in that scene), if it moved.
+fn focus_lod(scene: &mut DynScene, target: Vec3, selected: Option<FishId>) {
+    let mut focus = vec![target];
+    if let Some(root) = selected.and_then(|id| scene.world().root(id)) {
+        focus.push(root.pos);
+    }
+    if scene.world().lod().focus != focus {
+        scene.sim_mut().world_mut().set_lod_focus(focus);
+    }
+}
+
 /// The simulation part of a frame: advances the scene by the frame's real time × the speed
 /// slider (all of it: no tick is dropped), by exactly one tick after "step", or not at all while
 /// paused; then moves the scene's new log lines into the console.
@@ -321,13 +333,11 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
         0.0
     };
     // Behaviour level of detail focuses where the designer looks: the camera's target and the
-    // selected fish.
-    let mut focus = vec![ui.camera.target];
-    if let Some(root) = ui.selected.and_then(|id| scene.world().root(id)) {
-        focus.push(root.pos);
-    }
-    if scene.world().lod().focus != focus {
-        scene.sim_mut().world_mut().set_lod_focus(focus);
+    // selected fish — in the split tank on both sides (one camera; the selected fish where it is
+    // in each version), so B schedules as A does.
+    focus_lod(scene, ui.camera.target, ui.selected);
+    if let Some(split) = &mut ui.split {
+        focus_lod(&mut split.scene, ui.camera.target, ui.selected);
     }
     let before = scene.time_s();
     let before_tick = scene.world().tick_count();

@@ -306,7 +306,8 @@ pub fn take_measures(scene: &Table, file: &str) -> Result<Vec<String>, FieldErro
 }
 
 /// A scene's `lod` table: `lod = { on = true, focus = { {0, 150, 0} },
-/// bands = { {radius = 600, every = 1}, {radius = 1500, every = 2}, {every = 4} }, wake = true }`.
+/// bands = { {radius = 600, every = 1, cap = 500}, {radius = 1500, every = 2}, {every = 4} },
+/// wake = true }`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LodDesc {
@@ -334,6 +335,10 @@ pub struct LodBandDesc {
     pub radius: Option<f32>,
     /// Decide this many times less often than the species' rate (1 to 600).
     pub every: u32,
+    /// Most scripted fish the band holds: the nearest to a focus keep it, the rest drop to the
+    /// next band (not on the last band).
+    #[serde(default)]
+    pub cap: Option<u32>,
 }
 
 impl LodDesc {
@@ -354,6 +359,7 @@ impl LodDesc {
                 .map(|b| shoal_core::world::LodBand {
                     radius: b.radius.unwrap_or(f32::INFINITY),
                     every: b.every,
+                    cap: b.cap,
                 })
                 .collect();
         }

@@ -695,3 +695,66 @@ fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
         "no panel line {line:?}"
     );
 }
+
+/// In the split tank B gets the level-of-detail focus as A does (the camera's target and the
+/// selected fish, where it is in B): the selected fish is in the near band on both sides, and
+/// B's focus is A's.
+#[test]
+fn the_split_tanks_b_gets_the_level_of_detail_focus_too() {
+    let scripts = scripts_with(&[(
+        "scenes/lod_split.lua",
+        r#"return {
+  tank = { min = {-2000, 0, -400}, max = {2000, 400, 400} },
+  lod = { on = true, bands = { {radius = 200, every = 1}, {every = 4} } },
+  fish = {
+    { species = "black_porgy", behavior = "wander", pos = {1500, 200, 0}, heading = 0 },
+    { species = "black_porgy", behavior = "wander", pos = {-1500, 200, 0}, heading = 0 },
+  },
+}"#,
+    )]);
+    let load = || {
+        Simulation::from_scene_with_scripts(
+            &repo(),
+            scripts.path(),
+            Path::new("scenes/lod_split.lua"),
+            3,
+        )
+        .expect("the test scene loads")
+    };
+    let (sa, sb) = (load(), load());
+    let selected = sa.world().fish_id_slice()[0];
+    let options = AppOptions {
+        select: Some(selected),
+        ..AppOptions::default()
+    };
+    let versions = shoal_app::SplitVersions {
+        a: "A".into(),
+        b: "B".into(),
+        dirs: None,
+    };
+    let mut aq = Aquarium::new_split(Box::new(sa), Box::new(sb), versions, options).unwrap();
+    for _ in 0..30 {
+        aq.advance(1.0 / 60.0);
+    }
+    let a = aq.scene.world();
+    let b = aq.split_scene().expect("a split tank").world();
+    assert_eq!(
+        a.lod_counts().fish[..2],
+        [1, 1],
+        "A: the selected fish near"
+    );
+    assert_eq!(
+        b.lod_counts().fish[..2],
+        [1, 1],
+        "B: the selected fish near"
+    );
+    assert_eq!(
+        b.lod().focus.len(),
+        2,
+        "B focuses on the camera and the fish"
+    );
+    // One camera, and the same scripts and seed (the fish is where it is in A): A's focus,
+    // set at the frame's start (the camera has followed the fish since).
+    assert_eq!(b.lod().focus, a.lod().focus);
+    assert!(b.lod().focus[1].distance(b.root(selected).unwrap().pos) < 10.0);
+}

@@ -24,6 +24,8 @@
 //! keeps them). So a run with level of detail on is as deterministic as one without: the same
 //! whatever the number of lanes or threads, and a replay is bit-exact.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use glam::Vec3;
 
 use super::sense::forward;
@@ -33,13 +35,18 @@ use super::{FishId, SpeciesId, World};
 pub const MAX_BANDS: usize = 6;
 
 /// One band of the schedule: the fish within `radius` of a focus (and beyond the bands before)
-/// decide `every` times less often than their species' rate.
+/// decide `every` times less often than their species' rate. With a `cap`, at most that many
+/// scripted fish hold the band: the nearest to a focus keep it (ties by slot index) and the
+/// rest drop to the next band, as MassLOD caps how many agents a level holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LodBand {
     /// Outer radius, world units (the last band's is infinite, whatever it says).
     pub radius: f32,
     /// Period multiplier, ≥ 1.
     pub every: u32,
+    /// Most scripted fish the band may hold (`None`: no cap). Not on the last band, which
+    /// takes every fish the others do not.
+    pub cap: Option<u32>,
 }
 
 /// The behaviour level-of-detail settings of a world (configuration, not state: the focus
@@ -74,14 +81,17 @@ pub fn default_bands() -> Vec<LodBand> {
         LodBand {
             radius: 600.0,
             every: 1,
+            cap: None,
         },
         LodBand {
             radius: 1500.0,
             every: 2,
+            cap: None,
         },
         LodBand {
             radius: f32::INFINITY,
             every: 4,
+            cap: None,
         },
     ]
 }
@@ -107,6 +117,16 @@ pub enum LodError {
         band: usize,
         /// Its multiplier.
         every: u32,
+    },
+    /// The last band has a cap: it takes every fish the bands before do not, so it has no
+    /// band to drop the rest to.
+    #[error(
+        "bands[{band}].cap: the last band takes every fish the bands before it do not, so it \
+         cannot have a cap (cap the bands before it)"
+    )]
+    LastCap {
+        /// The band (1-based).
+        band: usize,
     },
     /// A focus point is not finite.
     #[error("focus: {0} is not a finite point")]
@@ -134,6 +154,9 @@ impl Lod {
                     every: b.every,
                 });
             }
+            if is_last && b.cap.is_some() {
+                return Err(LodError::LastCap { band: k + 1 });
+            }
             last = b.radius;
         }
         if let Some(p) = self.focus.iter().find(|p| !p.is_finite()) {
@@ -142,21 +165,29 @@ impl Lod {
         Ok(())
     }
 
-    /// The band of a fish at `pos`.
+    /// The band of a fish at `pos` by its distance alone (before any band's cap).
     pub fn band_of(&self, pos: Vec3) -> usize {
         let last = self.bands.len().saturating_sub(1);
-        let Some(d2) = self
-            .focus
-            .iter()
-            .map(|f| f.distance_squared(pos))
-            .min_by(f32::total_cmp)
-        else {
+        let Some(d2) = self.focus_distance2(pos) else {
             return last;
         };
         self.bands[..last]
             .iter()
             .position(|b| d2 <= b.radius * b.radius)
             .unwrap_or(last)
+    }
+
+    /// The squared distance from `pos` to the nearest focus point (`None`: no focus).
+    fn focus_distance2(&self, pos: Vec3) -> Option<f32> {
+        self.focus
+            .iter()
+            .map(|f| f.distance_squared(pos))
+            .min_by(f32::total_cmp)
+    }
+
+    /// Whether a band before the last has a cap (and there is a focus to rank fish by).
+    fn capped(&self) -> bool {
+        !self.focus.is_empty() && self.bands.iter().any(|b| b.cap.is_some())
     }
 }
 
@@ -215,8 +246,8 @@ impl World {
     /// marks them as having decided now. `period(species, behaviour)` gives a fish's base
     /// period in ticks and the longest period its behaviour allows (`u64::MAX`: no minimum
     /// rate). With level of detail off a fish is due when `(tick + slot) % base == 0`, as
-    /// always; with it on, see the module docs. The per-fish work runs over rayon's threads;
-    /// the result does not depend on their number.
+    /// always; with it on, see the module docs. The per-fish work (bands, alerts, marks) runs
+    /// over rayon's threads in chunks; the result does not depend on their number.
     pub fn schedule_decisions(
         &mut self,
         period: impl Fn(SpeciesId, &str) -> (u64, u64) + Sync,
@@ -227,11 +258,18 @@ impl World {
         let tick = self.state.tick;
         let mut marks = std::mem::take(&mut self.lod_marks);
         let mut alert = std::mem::take(&mut self.lod_alert);
-        if self.lod.on && self.lod.wake {
-            self.mark_alerts(&mut alert);
+        let mut bands = std::mem::take(&mut self.lod_bands);
+        if self.lod.on {
+            let mut near = std::mem::take(&mut self.lod_near);
+            self.assign_bands(&mut bands, &mut near);
+            self.lod_near = near;
+            if self.lod.wake {
+                self.mark_alerts(&mut alert);
+            }
         }
         {
             let alert = &alert;
+            let bands = &bands;
             let world: &World = self;
             let f = &world.state.fish;
             let lod = &world.lod;
@@ -247,7 +285,7 @@ impl World {
                 if !on {
                     return u8::from(phase.is_multiple_of(base));
                 }
-                let band = lod.band_of(f.roots[d].pos);
+                let band = usize::from(bands[d]);
                 let p = (base * u64::from(lod.bands[band].every))
                     .min(cap.max(1))
                     .max(1);
@@ -273,24 +311,18 @@ impl World {
                 0
             }));
         }
+        let on = self.lod.on;
         let mut counts = LodCounts {
-            bands: if self.lod.on {
-                self.lod.bands.len() as u8
-            } else {
-                1
-            },
+            bands: if on { self.lod.bands.len() as u8 } else { 1 },
             ..LodCounts::default()
         };
+        // One pass over a byte or two per fish: the per-fish work is done above.
         let f = &mut self.state.fish;
         for (d, &m) in marks.iter().enumerate() {
             if f.behaviors[d].is_none() {
                 continue;
             }
-            if !self.lod.on {
-                counts.fish[0] += 1;
-            } else {
-                counts.fish[self.lod.band_of(f.roots[d].pos)] += 1;
-            }
+            counts.fish[if on { usize::from(bands[d]) } else { 0 }] += 1;
             if m == 0 {
                 continue;
             }
@@ -303,21 +335,76 @@ impl World {
         }
         self.lod_marks = marks;
         self.lod_alert = alert;
+        self.lod_bands = bands;
         self.lod_counts = counts;
+    }
+
+    /// Each dense fish's band into `bands`: by its distance to the nearest focus, then, band
+    /// by band from the nearest, a capped band keeps its `cap` scripted fish nearest to a focus
+    /// (ties by slot index, so the result is one whatever the order of the work) and the
+    /// rest drop to the next band, where they rank with the fish already there. `near` is a
+    /// buffer (the candidates of one band).
+    fn assign_bands(&self, bands: &mut Vec<u8>, near: &mut Vec<(u64, u32)>) {
+        use rayon::prelude::*;
+        let f = &self.state.fish;
+        let lod = &self.lod;
+        bands.clear();
+        bands.par_extend(
+            f.roots
+                .par_iter()
+                .with_min_len(2048)
+                .map(|r| lod.band_of(r.pos) as u8),
+        );
+        if !lod.capped() {
+            return;
+        }
+        for (k, band) in lod.bands.iter().enumerate() {
+            let Some(cap) = band.cap else {
+                continue;
+            };
+            let k8 = k as u8;
+            near.clear();
+            near.par_extend(
+                (0..f.len())
+                    .into_par_iter()
+                    .with_min_len(2048)
+                    .filter_map(|d| {
+                        if bands[d] != k8 || f.behaviors[d].is_none() {
+                            return None;
+                        }
+                        // Squared distances are not negative, so their bits order as they do.
+                        let d2 = lod.focus_distance2(f.roots[d].pos).unwrap_or(f32::INFINITY);
+                        let key = (u64::from(d2.to_bits()) << 32) | u64::from(f.ids[d].index);
+                        Some((key, d as u32))
+                    }),
+            );
+            let cap = cap as usize;
+            if near.len() <= cap {
+                continue;
+            }
+            // Keys are unique (one slot per fish), so the nearest `cap` are one set.
+            near.select_nth_unstable_by_key(cap, |e| e.0);
+            for &(_, d) in &near[cap..] {
+                bands[d as usize] = k8 + 1;
+            }
+        }
     }
 
     /// Marks, per dense fish, whether a predator of another species or a pellet is within its
     /// view range, from one grid query around each predator and pellet (there are far fewer of
     /// them than fish, so this costs a few thousand candidate visits where a query per fish
-    /// would cost one per fish). Leaves `alert` empty when the grid is not exact (fish spawned
-    /// or despawned since its rebuild): [`World::alerted_now`] then scans them itself.
-    fn mark_alerts(&self, alert: &mut Vec<bool>) {
+    /// would cost one per fish), the queries over rayon's threads (a mark is only ever set, so
+    /// the marks do not depend on the order). Leaves `alert` empty when the grid is not exact
+    /// (fish spawned or despawned since its rebuild): [`World::alerted_now`] then scans them
+    /// itself.
+    fn mark_alerts(&self, alert: &mut Vec<AtomicBool>) {
+        use rayon::prelude::*;
         alert.clear();
         let f = &self.state.fish;
         if !(self.index.grid_exact && self.index.grid_positions_current) {
             return;
         }
-        alert.resize(f.len(), false);
+        alert.resize_with(f.len(), || AtomicBool::new(false));
         let species = &self.catalog.species;
         let reach = species
             .iter()
@@ -335,28 +422,35 @@ impl World {
                 -1.0
             }
         };
-        for spot in &self.index.predator_spots {
-            self.index
-                .grid
-                .for_each_within(spot.pos(), reach, |key, _, d2| {
+        let alert = &alert[..];
+        let grid = &self.index.grid;
+        self.index
+            .predator_spots
+            .par_iter()
+            .with_min_len(16)
+            .for_each(|spot| {
+                grid.for_each_within(spot.pos(), reach, |key, _, d2| {
                     let d = key as usize;
                     if f.species[d] != spot.species() && d2 <= view2(d) {
-                        alert[d] = true;
+                        alert[d].store(true, Ordering::Relaxed);
                     }
                     true
                 });
-        }
-        for (_, pellet) in self.state.foods.iter().filter(|(_, p)| !p.eaten) {
-            self.index
-                .grid
-                .for_each_within(pellet.pos, reach, |key, _, d2| {
+            });
+        self.state
+            .foods
+            .par_iter()
+            .with_min_len(16)
+            .filter(|(_, p)| !p.eaten)
+            .for_each(|(_, pellet)| {
+                grid.for_each_within(pellet.pos, reach, |key, _, d2| {
                     let d = key as usize;
                     if d2 <= view2(d) {
-                        alert[d] = true;
+                        alert[d].store(true, Ordering::Relaxed);
                     }
                     true
                 });
-        }
+            });
     }
 
     /// Whether dense fish `d` touched the tank or a rock on the last motion step, or has the
@@ -381,9 +475,9 @@ impl World {
 
     /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:
     /// from `alert` ([`World::mark_alerts`]'s marks) when it has them, else scanned.
-    fn alerted_now(&self, d: usize, alert: &[bool]) -> bool {
-        if let Some(&a) = alert.get(d) {
-            return a;
+    fn alerted_now(&self, d: usize, alert: &[AtomicBool]) -> bool {
+        if let Some(a) = alert.get(d) {
+            return a.load(Ordering::Relaxed);
         }
         let f = &self.state.fish;
         let root = &f.roots[d];

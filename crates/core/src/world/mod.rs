@@ -157,7 +157,11 @@ pub struct World {
     /// The last schedule's per-fish marks (a buffer kept between ticks).
     lod_marks: Vec<u8>,
     /// The last schedule's per-fish alerts (predator or pellet in view; a buffer).
-    lod_alert: Vec<bool>,
+    lod_alert: Vec<std::sync::atomic::AtomicBool>,
+    /// The last schedule's band of each fish (a buffer).
+    lod_bands: Vec<u8>,
+    /// One capped band's candidates, (distance and slot key, dense index) (a buffer).
+    lod_near: Vec<(u64, u32)>,
 }
 
 impl World {
@@ -181,6 +185,8 @@ impl World {
             lod_counts: LodCounts::default(),
             lod_marks: Vec::new(),
             lod_alert: Vec::new(),
+            lod_bands: Vec::new(),
+            lod_near: Vec::new(),
         }
     }
 

@@ -172,21 +172,38 @@ impl World {
             .and_then(|d| self.state.fish.behaviors[d].as_ref())
     }
 
-    /// The distinct behaviours the fish run, in the order first met (dense order).
+    /// The distinct behaviours the fish run, in the order first met (dense order). Chunks of
+    /// fish are scanned over rayon's threads and their lists joined in chunk order, so the
+    /// order is the same whatever the thread count.
     pub fn behavior_names(&self) -> Vec<std::sync::Arc<str>> {
-        let mut names: Vec<std::sync::Arc<str>> = Vec::new();
-        let mut last: Option<&std::sync::Arc<str>> = None;
-        for b in self.state.fish.behaviors.iter().flatten() {
-            if last.is_some_and(|l| std::sync::Arc::ptr_eq(l, b)) {
-                continue;
+        use rayon::prelude::*;
+        use std::sync::Arc;
+        fn add(names: &mut Vec<Arc<str>>, b: &Arc<str>) {
+            if !names.iter().any(|n| Arc::ptr_eq(n, b) || **n == **b) {
+                names.push(Arc::clone(b));
             }
-            last = Some(b);
-            if !names
-                .iter()
-                .any(|n| std::sync::Arc::ptr_eq(n, b) || **n == **b)
-            {
-                names.push(std::sync::Arc::clone(b));
-            }
+        }
+        let per_chunk: Vec<Vec<Arc<str>>> = self
+            .state
+            .fish
+            .behaviors
+            .par_chunks(8192)
+            .map(|chunk| {
+                let mut names = Vec::new();
+                let mut last: Option<&Arc<str>> = None;
+                for b in chunk.iter().flatten() {
+                    if last.is_some_and(|l| Arc::ptr_eq(l, b)) {
+                        continue;
+                    }
+                    last = Some(b);
+                    add(&mut names, b);
+                }
+                names
+            })
+            .collect();
+        let mut names = Vec::new();
+        for b in per_chunk.iter().flatten() {
+            add(&mut names, b);
         }
         names
     }

@@ -48,18 +48,26 @@ fn row(sim: &mut Simulation, x: f32) -> Vec<FishId> {
 }
 
 fn bands(radii: [f32; 2]) -> Vec<LodBand> {
+    capped(radii, [None, None])
+}
+
+/// [`bands`] with caps on the first two.
+fn capped(radii: [f32; 2], caps: [Option<u32>; 2]) -> Vec<LodBand> {
     vec![
         LodBand {
             radius: radii[0],
             every: 1,
+            cap: caps[0],
         },
         LodBand {
             radius: radii[1],
             every: 2,
+            cap: caps[1],
         },
         LodBand {
             radius: f32::INFINITY,
             every: 4,
+            cap: None,
         },
     ]
 }
@@ -135,6 +143,91 @@ fn test_bands_follow_the_distance_to_the_focus() {
     for (&id, b) in far.iter().zip(before) {
         assert_eq!(decisions(&sim, id), b + 8, "fish {id:?} near the new focus");
     }
+}
+
+/// A band's cap: of the twelve fish within the first band only the five nearest the focus keep
+/// it, the other seven drop to the second band, whose cap of ten keeps those seven and the three
+/// nearest of its own twelve; the nine left drop to the last band. Exact counts every tick, and
+/// each fish decides at the rate of the band it was left in.
+#[test]
+fn test_a_band_holds_at_most_its_cap_and_the_nearest_keep_it() {
+    let (_d, mut sim) = probe(COUNTER, 3);
+    let focus = Vec3::new(-300.0, 180.0, 0.0);
+    sim.world_mut()
+        .set_lod(Lod {
+            on: true,
+            bands: capped([150.0, 450.0], [Some(5), Some(10)]),
+            focus: vec![focus],
+            wake: true,
+        })
+        .unwrap();
+    let near = row(&mut sim, -300.0);
+    let middle = row(&mut sim, 0.0);
+    let far = row(&mut sim, 300.0);
+    let by_distance = |fish: &[FishId], sim: &Simulation| {
+        let mut v: Vec<FishId> = fish.to_vec();
+        v.sort_by(|a, b| {
+            let d = |id: &FishId| sim.world().root(*id).unwrap().pos.distance(focus);
+            d(a).total_cmp(&d(b))
+        });
+        v
+    };
+    let near_sorted = by_distance(&near, &sim);
+    let middle_sorted = by_distance(&middle, &sim);
+    let mut per_band = [0u32; 3];
+    for _ in 0..48 {
+        sim.step();
+        let c = sim.world().lod_counts();
+        assert_eq!(c.fish[..3], [5, 10, 21], "fish per band");
+        for (b, n) in per_band.iter_mut().zip(c.decisions) {
+            *b += n;
+        }
+    }
+    assert_eq!(per_band, [5 * 8, 10 * 4, 21 * 2]);
+    for (k, &id) in near_sorted.iter().enumerate() {
+        let expected = if k < 5 { 8 } else { 4 };
+        assert_eq!(decisions(&sim, id), expected, "near fish {k} by distance");
+    }
+    for (k, &id) in middle_sorted.iter().enumerate() {
+        let expected = if k < 3 { 4 } else { 2 };
+        assert_eq!(decisions(&sim, id), expected, "middle fish {k} by distance");
+    }
+    for &id in &far {
+        assert_eq!(decisions(&sim, id), 2);
+    }
+}
+
+/// Fish at one distance from the focus rank by slot index: with a cap of two, of four fish
+/// around the focus the two spawned first keep the band.
+#[test]
+fn test_a_cap_breaks_ties_by_slot() {
+    let (_d, mut sim) = probe(COUNTER, 2);
+    let focus = Vec3::new(0.0, 180.0, 0.0);
+    sim.world_mut()
+        .set_lod(Lod {
+            on: true,
+            bands: capped([150.0, 450.0], [Some(2), None]),
+            focus: vec![focus],
+            wake: true,
+        })
+        .unwrap();
+    let fish: Vec<FishId> = [
+        Vec3::new(60.0, 0.0, 0.0),
+        Vec3::new(-60.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 60.0),
+        Vec3::new(0.0, 0.0, -60.0),
+    ]
+    .into_iter()
+    .map(|o| still(&mut sim, focus + o))
+    .collect();
+    let mut by_slot = fish.clone();
+    by_slot.sort_by_key(|id| id.index);
+    for _ in 0..48 {
+        sim.step();
+        assert_eq!(sim.world().lod_counts().fish[..2], [2, 2]);
+    }
+    let counts: Vec<u64> = by_slot.iter().map(|&id| decisions(&sim, id)).collect();
+    assert_eq!(counts, [8, 8, 4, 4], "lowest slots first");
 }
 
 /// A pellet in view wakes a slow fish at once (it decides on the next tick although its band
@@ -265,6 +358,63 @@ fn test_with_level_of_detail_on_the_lanes_do_not_change_the_run() {
     );
 }
 
+/// The benchmark school (3,000 fish: more than one chunk of every parallel pass) with level of
+/// detail on, a focus and capped bands, run in a rayon pool of one thread (one script lane) and
+/// of four (four lanes): the world states are the same, every root bit for bit, and so is every
+/// tick's schedule.
+#[test]
+fn test_pools_of_one_and_four_threads_run_the_same_world_bit_for_bit() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let root = common::repo();
+            let mut sim =
+                shoal_script::sim::bench_school(root, &root.join("scripts"), 3000, 4, None)
+                    .unwrap();
+            assert_eq!(
+                sim.num_lanes(),
+                threads,
+                "lanes default to the pool's threads"
+            );
+            let tank = *sim.world().tank();
+            let lod = Lod {
+                on: true,
+                bands: capped([500.0, 1000.0], [Some(300), Some(900)]),
+                focus: vec![(tank.min * 3.0 + tank.max) * 0.25],
+                wake: true,
+            };
+            sim.world_mut().set_lod(lod).unwrap();
+            let mut schedule = Vec::new();
+            for _ in 0..90 {
+                sim.step();
+                schedule.push(*sim.world().lod_counts());
+            }
+            common::assert_no_script_errors(&sim);
+            let state = sim.snapshot().unwrap().world().clone();
+            (roots(&sim), schedule, state)
+        })
+    };
+    let (one_roots, one_schedule, one_state) = run(1);
+    let (four_roots, four_schedule, four_state) = run(4);
+    let last = one_schedule.last().unwrap();
+    assert_eq!(last.fish[..3].iter().sum::<u32>(), 3000);
+    assert_eq!(
+        last.fish[..2],
+        [300, 900],
+        "both capped bands are full: their caps hold"
+    );
+    assert!(
+        one_schedule.iter().any(|c| c.woken > 0),
+        "events woke fish, so the alert marks were exercised"
+    );
+    assert_eq!(one_schedule, four_schedule, "the schedules differ");
+    assert!(one_roots == four_roots, "roots differ bitwise");
+    assert!(one_state == four_state, "world states differ");
+}
+
 /// A recording made with level of detail on, whose focus moves mid-run (the window's camera, an
 /// input), replays bit for bit; without the focus input the replay parts from it, so the
 /// recording really depends on it.
@@ -343,6 +493,10 @@ fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
     assert_eq!(lod.bands.len(), 2);
     assert_eq!(lod.bands[1].every, 3);
     assert!(lod.bands[1].radius.is_infinite());
+    assert_eq!(lod.bands[0].cap, None);
+    let sim =
+        write("lod = { bands = { {radius = 100, every = 1, cap = 40}, {every = 3} } }").unwrap();
+    assert_eq!(sim.world().lod().bands[0].cap, Some(40));
     for (body, wanted) in [
         ("lod = { bandz = {} }", "bands"),
         ("lod = { on = 'yes' }", "lod.on"),
@@ -359,6 +513,18 @@ fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
             "lod.bands[1].radius",
         ),
         ("lod = { focus = { {0, 0/0, 0} } }", "lod.focus[1]"),
+        (
+            "lod = { bands = { {radius = 100, every = 1, cap = 5}, {every = 2, cap = 3} } }",
+            "lod.bands[2].cap: the last band takes every fish",
+        ),
+        (
+            "lod = { bands = { {radius = 100, every = 1, cap = -1}, {every = 2} } }",
+            "lod.bands[1].cap: got -1, expected a whole number",
+        ),
+        (
+            "lod = { bands = { {radius = 100, every = 1, capp = 5}, {every = 2} } }",
+            "lod.bands[1].capp: unknown key \"capp\"; did you mean \"cap\"?",
+        ),
     ] {
         let err = match write(body) {
             Ok(_) => panic!("{body} was accepted"),

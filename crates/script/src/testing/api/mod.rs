@@ -364,7 +364,16 @@ fn located(lua: &Lua, message: impl std::fmt::Display) -> mlua::Error {
 }
 
 /// The keys each option table of the test API takes.
-const WORLD_KEYS: &[&str] = &["seed", "scene", "tank", "food", "scratch", "allow_errors"];
+const WORLD_KEYS: &[&str] = &[
+    "seed",
+    "scene",
+    "tank",
+    "food",
+    "scratch",
+    "allow_errors",
+    "lod",
+    "focus",
+];
 const FOOD_PHYSICS_KEYS: &[&str] = &["sink_speed", "lifetime"];
 const TANK_KEYS: &[&str] = &["min", "max"];
 const SPAWN_KEYS: &[&str] = &["species", "pos", "heading", "pitch", "speed", "behavior"];

@@ -8,6 +8,7 @@ use super::{NoRecording, TestRecording};
 use crate::Simulation;
 use crate::testing::Failure;
 use crate::timeline::inputs::Input;
+use glam::Vec3;
 use mlua::{Lua, Table, UserData, UserDataMethods, Value};
 use std::path::Path;
 
@@ -116,6 +117,36 @@ fn numbers<const N: usize>(
     Some(out)
 }
 
+/// `t:world{focus = ...}`: one point `{x, y, z}` or a list of them (`{}`: no focus); `None`
+/// when left out.
+fn focus_points(lua: &Lua, value: &Value) -> mlua::Result<Option<Vec<Vec3>>> {
+    let table = match value {
+        Value::Nil => return Ok(None),
+        Value::Table(t) => t,
+        other => {
+            return Err(located(
+                lua,
+                format!(
+                    "t:world focus must be a point {{x, y, z}} or a list of points, got {}",
+                    describe(other)
+                ),
+            ));
+        }
+    };
+    let first: Value = table.raw_get(1)?;
+    if matches!(first, Value::Integer(_) | Value::Number(_)) {
+        let p = vec3_from(value, "t:world focus").map_err(|e| located(lua, e.to_string()))?;
+        return Ok(Some(vec![p]));
+    }
+    let mut points = Vec::new();
+    for (i, p) in table.sequence_values::<Value>().enumerate() {
+        let p = vec3_from(&p?, &format!("t:world focus[{}]", i + 1))
+            .map_err(|e| located(lua, e.to_string()))?;
+        points.push(p);
+    }
+    Ok(Some(points))
+}
+
 impl UserData for TestHandle {
     fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
         methods.add_method("world", |lua, this, opts: Option<Table>| {
@@ -128,6 +159,23 @@ impl UserData for TestHandle {
             let scene: Option<String> = opts.get("scene")?;
             let scratch_wanted = opts.get::<Option<bool>>("scratch")?.unwrap_or(false);
             let allow_errors = opts.get::<Option<bool>>("allow_errors")?.unwrap_or(false);
+            // The world's own level of detail beats `--lod`: a test that counts decisions
+            // (which level of detail cuts) pins it.
+            let lod = match opts.get::<Value>("lod")? {
+                Value::Nil => None,
+                Value::Boolean(on) => Some(on),
+                other => {
+                    return Err(located(
+                        lua,
+                        format!(
+                            "t:world lod must be true or false (behaviour level of detail on or \
+                             off in this world, whatever --lod says), got {}",
+                            describe(&other)
+                        ),
+                    ));
+                }
+            };
+            let focus = focus_points(lua, &opts.get::<Value>("focus")?)?;
             let line = caller_line(lua);
             let mut root = this.0.borrow().root.clone();
             let scratch = if scratch_wanted {
@@ -143,7 +191,7 @@ impl UserData for TestHandle {
                 None => Simulation::empty(&root, seed),
             }
             .map_err(|e| located(lua, format!("t:world: {e}")))?;
-            if let Some(on) = this.0.borrow().lod {
+            if let Some(on) = lod.or(this.0.borrow().lod) {
                 sim.set_lod_on(on);
             }
             let recording = this
@@ -194,6 +242,12 @@ impl UserData for TestHandle {
                         sink_speed,
                         lifetime,
                     })
+                    .map_err(|e| located(lua, format!("t:world: {e}")))?;
+            }
+            if let Some(points) = focus {
+                // An input, as the window's camera is: a recording of the test keeps it.
+                state
+                    .input(Input::LodFocus { points })
                     .map_err(|e| located(lua, format!("t:world: {e}")))?;
             }
             let world = Cell::new(state);
