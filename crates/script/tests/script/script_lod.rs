@@ -273,6 +273,69 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
     assert_eq!(decisions(&sim, free), 2);
 }
 
+/// A still fish beside a side wall, heading along it (nothing straight ahead), is woken each
+/// base period: a school presses fish along the glass, and looking only ahead missed them.
+#[test]
+fn test_a_side_wall_within_a_body_length_wakes_a_fish_swimming_along_it() {
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.set_lod_on(true);
+    let l = sim
+        .world()
+        .species(sim.world().species_by_name("black_porgy").unwrap())
+        .body_length();
+    let along = sim
+        .spawn(
+            "black_porgy",
+            Vec3::new(500.0 - 0.5 * l, 200.0, 0.0),
+            std::f32::consts::FRAC_PI_2,
+            0.0,
+            Some(0.0),
+            Some("probe"),
+        )
+        .unwrap();
+    let free = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
+    for _ in 0..48 {
+        sim.step();
+    }
+    assert_eq!(decisions(&sim, along), 8, "woken every base period");
+    assert_eq!(decisions(&sim, free), 2);
+}
+
+/// A fast fish three body lengths from the wall and heading into it would reach it before it is
+/// next due: it is woken at the first tick it may be (tick 6), although the wall is still more
+/// than two body lengths ahead; the same fish heading away is not.
+#[test]
+fn test_a_fish_that_would_reach_a_wall_before_it_is_due_is_woken() {
+    for (heading, expected) in [(0.0, 2), (std::f32::consts::PI, 1)] {
+        let (_d, mut sim) = probe(COUNTER, 1);
+        sim.set_lod_on(true);
+        let l = sim
+            .world()
+            .species(sim.world().species_by_name("black_porgy").unwrap())
+            .body_length();
+        let fish = sim
+            .spawn(
+                "black_porgy",
+                Vec3::new(500.0 - 3.0 * l, 200.0, 0.0),
+                heading,
+                0.0,
+                Some(6.0 * l),
+                Some("probe"),
+            )
+            .unwrap();
+        for _ in 0..7 {
+            sim.step();
+        }
+        let x = sim.world().root(fish).unwrap().pos.x;
+        assert!(
+            500.0 - x > 2.0 * l,
+            "heading {heading}: the wall is still more than two lengths away ({})",
+            (500.0 - x) / l
+        );
+        assert_eq!(decisions(&sim, fish), expected, "heading {heading}");
+    }
+}
+
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
 /// a load error that names the file and the field.
 #[test]
