@@ -365,10 +365,10 @@ impl Renderer {
             tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
         });
         let num_records = (input.instances.len() + input.props.len()) as u32;
-        self.cull.record_sync =
-            self.cull
-                .records
-                .sync(device, queue, num_records as usize, fish.chain(props));
+        let next = self.cull.records.next();
+        next.extend(fish);
+        next.extend(props);
+        self.cull.record_sync = self.cull.records.sync(device, queue);
         self.cull.records_ms = t_records.elapsed().as_secs_f32() * 1e3;
 
         let c = &mut self.cull;

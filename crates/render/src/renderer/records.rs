@@ -3,7 +3,8 @@
 //! that differ from it. A fish's record (palette offset, mesh, tint, selected) changes when fish
 //! come or go, are selected, or change species; a fish that moves changes only its palette,
 //! which the pose pass or the palette upload writes and the culling pass reads. In a steady
-//! frame nothing is written: the CPU compares each record (32 bytes, no copy, no upload).
+//! frame nothing is written: the CPU builds the records and compares them with its copy, a
+//! chunk at a time (`memcmp`), and uploads nothing.
 
 use bytemuck::Pod;
 
@@ -27,12 +28,18 @@ pub(super) struct SyncStats {
     pub writes: u32,
 }
 
+/// Records compared at a time: one byte comparison (`memcmp`) per chunk, record by record
+/// only inside a chunk that changed.
+const CHUNK: usize = 256;
+
 /// A GPU storage buffer of records and the CPU's copy of what it holds.
 #[derive(Debug)]
 pub(super) struct RecordBuffer<T> {
     pub gpu: GrowBuffer,
     /// What the first `mirror.len()` records of `gpu` hold.
     mirror: Vec<T>,
+    /// The frame's records, filled through [`RecordBuffer::next`].
+    next: Vec<T>,
     /// The frame's changed runs, `start..end` in records (scratch).
     runs: Vec<(usize, usize)>,
 }
@@ -42,68 +49,68 @@ impl<T: Pod> RecordBuffer<T> {
         Self {
             gpu,
             mirror: Vec::new(),
+            next: Vec::new(),
             runs: Vec::new(),
         }
     }
 
-    /// Makes the GPU buffer hold `records` (exactly `len` of them), writing only the runs that
-    /// differ from what it held; all of them when the buffer had to grow (a new buffer holds
-    /// nothing).
-    pub fn sync(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        len: usize,
-        records: impl Iterator<Item = T>,
-    ) -> SyncStats {
+    /// The frame's records, empty: fill it, then [`RecordBuffer::sync`].
+    pub fn next(&mut self) -> &mut Vec<T> {
+        self.next.clear();
+        &mut self.next
+    }
+
+    /// Makes the GPU buffer hold the records put in [`RecordBuffer::next`], writing only the
+    /// runs that differ from what it held; all of them when the buffer had to grow (a new
+    /// buffer holds nothing).
+    pub fn sync(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> SyncStats {
         let size = std::mem::size_of::<T>() as u64;
-        if self.gpu.ensure(device, len as u64 * size) {
+        if self.gpu.ensure(device, self.next.len() as u64 * size) {
             self.mirror.clear();
         }
-        changed_runs(&mut self.mirror, &mut self.runs, len, records);
+        changed_runs(&self.mirror, &self.next, &mut self.runs);
         let mut stats = SyncStats::default();
         for &(start, end) in &self.runs {
             queue.write_buffer(
                 &self.gpu.buffer,
                 start as u64 * size,
-                bytemuck::cast_slice(&self.mirror[start..end]),
+                bytemuck::cast_slice(&self.next[start..end]),
             );
             stats.written += (end - start) as u32;
             stats.writes += 1;
         }
+        // The GPU now holds what `next` holds; the old mirror is next frame's scratch.
+        std::mem::swap(&mut self.mirror, &mut self.next);
         stats
     }
 }
 
-/// Makes `mirror` equal to the first `len` of `records` and puts into `runs` the ranges of
-/// `mirror` that changed (records compared bytewise, so a NaN tint is not a change every
-/// frame), neighbouring runs less than [`MERGE_GAP`] apart merged, at most [`MAX_WRITES`] runs.
-pub(super) fn changed_runs<T: Pod>(
-    mirror: &mut Vec<T>,
-    runs: &mut Vec<(usize, usize)>,
-    len: usize,
-    records: impl Iterator<Item = T>,
-) {
+/// Puts into `runs` the ranges of `new` that differ from `old` (records compared bytewise, so a
+/// NaN tint is not a change every frame) or that `old` does not have, neighbouring runs less
+/// than [`MERGE_GAP`] apart merged, at most [`MAX_WRITES`] runs.
+pub(super) fn changed_runs<T: Pod>(old: &[T], new: &[T], runs: &mut Vec<(usize, usize)>) {
     runs.clear();
-    let old_len = mirror.len().min(len);
-    mirror.truncate(len);
     let mut push = |i: usize| match runs.last_mut() {
         Some(last) if i <= last.1 + MERGE_GAP => last.1 = i + 1,
         _ => runs.push((i, i + 1)),
     };
-    let mut records = records.take(len);
-    for (i, (old, new)) in mirror[..old_len].iter_mut().zip(&mut records).enumerate() {
-        if bytemuck::bytes_of(old) != bytemuck::bytes_of(&new) {
-            *old = new;
-            push(i);
+    let common = old.len().min(new.len());
+    let mut start = 0;
+    while start < common {
+        let end = (start + CHUNK).min(common);
+        if bytes(&old[start..end]) != bytes(&new[start..end]) {
+            for i in start..end {
+                if bytemuck::bytes_of(&old[i]) != bytemuck::bytes_of(&new[i]) {
+                    push(i);
+                }
+            }
         }
+        start = end;
     }
-    let start = mirror.len();
-    mirror.extend(records);
-    if mirror.len() > start {
-        push(start);
+    if new.len() > common {
+        push(common);
         if let Some(last) = runs.last_mut() {
-            last.1 = mirror.len();
+            last.1 = new.len();
         }
     }
     if runs.len() > MAX_WRITES {
@@ -113,14 +120,20 @@ pub(super) fn changed_runs<T: Pod>(
     }
 }
 
+/// A slice of records as its bytes.
+fn bytes<T: Pod>(records: &[T]) -> &[u8] {
+    bytemuck::cast_slice(records)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The runs from `mirror` to `new`, then `mirror` = `new` (as the GPU's copy).
     fn run(mirror: &mut Vec<[u32; 2]>, new: &[[u32; 2]]) -> Vec<(usize, usize)> {
         let mut runs = Vec::new();
-        changed_runs(mirror, &mut runs, new.len(), new.iter().copied());
-        assert_eq!(mirror.as_slice(), new, "the mirror follows the records");
+        changed_runs(mirror, new, &mut runs);
+        *mirror = new.to_vec();
         runs
     }
 
@@ -168,9 +181,8 @@ mod tests {
 
     #[test]
     fn a_nan_that_stays_is_no_change() {
-        let mut mirror = vec![[f32::NAN, 1.0]];
         let mut runs = Vec::new();
-        changed_runs(&mut mirror, &mut runs, 1, [[f32::NAN, 1.0]].into_iter());
+        changed_runs(&[[f32::NAN, 1.0]], &[[f32::NAN, 1.0]], &mut runs);
         assert!(runs.is_empty());
     }
 }
