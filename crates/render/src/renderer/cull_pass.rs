@@ -1,11 +1,14 @@
-//! Culling and levels of detail on the GPU (`shaders/cull.wgsl`): the CPU writes one record per
-//! fish and prop (its palette offset, mesh, tint) and a table per mesh, and records a fixed set
-//! of passes and indirect draws, one per mesh, level and material (and per mesh and material for
-//! the near and outline shadows), so its work per frame does not depend on how many fish are in
-//! view. The compute passes cull each record against the view, pick its level by projected error
+//! Culling and levels of detail on the GPU (`shaders/cull.wgsl`): the GPU keeps one record per
+//! fish and prop (its palette offset, mesh, tint) between frames, which the CPU brings up to date
+//! by writing only those that changed ([`super::records`]), and a table per mesh; the CPU
+//! records a fixed set of passes and indirect draws, one per mesh, level and material (and per
+//! mesh and material for the near and outline shadows), so its work per frame does not depend
+//! on how many fish are in view (it still builds and compares each fish's record: see
+//! [`super::records`]). The compute passes cull each record against the view, pick its level by projected error
 //! (the arithmetic of [`crate::lod`]), group the instances by draw and write each draw's indirect
 //! arguments. The counts the CPU path keeps for [`super::RenderTimings`] stay on the GPU until
-//! [`Renderer::read_gpu_counts`] reads them.
+//! [`Renderer::read_gpu_counts`] reads them, or the window's read-back without waiting brings
+//! an earlier frame's ([`super::RenderTimings::counts_frame`] names it).
 //!
 //! Indirect draws start at instance 0: a first instance there needs
 //! `Features::INDIRECT_FIRST_INSTANCE`, so each draw's instances are found through its own
