@@ -493,7 +493,10 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
          last frame; LOD tolerance {} px; {}; culling: {}; pose ms: the tick's pose stage, \
          CPU, median; upload ms: the renderer's CPU work before recording the draws, mean; cull \
-         ms: of that, culling and levels of detail)",
+         ms: of that, culling and levels of detail; records ms: of that, on the GPU path, \
+         bringing the per-fish culling records up to date, mean; written: records written a \
+         frame, mean (all of them in the warm-up frame, then only changed ones); draws: \
+         recorded/that drew something)",
         args.size.0,
         args.size.1,
         args.frames,
@@ -506,13 +509,15 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         }
     );
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>8} {:>6} {:>7} {:>7} {:>24} {:>12}",
+        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>8} {:>10} {:>8} {:>6} {:>7} {:>7} {:>24} {:>12}",
         "fish",
         "median ms",
         "p99 ms",
         "pose ms",
         "upload ms",
         "cull ms",
+        "records ms",
+        "written",
         "draws",
         "drawn",
         "culled",
@@ -577,6 +582,8 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let mut pose_ms = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
         let mut cull = 0.0;
+        let mut records = 0.0;
+        let mut written = 0.0;
         for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
             let c = scene.world().counters();
@@ -591,6 +598,8 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
                 times.push(ms);
                 upload += f64::from(renderer.timings().upload_ms);
                 cull += f64::from(renderer.timings().cull_ms);
+                records += f64::from(renderer.timings().records_ms);
+                written += f64::from(renderer.timings().num_records_written);
             }
         }
         let (median, p99) = shoal_core::world::bench::median_p99(&mut times);
@@ -604,10 +613,12 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join("/");
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>8.3} {:>6} {:>7} {:>7} {:>24} {:>12}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>8.3} {:>10.3} {:>8.0} {:>6} {:>7} {:>7} {:>24} {:>12}",
             upload / args.frames as f64,
             cull / args.frames as f64,
-            t.num_draw_calls,
+            records / args.frames as f64,
+            written / args.frames as f64,
+            format!("{}/{}", t.num_draw_calls, t.num_nonempty_draw_calls),
             t.num_fish_drawn,
             t.num_fish_culled,
             per_lod,

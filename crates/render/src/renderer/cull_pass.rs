@@ -1,11 +1,14 @@
-//! Culling and levels of detail on the GPU (`shaders/cull.wgsl`): the CPU writes one record per
-//! fish and prop (its palette offset, mesh, tint) and a table per mesh, and records a fixed set
-//! of passes and indirect draws, one per mesh, level and material (and per mesh and material for
-//! the near and outline shadows), so its work per frame does not depend on how many fish are in
-//! view. The compute passes cull each record against the view, pick its level by projected error
+//! Culling and levels of detail on the GPU (`shaders/cull.wgsl`): the GPU keeps one record per
+//! fish and prop (its palette offset, mesh, tint) between frames, which the CPU brings up to date
+//! by writing only those that changed ([`super::records`]), and a table per mesh; the CPU
+//! records a fixed set of passes and indirect draws, one per mesh, level and material (and per
+//! mesh and material for the near and outline shadows), so its work per frame does not depend
+//! on how many fish are in view (it still builds and compares each fish's record: see
+//! [`super::records`]). The compute passes cull each record against the view, pick its level by projected error
 //! (the arithmetic of [`crate::lod`]), group the instances by draw and write each draw's indirect
 //! arguments. The counts the CPU path keeps for [`super::RenderTimings`] stay on the GPU until
-//! [`Renderer::read_gpu_counts`] reads them.
+//! [`Renderer::read_gpu_counts`] reads them, or the window's read-back without waiting brings
+//! an earlier frame's ([`super::RenderTimings::counts_frame`] names it).
 //!
 //! Indirect draws start at instance 0: a first instance there needs
 //! `Features::INDIRECT_FIRST_INSTANCE`, so each draw's instances are found through its own
@@ -14,9 +17,11 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
+use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 
+use super::records::{RecordBuffer, SyncStats};
 use super::{GrowBuffer, RenderTimings, Renderer};
 use crate::lod::{BEND_MARGIN, Frustum, LodSelector, MAX_LODS, NEAR_SHADOW_LOD, ShadowProjection};
 use crate::{FrameInput, Gpu, RenderError};
@@ -80,6 +85,15 @@ pub(super) struct IndirectDraw {
     pub num_indices: u32,
 }
 
+/// A frame whose counts are read back: which frame, its indirect draws (the bucket each one
+/// reads) and its other draws (background, floor, lines), which always draw.
+#[derive(Debug, Default)]
+struct PendingCounts {
+    frame: u64,
+    draws: Vec<IndirectDraw>,
+    other_draws: u32,
+}
+
 /// Where the counts' read-back for the window stands (see [`Renderer::poll_gpu_counts`]).
 #[derive(Debug)]
 enum CountsReadback {
@@ -94,20 +108,26 @@ enum CountsReadback {
 /// The culling pass's buffers (grow-only), its uniform and the frame's draw list.
 #[derive(Debug)]
 pub(super) struct CullBuffers {
-    records: GrowBuffer,
+    /// One per fish, then per prop; written where they changed ([`RecordBuffer::sync`]).
+    records: RecordBuffer<CullRecord>,
+    /// What the last frame's record sync wrote, and how long it took (CPU, milliseconds).
+    pub record_sync: SyncStats,
+    pub records_ms: f32,
     tables: GrowBuffer,
     params: wgpu::Buffer,
     state: GrowBuffer,
     pub args: GrowBuffer,
-    scratch_records: Vec<CullRecord>,
     scratch_tables: Vec<[u32; 4]>,
     /// The last frame's draws, in recording order (shadows, opaque, blended).
     pub draws: Vec<IndirectDraw>,
     /// Buckets of the last GPU-culled frame (0: none was).
     num_buckets: u32,
     /// The counts of the latest GPU-culled frame read back (a frame or two old, or as new as
-    /// [`Renderer::read_gpu_counts`]).
+    /// [`Renderer::read_gpu_counts`]); [`RenderTimings::counts_frame`] says which frame.
     pub last_counts: RenderTimings,
+    /// The frame whose counts are being read back without waiting: its number, its draws and
+    /// how many draws it recorded besides them (valid while `readback` is not idle).
+    pending: PendingCounts,
     /// Where the counts are copied for reading without waiting (`MAP_READ`).
     staging: Option<wgpu::Buffer>,
     readback: CountsReadback,
@@ -119,7 +139,10 @@ impl CullBuffers {
             GrowBuffer::new(device, label, wgpu::BufferUsages::STORAGE | extra, 4096)
         };
         Self {
-            records: storage("culling pass: records", wgpu::BufferUsages::empty()),
+            records: RecordBuffer::new(storage(
+                "culling pass: records",
+                wgpu::BufferUsages::empty(),
+            )),
             tables: storage(
                 "culling pass: mesh and draw tables",
                 wgpu::BufferUsages::empty(),
@@ -132,11 +155,13 @@ impl CullBuffers {
             }),
             state: storage("culling pass: counters", wgpu::BufferUsages::COPY_SRC),
             args: storage("culling pass: indirect draws", wgpu::BufferUsages::INDIRECT),
-            scratch_records: Vec::new(),
+            record_sync: SyncStats::default(),
+            records_ms: 0.0,
             scratch_tables: Vec::new(),
             draws: Vec::new(),
             num_buckets: 0,
             last_counts: RenderTimings::default(),
+            pending: PendingCounts::default(),
             staging: None,
             readback: CountsReadback::Idle,
         }
@@ -161,12 +186,20 @@ pub(super) fn default_culling(gpu: &Gpu) -> Culling {
     }
 }
 
-/// The counts in the state buffer's first `STATS` + buckets words, over `draws`, into `t`.
-fn apply_counts(t: &mut RenderTimings, words: &[u32], draws: &[IndirectDraw]) {
+/// The counts in the state buffer's first `STATS` + buckets words of frame `frame`, whose
+/// indirect draws were `draws` and which recorded `other_draws` draws besides, into `t`.
+fn apply_counts(
+    t: &mut RenderTimings,
+    words: &[u32],
+    draws: &[IndirectDraw],
+    other_draws: u32,
+    frame: u64,
+) {
     if words.len() < STATS {
         return;
     }
     let counts = &words[STATS..];
+    let instances = |d: &IndirectDraw| counts.get(d.bucket as usize).copied().unwrap_or(0);
     t.num_fish_drawn = words[0];
     t.num_fish_culled = words[1];
     t.num_shadows_drawn = words[2];
@@ -174,11 +207,11 @@ fn apply_counts(t: &mut RenderTimings, words: &[u32], draws: &[IndirectDraw]) {
     t.num_fish_per_lod.copy_from_slice(&words[4..4 + MAX_LODS]);
     t.num_triangles = draws
         .iter()
-        .map(|d| {
-            let n = counts.get(d.bucket as usize).copied().unwrap_or(0);
-            u64::from(d.num_indices / 3) * u64::from(n)
-        })
+        .map(|d| u64::from(d.num_indices / 3) * u64::from(instances(d)))
         .sum();
+    t.num_nonempty_draw_calls =
+        other_draws + draws.iter().filter(|d| instances(d) > 0).count() as u32;
+    t.counts_frame = frame;
 }
 
 impl Renderer {
@@ -209,7 +242,14 @@ impl Renderer {
                         if let Ok(range) = staging.slice(..).get_mapped_range() {
                             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&range);
                             drop(range);
-                            apply_counts(&mut c.last_counts, &words, &c.draws);
+                            let p = &c.pending;
+                            apply_counts(
+                                &mut c.last_counts,
+                                &words,
+                                &p.draws,
+                                p.other_draws,
+                                p.frame,
+                            );
                         }
                         staging.unmap();
                     }
@@ -220,12 +260,16 @@ impl Renderer {
     }
 
     /// After the culling passes: copies the counts for [`Renderer::poll_gpu_counts`] when no
-    /// read-back is pending.
+    /// read-back is pending, noting which frame they are from and its draws.
     fn copy_gpu_counts(&mut self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder) {
+        let frame = self.frame;
         let c = &mut self.cull;
         if !matches!(c.readback, CountsReadback::Idle) {
             return;
         }
+        c.pending.frame = frame;
+        c.pending.draws.clone_from(&c.draws);
+        c.pending.other_draws = 0;
         let size = ((STATS + c.num_buckets as usize) * 4) as u64;
         if c.staging.as_ref().is_none_or(|b| b.size() < size) {
             c.staging = Some(device.create_buffer(&wgpu::BufferDescriptor {
@@ -307,27 +351,30 @@ impl Renderer {
         let num_buckets = self.num_lod_buckets + 2 * self.meshes.len() as u32;
         self.cull.num_buckets = num_buckets;
 
-        let c = &mut self.cull;
-        c.scratch_records.clear();
-        c.scratch_records
-            .extend(input.instances.iter().map(|inst| CullRecord {
-                palette_offset: inst.palette_offset,
-                flags: u32::from(inst.selected),
-                mesh: inst.mesh.0,
-                is_fish: 1,
-                tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
-            }));
+        let t_records = Instant::now();
         let first_prop = super::fish_palette_len(input) as u32;
-        c.scratch_records
-            .extend(input.props.iter().enumerate().map(|(k, p)| CullRecord {
-                palette_offset: first_prop + k as u32,
-                flags: 0,
-                mesh: p.mesh.0,
-                is_fish: 0,
-                tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
-            }));
-        let num_records = c.scratch_records.len() as u32;
+        let fish = input.instances.iter().map(|inst| CullRecord {
+            palette_offset: inst.palette_offset,
+            flags: u32::from(inst.selected),
+            mesh: inst.mesh.0,
+            is_fish: 1,
+            tint: [inst.tint[0], inst.tint[1], inst.tint[2], 1.0],
+        });
+        let props = input.props.iter().enumerate().map(|(k, p)| CullRecord {
+            palette_offset: first_prop + k as u32,
+            flags: 0,
+            mesh: p.mesh.0,
+            is_fish: 0,
+            tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
+        });
+        let num_records = (input.instances.len() + input.props.len()) as u32;
+        let next = self.cull.records.next();
+        next.extend(fish);
+        next.extend(props);
+        self.cull.record_sync = self.cull.records.sync(device, queue);
+        self.cull.records_ms = t_records.elapsed().as_secs_f32() * 1e3;
 
+        let c = &mut self.cull;
         c.scratch_tables.clear();
         for (m, mesh) in self.meshes.iter().enumerate() {
             let b = mesh.bounds;
@@ -379,7 +426,6 @@ impl Renderer {
                 queue.write_buffer(&buffer.buffer, 0, bytes);
             }
         };
-        upload(&mut c.records, bytemuck::cast_slice(&c.scratch_records));
         upload(&mut c.tables, bytemuck::cast_slice(&c.scratch_tables));
         let state_bytes =
             ((STATS + 2 * num_buckets as usize + 4 * num_records as usize) * 4) as u64;
@@ -417,7 +463,7 @@ impl Renderer {
             label: Some("culling pass bind group"),
             layout: &self.cull_layout,
             entries: &[
-                entry(0, &c.records.buffer),
+                entry(0, &c.records.gpu.buffer),
                 entry(1, &c.tables.buffer),
                 entry(2, &c.params),
                 entry(3, &self.palettes.buffer),
@@ -445,9 +491,19 @@ impl Renderer {
         }
     }
 
+    /// After the frame's scene pass: the draws it recorded besides the indirect ones, for the
+    /// counts read back from it ([`RenderTimings::num_nonempty_draw_calls`]).
+    pub(super) fn note_other_draws(&mut self, frame: u64, other_draws: u32) {
+        let p = &mut self.cull.pending;
+        if p.frame == frame {
+            p.other_draws = other_draws;
+        }
+    }
+
     /// Reads back the counts of the last frame culled on the GPU (fish drawn and culled, per
-    /// level, shadows, triangles) into [`Renderer::timings`], and returns them; waits for the
-    /// GPU. Frames culled on the CPU have their counts already: they are returned as they are.
+    /// level, shadows, triangles, draws that drew something) into [`Renderer::timings`], and
+    /// returns them; waits for the GPU. [`RenderTimings::counts_frame`] is then the last frame.
+    /// Frames culled on the CPU have their counts already: they are returned as they are.
     pub fn read_gpu_counts(&mut self, gpu: &Gpu) -> Result<RenderTimings, RenderError> {
         if !self.last_frame_gpu_culled {
             return Ok(self.timings);
@@ -469,19 +525,11 @@ impl Renderer {
         gpu.queue.submit([encoder.finish()]);
         let bytes = super::map_read(gpu, &staging)?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
-        let counts = &words[STATS..];
         let t = &mut self.timings;
-        t.num_fish_drawn = words[0];
-        t.num_fish_culled = words[1];
-        t.num_shadows_drawn = words[2];
-        t.num_outline_shadows = words[3];
-        t.num_fish_per_lod.copy_from_slice(&words[4..4 + MAX_LODS]);
-        t.num_triangles = self
-            .cull
-            .draws
-            .iter()
-            .map(|d| u64::from(d.num_indices / 3) * u64::from(counts[d.bucket as usize]))
-            .sum();
+        let other_draws = t
+            .num_draw_calls
+            .saturating_sub(self.cull.draws.len() as u32);
+        apply_counts(t, &words, &self.cull.draws, other_draws, self.frame);
         Ok(*t)
     }
 }

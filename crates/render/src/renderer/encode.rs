@@ -80,6 +80,7 @@ impl Renderer {
         input: &FrameInput<'_>,
     ) -> Result<(), RenderError> {
         self.validate(input)?;
+        self.frame += 1;
         let t0 = Instant::now();
         self.ensure_attachments(&gpu.device, size);
         let frame = self.write_globals(gpu, input, size);
@@ -104,13 +105,25 @@ impl Renderer {
         let draws =
             self.record_scene_pass(encoder, view, input.look.shadows, &lines, &mut stats)?;
         let t2 = Instant::now();
-        self.timings = RenderTimings {
+        let mut timings = RenderTimings {
+            frame: self.frame,
             upload_ms: (t1 - t0).as_secs_f32() * 1e3,
             cull_ms,
             draw_ms: (t2 - t1).as_secs_f32() * 1e3,
             num_draw_calls: draws,
             ..stats
         };
+        if gpu_cull {
+            let other_draws = draws.saturating_sub(self.cull.draws.len() as u32);
+            self.note_other_draws(self.frame, other_draws);
+            timings.records_ms = self.cull.records_ms;
+            timings.num_records_written = self.cull.record_sync.written;
+        } else {
+            // The CPU path records only draws with instances, and counts this frame.
+            timings.num_nonempty_draw_calls = draws;
+            timings.counts_frame = self.frame;
+        }
+        self.timings = timings;
         Ok(())
     }
 

@@ -13,6 +13,7 @@ mod encode;
 mod pipelines;
 mod pose_pass;
 mod readback;
+mod records;
 mod upload;
 
 use std::time::Instant;
@@ -38,22 +39,47 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const DEFAULT_LOD_TOLERANCE_PX: f32 = 1.0;
 
 /// Per-stage CPU timings and counts of the last frame (times in milliseconds).
+///
+/// The times, [`RenderTimings::num_draw_calls`] and the record figures are those of frame
+/// [`RenderTimings::frame`]. The counts (fish drawn, culled, per level, shadows, triangles,
+/// draws that drew something) are those of frame [`RenderTimings::counts_frame`]: the same
+/// frame on the CPU path and after [`Renderer::read_gpu_counts`]; culled on the GPU and read
+/// without waiting (the window), an earlier one, or 0 while none has been read back yet.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RenderTimings {
+    /// The frame these timings are from: 1 for the renderer's first, counting every
+    /// [`Renderer::encode`] (or [`Renderer::render`]).
+    pub frame: u64,
+    /// The frame the counts are from (see above); 0: no counts yet.
+    pub counts_frame: u64,
     /// Culling, choosing levels of detail, sorting instances and writing the palette, instance
     /// and line buffers.
     pub upload_ms: f32,
     /// Of `upload_ms`, culling and levels of detail: on the CPU ([`Culling::Cpu`]) choosing
     /// each instance's draws and writing the instances sorted by draw; on the GPU
-    /// ([`Culling::Gpu`]) writing one record per instance and recording the culling pass.
+    /// ([`Culling::Gpu`]) bringing the per-instance records up to date and recording the
+    /// culling pass.
     pub cull_ms: f32,
+    /// Of `cull_ms`, on the GPU path: comparing each fish's and prop's record (palette
+    /// offset, mesh, tint, selected) with the one the GPU holds from earlier frames and writing
+    /// the changed ones. 0 on the CPU path.
+    pub records_ms: f32,
+    /// On the GPU path, records written this frame: every one in the first frame (or after
+    /// the buffer grew), then only those that changed (0 in a steady frame, however the fish
+    /// move: a move changes the palette, not the record). 0 on the CPU path.
+    pub num_records_written: u32,
     /// Recording and submitting the draw commands.
     pub draw_ms: f32,
-    /// Number of draw calls in the scene pass (background, floor, one or two per species'
-    /// shadows (near and outline) and
-    /// one per species and level of detail with fish in view, each times the species' materials,
-    /// tank edges, overlays).
+    /// Draw calls recorded in the scene pass: background, floor, tank edges, overlays, and the
+    /// fish and shadow draws. On the CPU path those are one per mesh, level of detail with
+    /// fish in view and material, and per mesh and material with shadows in view (near and
+    /// outline); on the GPU path every mesh's, level's and material's draw is recorded
+    /// (indirect, its instance count written by the culling pass, 0 for a level no fish uses).
     pub num_draw_calls: u32,
+    /// Of those, the draws that drew something (of frame `counts_frame`): on the CPU path all
+    /// of them; on the GPU path the indirect ones whose instance count was not 0, besides the
+    /// background, floor and lines.
+    pub num_nonempty_draw_calls: u32,
     /// Fish drawn (bounding sphere in or touching the view).
     pub num_fish_drawn: u32,
     /// Fish left out because their bounding sphere is wholly outside the view.
@@ -271,6 +297,8 @@ pub struct Renderer {
     culling_supported: bool,
     /// Whether the last frame was culled on the GPU (its counts are still there).
     last_frame_gpu_culled: bool,
+    /// Frames encoded so far ([`RenderTimings::frame`] of the last).
+    frame: u64,
     scratch_bases: Vec<u8>,
     lines: GrowBuffer,
     bind_group: wgpu::BindGroup,
@@ -503,6 +531,7 @@ impl Renderer {
             culling: cull_pass::default_culling(gpu),
             culling_supported,
             last_frame_gpu_culled: false,
+            frame: 0,
             scratch_bases: Vec::new(),
             lines,
             bind_group,
@@ -533,7 +562,8 @@ impl Renderer {
 
     /// Timings and counts of the last [`Renderer::render`] or [`Renderer::encode`]. Culled on
     /// the GPU ([`Culling::Gpu`]), the counts (fish drawn, culled, per level, shadows,
-    /// triangles) are those read back last, without waiting: a frame or two old;
+    /// triangles, draws that drew something) are those read back last, without waiting: a
+    /// frame or two old, [`RenderTimings::counts_frame`] says which;
     /// [`Renderer::read_gpu_counts`] waits for the last frame's.
     pub fn timings(&self) -> RenderTimings {
         self.timings

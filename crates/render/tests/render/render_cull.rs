@@ -10,8 +10,8 @@ use glam::{Mat4, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use shoal_render::props::PropMesh;
 use shoal_render::{
-    Camera, Culling, FishInstance, FrameInput, Gpu, Look, OffscreenTarget, Prop, RenderTimings,
-    Renderer, TankBounds,
+    Camera, Culling, FishInstance, FrameInput, Gpu, Look, MeshId, OffscreenTarget, Prop,
+    RenderTimings, Renderer, TankBounds,
 };
 
 const WIDTH: u32 = 320;
@@ -24,6 +24,7 @@ fn gpu() -> Gpu {
 /// `n` porgies scattered over and well beyond the default tank (some behind the camera, some
 /// far off, some close), every one bent a little differently, a few tinted and one selected;
 /// two rocks and a pellet.
+#[derive(Clone)]
 struct School {
     palettes: Vec<Mat4>,
     fish: Vec<(u32, [f32; 3], bool)>,
@@ -90,6 +91,22 @@ fn school(rig: &common::PosedPorgy, n: usize) -> School {
     }
 }
 
+/// A renderer culling with `culling` at `tolerance_px`, with the porgy, the rock and the
+/// pellet uploaded (meshes 0, 1 and 2).
+fn renderer(gpu: &Gpu, rig: &common::PosedPorgy, culling: Culling, tolerance_px: f32) -> Renderer {
+    let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT).unwrap();
+    assert_eq!(renderer.set_culling(culling), culling, "lavapipe runs both");
+    renderer.set_lod_tolerance_px(tolerance_px);
+    renderer.upload_mesh(gpu, &rig.upload()).unwrap();
+    renderer
+        .upload_mesh(gpu, &PropMesh::rock().upload())
+        .unwrap();
+    renderer
+        .upload_mesh(gpu, &PropMesh::pellet().upload())
+        .unwrap();
+    renderer
+}
+
 /// Draws `school` with `culling` at `tolerance_px`; the image and the counts (read back from
 /// the GPU when it culled).
 fn draw(
@@ -100,16 +117,22 @@ fn draw(
     tolerance_px: f32,
     shadows: bool,
 ) -> (image::RgbaImage, RenderTimings) {
-    let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT).unwrap();
-    assert_eq!(renderer.set_culling(culling), culling, "lavapipe runs both");
-    renderer.set_lod_tolerance_px(tolerance_px);
-    let porgy = renderer.upload_mesh(gpu, &rig.upload()).unwrap();
-    let rock = renderer
-        .upload_mesh(gpu, &PropMesh::rock().upload())
-        .unwrap();
-    let pellet = renderer
-        .upload_mesh(gpu, &PropMesh::pellet().upload())
-        .unwrap();
+    let mut renderer = renderer(gpu, rig, culling, tolerance_px);
+    // Twice: the second frame reuses every buffer the first one grew.
+    let (image, _) = draw_with(gpu, &mut renderer, school, shadows, 2);
+    (image, renderer.read_gpu_counts(gpu).unwrap())
+}
+
+/// Draws `school` `frames` times with `renderer` (set up by [`renderer`]); the last image and
+/// the renderer's timings after it, counts not read back (those read without waiting).
+fn draw_with(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    school: &School,
+    shadows: bool,
+    frames: usize,
+) -> (image::RgbaImage, RenderTimings) {
+    let (porgy, rock, pellet) = (MeshId(0), MeshId(1), MeshId(2));
     let instances: Vec<FishInstance> = school
         .fish
         .iter()
@@ -130,18 +153,11 @@ fn draw(
         })
         .collect();
     let tank = TankBounds::default();
-    let camera = Camera {
-        target: tank.center(),
-        yaw_rad: 0.35,
-        pitch_rad: 0.25,
-        distance: 700.0,
-        fov_y_rad: 50f32.to_radians(),
-    };
     let input = FrameInput {
         gpu_pose: None,
         palettes: &school.palettes,
         instances: &instances,
-        camera,
+        camera: camera(),
         tank,
         time_s: 1.0,
         props: &props,
@@ -152,14 +168,23 @@ fn draw(
         },
     };
     let target = OffscreenTarget::new(gpu, WIDTH, HEIGHT);
-    // Twice: the second frame reuses every buffer the first one grew.
-    for _ in 0..2 {
+    for _ in 0..frames {
         renderer
             .render(gpu, target.view(), target.size(), &input)
             .unwrap();
     }
-    let counts = renderer.read_gpu_counts(gpu).unwrap();
-    (target.read_rgba8(gpu).unwrap(), counts)
+    (target.read_rgba8(gpu).unwrap(), renderer.timings())
+}
+
+/// The tests' camera: the default tank from 700 units.
+fn camera() -> Camera {
+    Camera {
+        target: TankBounds::default().center(),
+        yaw_rad: 0.35,
+        pitch_rad: 0.25,
+        distance: 700.0,
+        fov_y_rad: 50f32.to_radians(),
+    }
 }
 
 /// Mean and largest difference over the RGB channels of two images.
@@ -240,4 +265,154 @@ fn gpu_culling_records_as_many_draws_for_10_fish_as_for_600() {
         "{few:?} {many:?}"
     );
     assert_eq!(few.num_draw_calls, many.num_draw_calls);
+}
+
+/// Adds a palette for one straight porgy at `pos` to `school`; its palette offset.
+fn add_palette(rig: &common::PosedPorgy, school: &mut School, pos: Vec3) -> u32 {
+    let offset = school.palettes.len();
+    school
+        .palettes
+        .resize(offset + rig.num_joints(), Mat4::IDENTITY);
+    let yaws = vec![0.0; rig.rig.body.num_joints()];
+    rig.palette(
+        Mat4::from_translation(pos),
+        &yaws,
+        &mut school.palettes[offset..],
+    );
+    offset as u32
+}
+
+/// The GPU keeps each fish's culling record between frames and the renderer writes only the
+/// ones that changed: a renderer that drew one frame must draw the next exactly as a new
+/// renderer draws it, when fish are re-pointed at other palettes (into the view, then out of
+/// it), tinted, selected and removed; and when a fish moves (its palette changes, its record
+/// does not) nothing is written, yet it is drawn where it now is.
+#[test]
+fn a_fish_whose_record_changes_is_drawn_where_and_as_it_now_is() {
+    let gpu = gpu();
+    let rig = common::PosedPorgy::load();
+    let a = school(&rig, 300);
+    let mut kept = renderer(&gpu, &rig, Culling::Gpu, 1.0);
+    let (img_a, t_a) = draw_with(&gpu, &mut kept, &a, true, 2);
+    assert_eq!(
+        t_a.num_records_written, 0,
+        "a steady frame writes nothing: {t_a:?}"
+    );
+
+    let centre = TankBounds::default().center();
+    let eye = camera().eye();
+    // Near the camera, in the middle of the view: a large fish.
+    let near = centre + (eye - centre) * 0.75;
+    let behind = eye + (eye - centre).normalize() * 300.0;
+    let mut b = a.clone();
+    let near_offset = add_palette(&rig, &mut b, near);
+    let behind_offset = add_palette(&rig, &mut b, behind);
+    b.fish[5].0 = near_offset;
+    b.fish[20].1 = [0.2, 1.0, 0.2];
+    b.fish[3].2 = false;
+    b.fish[40].2 = true;
+    b.fish.truncate(280);
+    // C: fish 5 leaves the view (behind the camera).
+    let mut c = b.clone();
+    c.fish[5].0 = behind_offset;
+    // D: the palette fish 5 points at moves back in front of the camera; no record changes.
+    let mut d = c.clone();
+    d.palettes.truncate(behind_offset as usize);
+    add_palette(&rig, &mut d, near);
+
+    let mut frames = Vec::new();
+    for (name, next) in [("B", &b), ("C", &c), ("D", &d)] {
+        let (img, _) = draw_with(&gpu, &mut kept, next, true, 1);
+        let t = kept.read_gpu_counts(&gpu).unwrap();
+        let (fresh_img, fresh) = draw(&gpu, &rig, next, Culling::Gpu, 1.0, true);
+        assert_eq!(counts(&t), counts(&fresh), "frame {name}: {t:?} {fresh:?}");
+        let (mean, most) = difference(&img, &fresh_img);
+        assert!(
+            mean < 0.05,
+            "frame {name}: {mean} (largest {most}) from a new renderer's"
+        );
+        frames.push((img, t));
+    }
+    let [(img_b, t_b), (img_c, t_c), (img_d, t_d)] = frames.try_into().unwrap();
+    // B: fish 3, 5, 20, 40 changed (one run 3..21, one at 40) and the props' records moved
+    // (their palette entries follow the fish's, and fish 280.. are gone): 22 written.
+    assert_eq!(t_b.num_records_written, 18 + 1 + 3, "{t_b:?}");
+    assert_eq!(t_c.num_records_written, 1, "{t_c:?}");
+    assert_eq!(t_d.num_records_written, 0, "{t_d:?}");
+    assert_eq!(t_c.num_fish_drawn + 1, t_b.num_fish_drawn);
+    assert_eq!(t_c.num_fish_culled, t_b.num_fish_culled + 1);
+    assert_eq!(t_d.num_fish_drawn, t_b.num_fish_drawn);
+    // The changes show: a stale record would leave these pictures alike.
+    for (what, x, y) in [
+        ("A and B", &img_a, &img_b),
+        ("B and C", &img_b, &img_c),
+        ("C and D", &img_c, &img_d),
+    ] {
+        // Three times the most a new renderer's picture of the same frame may differ by.
+        let (mean, _) = difference(x, y);
+        assert!(mean > 0.15, "{what} differ by only {mean}");
+    }
+    // A steady frame after them writes nothing.
+    let (_, t) = draw_with(&gpu, &mut kept, &d, true, 1);
+    assert_eq!(t.num_records_written, 0, "{t:?}");
+}
+
+/// The draw counts: the GPU path records every level's draw but counts as drawing only those
+/// with instances, which are the draws the CPU path records; and the counts read without
+/// waiting say which frame they are from, and are that frame's.
+#[test]
+fn timings_count_the_draws_that_drew_and_name_the_frame_of_their_counts() {
+    let gpu = gpu();
+    let rig = common::PosedPorgy::load();
+    let full = school(&rig, 600);
+    let (_, cpu) = draw(&gpu, &rig, &full, Culling::Cpu, 1.0, true);
+    let (_, on_gpu) = draw(&gpu, &rig, &full, Culling::Gpu, 1.0, true);
+    assert_eq!(cpu.num_nonempty_draw_calls, cpu.num_draw_calls, "{cpu:?}");
+    assert_eq!(
+        on_gpu.num_nonempty_draw_calls, cpu.num_draw_calls,
+        "{on_gpu:?}"
+    );
+    assert!(
+        on_gpu.num_draw_calls > on_gpu.num_nonempty_draw_calls,
+        "some levels are empty: {on_gpu:?}"
+    );
+    assert_eq!((cpu.frame, cpu.counts_frame), (2, 2));
+    assert_eq!((on_gpu.frame, on_gpu.counts_frame), (2, 2));
+
+    // Frame f draws 100 + 60 f fish; the CPU path says how many of them are in view.
+    let mut kept = renderer(&gpu, &rig, Culling::Gpu, 1.0);
+    let mut reference = renderer(&gpu, &rig, Culling::Cpu, 1.0);
+    let mut in_view = Vec::new();
+    let mut read = 0;
+    for f in 1..=8u64 {
+        let mut s = full.clone();
+        s.fish.truncate(100 + 60 * f as usize);
+        let (_, t) = draw_with(&gpu, &mut reference, &s, true, 1);
+        in_view.push(t.num_fish_drawn);
+        let (_, t) = draw_with(&gpu, &mut kept, &s, true, 1);
+        assert_eq!(t.frame, f);
+        assert!(
+            t.counts_frame < f,
+            "read without waiting: an earlier frame's: {t:?}"
+        );
+        if t.counts_frame > 0 {
+            read += 1;
+            let of = in_view[t.counts_frame as usize - 1];
+            assert_eq!(
+                t.num_fish_drawn, of,
+                "frame {f}'s counts of {}",
+                t.counts_frame
+            );
+        }
+    }
+    assert!(in_view.windows(2).all(|w| w[0] < w[1]), "{in_view:?}");
+    assert!(
+        read >= 3,
+        "counts arrive without waiting ({read} of 8 frames)"
+    );
+    let t = kept.read_gpu_counts(&gpu).unwrap();
+    assert_eq!(
+        (t.frame, t.counts_frame, t.num_fish_drawn),
+        (8, 8, in_view[7])
+    );
 }
