@@ -396,7 +396,7 @@ function shoal.avoid_walls(margin, speed) end
 ---The crowding rules of a school in one pass over the neighbours: separation from any fish within
 ---`sep_radius`, alignment with and cohesion towards fish of the same species within `ali_radius`
 ---and `coh_radius`, mixed with the given weights. Only the `nearest` fish (any species, nearest
----first, ties by id) within the widest radius count: nil = 7 (schools follow a fixed number of
+---first, ties by id) within the widest radius count: nil = 24 (schools follow a fixed number of
 ---neighbours, six to seven in starlings; the cost stays flat in dense schools), a whole number
 ---≥ 1, or "all" for every fish in range — then the same as shoal.blend of shoal.separation,
 ---shoal.alignment and shoal.cohesion. nil when no neighbour is in range.
