@@ -237,11 +237,17 @@ impl World {
                 let grid = &self.index.grid;
                 let (keys, positions) = (grid.keys(), grid.positions());
                 let mut heap = BinaryHeap::with_capacity(k.min(64) + 1);
+                // The k-th best squared distance so far (reach² until k are held): a farther
+                // candidate is skipped before its id is read (a scattered load per fish).
+                let mut need = reach2;
                 grid.for_each_run_nearest_first(centre, reach, |run| {
                     for slot in run {
-                        let o = keys[slot] as usize;
                         let d2 = positions[slot].distance_squared(centre);
-                        if d2 > reach2 || o == me {
+                        if d2 > need {
+                            continue;
+                        }
+                        let o = keys[slot] as usize;
+                        if o == me {
                             continue;
                         }
                         let key = order(d2, o);
@@ -250,12 +256,20 @@ impl World {
                         } else if heap.peek().is_some_and(|&(top, _)| key < top) {
                             heap.pop();
                             heap.push((key, slot as u32));
+                        } else {
+                            continue;
+                        }
+                        if heap.len() == k {
+                            need = heap
+                                .peek()
+                                .map_or(reach2, |&(top, _)| f32::from_bits((top >> 32) as u32));
                         }
                     }
-                    match heap.peek() {
+                    need = match heap.peek() {
                         Some(&(top, _)) if heap.len() == k => f32::from_bits((top >> 32) as u32),
                         _ => reach2,
-                    }
+                    };
+                    need
                 });
                 chosen.extend(heap.into_iter().map(|(key, slot)| {
                     let slot = slot as usize;

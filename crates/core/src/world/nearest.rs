@@ -118,11 +118,12 @@ impl World {
                         let (keys, positions) = (grid.keys(), grid.positions());
                         let r2 = view.range * view.range;
                         let mut best: Option<Seen> = None;
+                        let mut need = r2;
                         grid.for_each_run_nearest_first(view.pos, view.range, |run| {
                             for slot in run {
                                 let (o, pos) = (keys[slot] as usize, positions[slot]);
                                 let d2 = pos.distance_squared(view.pos);
-                                if d2 > r2 || o == d {
+                                if d2 > need || o == d {
                                     continue;
                                 }
                                 let k = self.fish_kind(view.species, self.state.fish.species[o]);
@@ -140,10 +141,11 @@ impl World {
                             }
                             // A farther fish can still win a tie (lower id) at the same rounded
                             // distance: reach a hair past the best.
-                            best.map_or(r2, |b| {
+                            need = best.map_or(r2, |b| {
                                 let dist = b.distance_and_kind().0 * (1.0 + 1e-5);
                                 r2.min(dist * dist)
-                            })
+                            });
+                            need
                         });
                         if let Some(s) = best {
                             keep(s);

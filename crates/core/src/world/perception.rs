@@ -156,11 +156,13 @@ impl World {
             let (keys, positions) = (grid.keys(), grid.positions());
             let r2 = view.range * view.range;
             let fish = &self.state.fish;
+            // How far, squared, a fish can lie and still enter the heap (see below).
+            let mut need = r2;
             grid.for_each_run_nearest_first(view.pos, view.range, |run| {
                 for slot in run {
                     let (o, pos) = (keys[slot] as usize, positions[slot]);
                     let d2 = pos.distance_squared(view.pos);
-                    if d2 > r2 || o == d || !view.cone.contains(pos) {
+                    if d2 > need || o == d || !view.cone.contains(pos) {
                         continue;
                     }
                     let kind = self.fish_kind(view.species, fish.species[o]);
@@ -172,7 +174,7 @@ impl World {
                         heap.push((s.key, s.index));
                     }
                 }
-                match heap.peek() {
+                need = match heap.peek() {
                     // A farther fish can still win a tie at the same rounded distance: reach a
                     // hair past the max-th.
                     Some(&(top, _)) if heap.len() == max => {
@@ -180,7 +182,8 @@ impl World {
                         r2.min(dist * dist)
                     }
                     _ => r2,
-                }
+                };
+                need
             });
             seen.clear();
             seen.extend(heap.into_iter().map(|(key, index)| Seen { key, index }));
