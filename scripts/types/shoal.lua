@@ -396,7 +396,10 @@ function shoal.avoid_walls(margin, speed) end
 
 ---The crowding rules of a school in one pass over the neighbours: separation from any fish within
 ---`sep_radius`, alignment with and cohesion towards fish of the same species within `ali_radius`
----and `coh_radius`, mixed with the given weights — the same as shoal.blend of shoal.separation,
+---and `coh_radius`, mixed with the given weights. Only the `nearest` fish (any species, nearest
+---first, ties by id) within the widest radius count: nil = 24 (schools follow a fixed number of
+---neighbours, six to seven in starlings; the cost stays flat in dense schools), a whole number
+---≥ 1, or "all" for every fish in range — then the same as shoal.blend of shoal.separation,
 ---shoal.alignment and shoal.cohesion. nil when no neighbour is in range.
 ---@param sep_radius number
 ---@param sep_weight number
@@ -405,12 +408,13 @@ function shoal.avoid_walls(margin, speed) end
 ---@param coh_radius number
 ---@param coh_weight number
 ---@param speed? number
+---@param nearest? integer|"all"
 ---@return number? heading
 ---@return number? depth
 ---@return number? speed
 ---@return_overload number, number, number
 ---@return_overload nil, nil, nil
-function shoal.crowd(sep_radius, sep_weight, ali_radius, ali_weight, coh_radius, coh_weight, speed) end
+function shoal.crowd(sep_radius, sep_weight, ali_radius, ali_weight, coh_radius, coh_weight, speed, nearest) end
 
 ---Weighted mix of steering wishes: groups of heading, depth, speed, weight. Groups whose heading
 ---is nil are skipped; nil when no group remains. Keep helper results in locals first (a call in

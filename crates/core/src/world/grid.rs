@@ -321,6 +321,123 @@ impl Grid {
         }
     }
 
+    /// Visits runs of contiguous slots (as [`Grid::for_each_run_within`]) nearest cells first,
+    /// for queries that want only the nearest few items: shell k holds the cells k cells from
+    /// `center`'s cell (along the farthest axis). `visit(run)` returns how far, squared, an item
+    /// can still lie and matter (at first `radius²`; a k-nearest query then the k-th distance it
+    /// holds; a negative value stops the walk). Cells whose nearest point lies farther than
+    /// that are skipped, and the walk ends once every unvisited cell does. Every item within
+    /// the returned reach of `center` is visited (with a small safety margin for rounding), so
+    /// a nearest or k-nearest answer is the one a full scan gives, at a cost that follows the
+    /// items near the answer instead of all within `radius`. The order of runs is
+    /// deterministic. Nothing for a NaN or negative radius or a non-finite centre.
+    pub fn for_each_run_nearest_first(
+        &self,
+        center: Vec3,
+        radius: f32,
+        mut visit: impl FnMut(Range<usize>) -> f32,
+    ) {
+        if self.keys.is_empty() || radius.is_nan() || radius < 0.0 || !center.is_finite() {
+            return;
+        }
+        let mut need = radius * radius;
+        let lo = self.coord(center - Vec3::splat(radius));
+        let hi = self.coord(center + Vec3::splat(radius));
+        let c = self.coord(center);
+        let local = center - self.origin;
+        let (l, cs) = (local.to_array(), self.cell_size);
+        // Gaps are shrunk by this much before being compared, so that rounding in them (or in the
+        // caller's squared distances) never skips a cell holding an item that matters.
+        let slack = 1e-4 * (cs + local.abs().max_element());
+        let shrink = |g: f32| (g - slack).max(0.0);
+        // Squared gap from the centre to cell slab i on an axis (border cells extend to infinity).
+        let gap = |axis: usize, i: u32| {
+            let below = i as f32 * cs;
+            let above = below + cs;
+            let v = l[axis];
+            let d = if v < below && i > 0 {
+                below - v
+            } else if v > above && i + 1 < self.dims[axis] {
+                v - above
+            } else {
+                0.0
+            };
+            let d = shrink(d);
+            d * d
+        };
+        let shells = (0..3)
+            .map(|a| (c[a] - lo[a]).max(hi[a] - c[a]))
+            .max()
+            .unwrap_or(0);
+        for k in 0..=shells {
+            if k > 0 {
+                // Every unvisited cell lies beyond a face of the block of shells 0..k: the
+                // nearest such face (on a side where cells remain) bounds their distance.
+                let mut bound = f32::INFINITY;
+                for a in 0..3 {
+                    if c[a] >= k && c[a] - k >= lo[a] {
+                        bound = bound.min(l[a] - (c[a] - k + 1) as f32 * cs);
+                    }
+                    if c[a] + k <= hi[a] {
+                        bound = bound.min((c[a] + k) as f32 * cs - l[a]);
+                    }
+                }
+                if bound == f32::INFINITY {
+                    return;
+                }
+                let b = shrink(bound);
+                if b * b > need {
+                    return;
+                }
+            }
+            let span = |a: usize| (c[a].saturating_sub(k).max(lo[a]), (c[a] + k).min(hi[a]));
+            let ((z0, z1), (y0, y1), (x0, x1)) = (span(2), span(1), span(0));
+            for z in z0..=z1 {
+                let gz = gap(2, z);
+                if gz > need {
+                    continue;
+                }
+                for y in y0..=y1 {
+                    let gyz = gz + gap(1, y);
+                    if gyz > need {
+                        continue;
+                    }
+                    let row = self.cell_index([0, y, z]);
+                    let on_face = z.abs_diff(c[2]) == k || y.abs_diff(c[1]) == k;
+                    // A row on the shell's z or y face is all in the shell: one run of the
+                    // cells the reach allows. Else only its two ends are.
+                    let ends = if on_face {
+                        [Some((x0, x1)), None]
+                    } else {
+                        let left = (c[0] >= k && c[0] - k >= lo[0]).then(|| (c[0] - k, c[0] - k));
+                        let right = (c[0] + k <= hi[0]).then_some((c[0] + k, c[0] + k));
+                        [left, right]
+                    };
+                    for (a, b) in ends.into_iter().flatten() {
+                        let (mut a, mut b) = (a, b);
+                        while a <= b && gyz + gap(0, a) > need {
+                            a += 1;
+                        }
+                        while b > a && gyz + gap(0, b) > need {
+                            b -= 1;
+                        }
+                        if a > b {
+                            continue;
+                        }
+                        let start = self.cell_start[row + a as usize] as usize;
+                        let end = self.cell_start[row + b as usize + 1] as usize;
+                        if start < end {
+                            need = visit(start..end);
+                            if need < 0.0 {
+                                return;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Calls `visit(key, position, distance²)` for every item within `radius` of `center`
     /// (inclusive), cell by cell in a deterministic order. Returns early if `visit` returns
     /// `false`.

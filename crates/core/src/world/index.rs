@@ -23,6 +23,9 @@ pub(super) struct SpatialIndex {
     /// (position, species, id, dense index side by side: one cache line per few predators
     /// instead of four scattered reads each). Valid while the grid is exact and current.
     pub(super) predator_spots: Vec<nearest::PredatorSpot>,
+    /// The predator spots on a grid of their own (keys: indices into `predator_spots`), so a
+    /// fish looking for the nearest predator visits the cells near it, not every predator.
+    pub(super) predator_grid: Grid,
     pub(super) grid: Grid,
     /// Fish in the grid, by grid key (the dense index at rebuild time).
     pub(super) grid_ids: Vec<FishId>,
@@ -54,6 +57,7 @@ impl SpatialIndex {
         Self {
             predators: Vec::new(),
             predator_spots: Vec::new(),
+            predator_grid: grid.clone(),
             food_grid: grid.clone(),
             grid,
             grid_ids: Vec::new(),
@@ -162,5 +166,16 @@ impl SpatialIndex {
                     d as u32,
                 ))
             }));
+        let cell = self.grid.cell_size();
+        if (cell - self.predator_grid.cell_size()).abs() > 1e-6 * cell {
+            self.predator_grid
+                .configure(state.tank.min, state.tank.max, cell);
+        }
+        self.predator_grid.rebuild(
+            self.predator_spots
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (i as u32, s.pos())),
+        );
     }
 }

@@ -16,10 +16,15 @@ use super::{FishId, Percept, PerceptKind, SpeciesId, World};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(not(test), allow(dead_code))] // the tests force each route
 pub(super) enum Route {
-    /// The predator list when it is the cheaper way, else the grid.
+    /// While the grid is current: predators from their own grid, other fish from the fish
+    /// grid nearest cells first; else every fish in range from the grid.
     Auto,
     /// Every fish in range, from the grid.
     Grid,
+    /// Predators from their own grid (only valid while the grid is current).
+    Predators,
+    /// The fish grid, nearest cells first (only valid while the grid is current).
+    NearestFirst,
     /// The world's list of predator fish (only valid while the grid is current).
     #[cfg(test)]
     List,
@@ -31,9 +36,9 @@ impl World {
     /// fields. Food and obstacles have no species, so asking for them with a species finds
     /// nothing. `None` for a stale id or when nothing of the kind is in view.
     ///
-    /// Only the winner is kept (no list is built or sorted). Predators are taken from the
-    /// world's list of fish of predator species when that is shorter than the fish the grid
-    /// would scan, and the grid is current (nothing moved since [`World::rebuild_grid`]).
+    /// Only the winner is kept (no list is built or sorted). While the grid is current (nothing
+    /// moved since [`World::rebuild_grid`]), predators come from their own grid and other fish
+    /// from the fish grid nearest cells first (see the module docs).
     pub fn nearest_in_view(
         &self,
         id: FishId,
@@ -68,39 +73,92 @@ impl World {
         match kind {
             PerceptKind::Fish | PerceptKind::Predator => {
                 let of_species = |s: SpeciesId| species.is_none_or(|want| s == want);
-                let use_list = match route {
-                    Route::Auto => {
-                        kind == PerceptKind::Predator && self.predator_list_pays(view.range)
-                    }
-                    Route::Grid => false,
-                    #[cfg(test)]
-                    Route::List => kind == PerceptKind::Predator,
+                let current = self.predator_spots_current(view.range);
+                let route = match route {
+                    Route::Auto if current && kind == PerceptKind::Predator => Route::Predators,
+                    Route::Auto if current => Route::NearestFirst,
+                    Route::Auto => Route::Grid,
+                    other => other,
                 };
-                if use_list {
-                    // The grid's set, without the grid: every predator within range now (the
-                    // grid is current, so the spots' positions are the roots').
-                    let r2 = view.range * view.range;
-                    for spot in &self.index.predator_spots {
-                        let d2 = spot.pos.distance_squared(view.pos);
-                        if d2 > r2 || spot.dense as usize == d {
-                            continue;
-                        }
-                        if self.fish_kind(view.species, spot.species) != kind
-                            || !of_species(spot.species)
-                        {
-                            continue;
-                        }
-                        if view.cone.contains(spot.pos) {
-                            keep(Seen::new(d2.sqrt(), kind, spot.index, spot.dense));
+                // The predators' own grid or list: every predator within range now (the grid
+                // is current, so the spots' positions are the roots').
+                let mut spot_seen = |spot: &PredatorSpot| {
+                    let d2 = spot.pos.distance_squared(view.pos);
+                    if d2 > view.range * view.range || spot.dense as usize == d {
+                        return;
+                    }
+                    if self.fish_kind(view.species, spot.species) != kind
+                        || !of_species(spot.species)
+                    {
+                        return;
+                    }
+                    if view.cone.contains(spot.pos) {
+                        keep(Seen::new(d2.sqrt(), kind, spot.index, spot.dense));
+                    }
+                };
+                match route {
+                    Route::Predators if kind == PerceptKind::Predator => {
+                        self.index.predator_grid.for_each_within(
+                            view.pos,
+                            view.range,
+                            |key, _, _| {
+                                spot_seen(&self.index.predator_spots[key as usize]);
+                                true
+                            },
+                        );
+                    }
+                    #[cfg(test)]
+                    Route::List if kind == PerceptKind::Predator => {
+                        self.index.predator_spots.iter().for_each(spot_seen);
+                    }
+                    Route::NearestFirst => {
+                        // Cells nearest first, skipping those farther than the best so far:
+                        // the answer is the full scan's, at the cost of the fish near it.
+                        let grid = &self.index.grid;
+                        let (keys, positions) = (grid.keys(), grid.positions());
+                        let r2 = view.range * view.range;
+                        let mut best: Option<Seen> = None;
+                        let mut need = r2;
+                        grid.for_each_run_nearest_first(view.pos, view.range, |run| {
+                            for slot in run {
+                                let (o, pos) = (keys[slot] as usize, positions[slot]);
+                                let d2 = pos.distance_squared(view.pos);
+                                if d2 > need || o == d {
+                                    continue;
+                                }
+                                let k = self.fish_kind(view.species, self.state.fish.species[o]);
+                                if k != kind
+                                    || !of_species(self.state.fish.species[o])
+                                    || !view.cone.contains(pos)
+                                {
+                                    continue;
+                                }
+                                let s =
+                                    Seen::new(d2.sqrt(), k, self.state.fish.ids[o].index, o as u32);
+                                if best.is_none_or(|b| s.key < b.key) {
+                                    best = Some(s);
+                                }
+                            }
+                            // A farther fish can still win a tie (lower id) at the same rounded
+                            // distance: reach a hair past the best.
+                            need = best.map_or(r2, |b| {
+                                let dist = b.distance_and_kind().0 * (1.0 + 1e-5);
+                                r2.min(dist * dist)
+                            });
+                            need
+                        });
+                        if let Some(s) = best {
+                            keep(s);
                         }
                     }
-                } else {
-                    self.fish_seen(
-                        d,
-                        &view,
-                        |o, k| k == kind && of_species(self.state.fish.species[o]),
-                        &mut keep,
-                    );
+                    _ => {
+                        self.fish_seen(
+                            d,
+                            &view,
+                            |o, k| k == kind && of_species(self.state.fish.species[o]),
+                            &mut keep,
+                        );
+                    }
                 }
             }
             PerceptKind::Food if species.is_none() => self.food_seen(&view, &mut keep),
@@ -110,20 +168,11 @@ impl World {
         best
     }
 
-    /// Whether walking the predator list beats scanning the grid for a view of `range`: the
-    /// grid must be current (the list gives current positions, the grid's set is as of its
-    /// rebuild), and the list shorter than half the fish in the cells the grid would visit
-    /// (a cube of 2·range plus a cell a side, capped by the tank).
-    fn predator_list_pays(&self, range: f32) -> bool {
+    /// Whether the grid (and so the predator spots and their grid) is current for a view of
+    /// `range`: nothing was spawned, despawned or moved since [`World::rebuild_grid`].
+    fn predator_spots_current(&self, range: f32) -> bool {
         let valid_range = range >= 0.0; // false for NaN, as the grid's own test
-        if !(self.index.grid_exact && self.index.grid_positions_current && valid_range) {
-            return false;
-        }
-        let extent = self.state.tank.extent().max(Vec3::splat(1e-6));
-        let side = 2.0 * range + self.index.grid.cell_size();
-        let scanned = (Vec3::splat(side).min(extent) / extent).element_product()
-            * self.state.fish.len() as f32;
-        2.0 * self.index.predators.len() as f32 <= scanned
+        self.index.grid_exact && self.index.grid_positions_current && valid_range
     }
 
     /// Rebuilds the list of predator fish from the species' `predator` flags.
@@ -229,7 +278,13 @@ mod tests {
         let Scene {
             mut world, species, ..
         } = random_scene(5, 500);
-        let all = [Route::Auto, Route::Grid, Route::List];
+        let all = [
+            Route::Auto,
+            Route::Grid,
+            Route::List,
+            Route::Predators,
+            Route::NearestFirst,
+        ];
         let found = check(&world, &species, &all, "fresh grid");
         assert!(found > 1500, "answers found: {found}");
         // Predators were seen by many fish (not a vacuous comparison).
@@ -302,26 +357,68 @@ mod tests {
     }
 
     #[test]
-    fn the_predator_list_is_taken_only_when_it_pays() {
-        let Scene {
-            mut world,
-            l,
-            species,
-        } = random_scene(9, 400);
-        // The view reaches across this small tank: the grid would scan every fish, 20 times
-        // as many as there are predators.
-        assert!(world.predator_list_pays(5.0 * l));
-        // Most fish predators: the grid is the cheaper way.
-        let mut changed = world.species(species[0]).clone();
-        changed.desc.predator = true;
-        world.replace_species(species[0], changed).unwrap();
-        assert!(!world.predator_list_pays(5.0 * l));
-        let mut changed = world.species(species[0]).clone();
-        changed.desc.predator = false;
-        world.replace_species(species[0], changed).unwrap();
-        assert!(world.predator_list_pays(5.0 * l));
-        // Fish moved since the rebuild: the list would see fish the grid does not.
+    fn the_fast_routes_are_taken_only_while_the_grid_is_current() {
+        let Scene { mut world, l, .. } = random_scene(9, 400);
+        assert!(world.predator_spots_current(5.0 * l));
+        assert!(!world.predator_spots_current(f32::NAN));
+        // Fish moved since the rebuild: the spots and the grid's positions are stale.
         world.step_motion(1.0 / 60.0);
-        assert!(!world.predator_list_pays(5.0 * l), "the grid is stale");
+        assert!(!world.predator_spots_current(5.0 * l), "the grid is stale");
+        world.rebuild_grid();
+        assert!(world.predator_spots_current(5.0 * l));
+    }
+
+    /// A school ten times as dense as the 100,000-fish bench's thickest (16 fish per cubic body
+    /// length, many on top of each other): the nearest fish of each kind and species, found
+    /// nearest cells first, is the brute-force answer (every fish compared with every other).
+    #[test]
+    fn nearest_first_matches_brute_force_in_a_dense_school() {
+        let Scene { world, species, .. } = random_scene(17, 4000);
+        let filters = [None, Some(species[0]), Some(species[1]), Some(species[2])];
+        let mut found = 0;
+        for (n, id) in world.fish_ids().enumerate() {
+            if n % 13 != 0 {
+                continue;
+            }
+            let d = world.state.fish.dense(id).unwrap();
+            let view = world.view_of(d);
+            for kind in [PerceptKind::Fish, PerceptKind::Predator] {
+                for want in filters {
+                    // Brute force: every other fish, the least (distance, kind, id) key.
+                    let mut best: Option<Seen> = None;
+                    for o in 0..world.state.fish.len() {
+                        let pos = world.state.fish.roots[o].pos;
+                        let d2 = pos.distance_squared(view.pos);
+                        let sp = world.state.fish.species[o];
+                        let k = world.fish_kind(view.species, sp);
+                        if o == d
+                            || d2 > view.range * view.range
+                            || k != kind
+                            || want.is_some_and(|w| w != sp)
+                            || !view.cone.contains(pos)
+                        {
+                            continue;
+                        }
+                        let s = Seen::new(d2.sqrt(), k, world.state.fish.ids[o].index, o as u32);
+                        if best.is_none_or(|b| s.key < b.key) {
+                            best = Some(s);
+                        }
+                    }
+                    let expected = best.map(|s| world.percept_of(&world.state.fish.roots[d], s));
+                    for route in [Route::Auto, Route::NearestFirst, Route::Predators] {
+                        let got = world
+                            .nearest_seen(d, kind, want, route)
+                            .map(|s| world.percept_of(&world.state.fish.roots[d], s));
+                        assert_eq!(
+                            format!("{got:?}"),
+                            format!("{expected:?}"),
+                            "fish {id:?}, {kind:?} of {want:?} by {route:?}"
+                        );
+                    }
+                    found += usize::from(expected.is_some());
+                }
+            }
+        }
+        assert!(found > 600, "answers found: {found}");
     }
 }

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 use mlua::{Lua, Table, Value, Variadic};
+use shoal_core::world::CROWD_NEAREST;
 
 use super::*;
 
@@ -120,6 +121,27 @@ pub(super) fn register_steering(lua: &Lua, shoal: &Table) -> mlua::Result<()> {
     Ok(())
 }
 
+/// `shoal.crowd`'s `nearest` argument: how many neighbours it takes (`None`: all). nil means
+/// [`CROWD_NEAREST`]; otherwise a whole number ≥ 1 or the string `"all"`.
+fn crowd_nearest(v: &Value) -> mlua::Result<Option<usize>> {
+    let bad = |shown: String| {
+        rt(format!(
+            "shoal.crowd: nearest is {shown}: must be a whole number of neighbours (1 or more), \
+             \"all\", or nil for the default {CROWD_NEAREST}"
+        ))
+    };
+    match v {
+        Value::Nil => Ok(Some(CROWD_NEAREST)),
+        Value::Integer(n) if *n >= 1 => Ok(Some(usize::try_from(*n).unwrap_or(usize::MAX))),
+        Value::Number(x) if x.fract() == 0.0 && *x >= 1.0 && x.is_finite() => Ok(Some(*x as usize)),
+        Value::String(s) if s.as_bytes().as_ref() == b"all" => Ok(None),
+        Value::Integer(n) => Err(bad(n.to_string())),
+        Value::Number(x) => Err(bad(x.to_string())),
+        Value::String(s) => Err(bad(format!("{:?}", s.to_string_lossy()))),
+        other => Err(bad(format!("a {}", other.type_name()))),
+    }
+}
+
 /// Steering against neighbours and surroundings: `separation`, `alignment`, `cohesion`,
 /// `avoid_obstacles`, `avoid_walls`, `blend`, `crowd`.
 pub(super) fn register_crowding(lua: &Lua, shoal: &Table) -> mlua::Result<()> {
@@ -192,13 +214,26 @@ pub(super) fn register_crowding(lua: &Lua, shoal: &Table) -> mlua::Result<()> {
     shoal.set(
         "crowd",
         lua.create_function(
-            |lua, (rs, ws, ra, wa, rc, wc, speed): (f32, f64, f32, f64, f32, f64, Option<f32>)| {
+            |lua,
+             (rs, ws, ra, wa, rc, wc, speed, nearest): (
+                f32,
+                f64,
+                f32,
+                f64,
+                f32,
+                f64,
+                Option<f32>,
+                Value,
+            )| {
+                let nearest = crowd_nearest(&nearest)?;
                 with_ctx(lua, "crowd", |w, fish, ctx| {
                     let s = speed.unwrap_or_else(|| cruise_and_length(w, fish).0);
                     let rs = finite_arg("crowd", "separation radius", rs)?;
                     let ra = finite_arg("crowd", "alignment radius", ra)?;
                     let rc = finite_arg("crowd", "cohesion radius", rc)?;
-                    let crowd = timed(ctx, || w.steer_crowd(fish, rs, ra, rc, s));
+                    let crowd = timed(ctx, || {
+                        w.steer_crowd_nearest(fish, [rs, ra, rc], s, nearest)
+                    });
                     let (sep, ali, coh) = crowd
                         .map(|c| (c.separation, c.alignment, c.cohesion))
                         .unwrap_or_default();

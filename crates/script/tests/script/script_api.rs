@@ -326,7 +326,7 @@ fn test_steering_helpers_return_heading_depth_speed() {
 #[test]
 fn test_crowd_is_the_blend_of_the_three_rules() {
     let (_d, mut sim) = probe(
-        "return { tick = function(fish)\n  local m = fish.memory\n  local hs, ds, ss = shoal.separation(60)\n  local ha, da, sa = shoal.alignment(200)\n  local hc, dc, sc = shoal.cohesion(300)\n  m.blend = { shoal.blend(hs, ds, ss, 1.5, ha, da, sa, 2, hc, dc, sc, 0.5) }\n  m.crowd = { shoal.crowd(60, 1.5, 200, 2, 300, 0.5) }\n  m.alone = { shoal.crowd(1, 1, 1, 1, 1, 1) }\n  m.bad = tostring(select(2, pcall(shoal.crowd, 0/0, 1, 1, 1, 1, 1)))\nend }\n",
+        "return { tick = function(fish)\n  local m = fish.memory\n  local hs, ds, ss = shoal.separation(60)\n  local ha, da, sa = shoal.alignment(200)\n  local hc, dc, sc = shoal.cohesion(300)\n  m.blend = { shoal.blend(hs, ds, ss, 1.5, ha, da, sa, 2, hc, dc, sc, 0.5) }\n  m.crowd = { shoal.crowd(60, 1.5, 200, 2, 300, 0.5) }\n  m.alone = { shoal.crowd(1, 1, 1, 1, 1, 1) }\n  m.bad = tostring(select(2, pcall(shoal.crowd, 0/0, 1, 1, 1, 1, 1)))\n  m.all = { shoal.crowd(60, 1.5, 200, 2, 300, 0.5, nil, \"all\") }\n  m.two = { shoal.crowd(60, 1.5, 200, 2, 300, 0.5, nil, 2) }\n  m.bad_k = {}\n  for _, k in ipairs({ 0, 2.5, \"most\", {} }) do\n    m.bad_k[#m.bad_k + 1] = tostring(select(2, pcall(shoal.crowd, 60, 1, 1, 1, 1, 1, nil, k)))\n  end\nend }\n",
     );
     let id = spawn(&mut sim, Vec3::new(0.0, 200.0, 0.0), 0.0, "probe");
     for (i, (x, z, heading)) in [
@@ -372,6 +372,24 @@ fn test_crowd_is_the_blend_of_the_three_rules() {
         bad.contains("shoal.crowd: separation radius is NaN"),
         "{bad}"
     );
+    // Five neighbours: the default (the nearest 24) and "all" take them all; the nearest 2
+    // leave out the others' pull.
+    assert_eq!(m["all"], m["crowd"], "{m}");
+    let two = m["two"].as_array().unwrap();
+    assert!(
+        (0..3).any(|i| (two[i].as_f64().unwrap() - blend[i].as_f64().unwrap()).abs() > 1e-3),
+        "the nearest 2 answer as all 5: {m}"
+    );
+    let bad_k = m["bad_k"].as_array().unwrap();
+    for (b, shown) in bad_k.iter().zip(["0", "2.5", "\"most\"", "a table"]) {
+        let b = b.as_str().unwrap();
+        assert!(
+            b.contains(&format!(
+                "shoal.crowd: nearest is {shown}: must be a whole number"
+            )),
+            "{b}"
+        );
+    }
 }
 
 #[test]
