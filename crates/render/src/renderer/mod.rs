@@ -15,6 +15,8 @@ mod pose_pass;
 mod readback;
 mod upload;
 
+pub use encode::FramePart;
+
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
