@@ -549,39 +549,41 @@ fn encode_views(
             let snapshot = ViewSnapshot::take(&input);
             ws.progressive = Some((new_target("aquarium view in progress"), snapshot));
         }
-        let Some((target, snapshot)) = &mut ws.progressive else {
-            // The picture was dropped (new meshes, a resize): the next frame starts another.
-            ws.pacer.restart_view();
-            return Ok((ws.renderer.timings(), 0));
-        };
-        let total = snapshot.num_fish();
-        let input = snapshot.slice(fish.clone(), part);
-        fish_drawn = input.instances.len();
-        let view = target.create_view(&wgpu::TextureViewDescriptor::default());
-        let mut own = ws
-            .gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("view slice encoder"),
-            });
-        ws.renderer
-            .encode_part(&ws.gpu, &mut own, &view, (each, height), &input, part)?;
-        ws.gpu.queue.submit([own.finish()]);
-        timings = Some(ws.renderer.timings());
-        if part.last
-            && let Some((done, _)) = ws.progressive.take()
-        {
-            ws.view_targets[0] = done;
-            ws.shown_complete = true;
+        match &mut ws.progressive {
+            Some((target, snapshot)) => {
+                let total = snapshot.num_fish();
+                let input = snapshot.slice(fish.clone(), part);
+                fish_drawn = input.instances.len();
+                let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+                let mut own =
+                    ws.gpu
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                            label: Some("view slice encoder"),
+                        });
+                ws.renderer
+                    .encode_part(&ws.gpu, &mut own, &view, (each, height), &input, part)?;
+                ws.gpu.queue.submit([own.finish()]);
+                if part.last
+                    && let Some((done, _)) = ws.progressive.take()
+                {
+                    ws.view_targets[0] = done;
+                    ws.shown_complete = true;
+                }
+                aq.ui.trace_line("view slice", || {
+                    format!(
+                        "ui: view slice {}..{} of {total}{}",
+                        fish.start,
+                        fish.end,
+                        if part.last { " (shown)" } else { "" }
+                    )
+                });
+            }
+            // The picture was dropped (new meshes, a resize): the last complete one is shown
+            // and the next frame starts another.
+            None => ws.pacer.restart_view(),
         }
-        aq.ui.trace_line("view slice", || {
-            format!(
-                "ui: view slice {}..{} of {total}{}",
-                fish.start,
-                fish.end,
-                if part.last { " (shown)" } else { "" }
-            )
-        });
+        timings = Some(ws.renderer.timings());
     }
     let whole_targets = if timings.is_some() {
         &[][..]
