@@ -19,6 +19,7 @@
 #![warn(missing_docs)]
 
 mod aquarium;
+mod pacing;
 mod panel;
 mod pointer;
 mod scene;

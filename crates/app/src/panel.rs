@@ -127,11 +127,16 @@ fn time_controls(ui: &mut egui::Ui, scene: &mut DynScene, st: &mut UiState) {
             WARNING,
             format!(
                 "behind real time: simulating {:.0} % of the requested speed \
-                 (frames are slower than {:.0} ms)",
+                 (a frame simulates at most {:.0} ms of real time, in at most {:.0} ms of \
+                 ticks and at least one)",
                 pace * 100.0,
-                MAX_FRAME_DT_S * 1e3
+                MAX_FRAME_DT_S * 1e3,
+                super::pacing::SIM_BUDGET_MS
             ),
         );
+    }
+    if let Some(status) = &st.view_status {
+        ui.colored_label(WARNING, status);
     }
 }
 

@@ -91,6 +91,11 @@ pub(super) struct UiState {
     pub scripts: super::scripts_panel::ScriptsPanel,
     /// Shift is held: a click in the view drops food instead of selecting.
     pub shift: bool,
+    /// Most ticks the next frame may simulate (the window's frame pacing, see `pacing.rs`;
+    /// unbounded elsewhere).
+    pub max_ticks: u64,
+    /// The window's note on a view drawn a slice at a time (see `pacing.rs`), for the panel.
+    pub view_status: Option<String>,
 }
 
 impl UiState {
@@ -129,6 +134,8 @@ impl UiState {
             shader_error: None,
             scripts: Default::default(),
             shift: false,
+            max_ticks: u64::MAX,
+            view_status: None,
             scratch_log: Vec::new(),
             scratch_notes: Vec::new(),
             trace: std::env::var_os("SHOAL_UI_TRACE").is_some_and(|v| !v.is_empty()),
@@ -324,8 +331,9 @@ fn focus_lod(scene: &mut DynScene, target: Vec3, selected: Option<FishId>) {
 }
 
 /// The simulation part of a frame: advances the scene by the frame's real time × the speed
-/// slider (all of it: no tick is dropped), by exactly one tick after "step", or not at all while
-/// paused; then moves the scene's new log lines into the console.
+/// slider (all of it, up to `ui.max_ticks` ticks: past them the world falls behind real time),
+/// by exactly one tick after "step", or not at all while paused; then moves the scene's new log
+/// lines into the console.
 pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     let frame_dt_s = if frame_dt_s.is_finite() {
         frame_dt_s.max(0.0)
@@ -344,13 +352,16 @@ pub(super) fn advance(scene: &mut DynScene, ui: &mut UiState, frame_dt_s: f32) {
     let seeking = ui.seek_to.is_some();
     let (timeline, notes, scripts) = (&mut ui.timeline, &mut ui.scratch_notes, &mut ui.scripts);
     let mut pause = None;
-    // After each tick: the history, then the "pause when" condition (stop at the tick it is met).
+    let (max_ticks, mut ran) = (ui.max_ticks, 0u64);
+    // After each tick: the history, then the "pause when" condition (stop at the tick it is met),
+    // then the frame's tick budget (past it the world falls behind real time).
     // The scene's simulation is a `Box<dyn Showable>`, and `step_until` hands it as it is.
     #[allow(clippy::borrowed_box)]
     let mut after_tick = |sim: &Box<dyn Showable>| {
         notes.extend(timeline.record(sim.as_ref()));
         pause = scripts.check_pause(sim.as_ref());
-        pause.is_none()
+        ran += 1;
+        pause.is_none() && ran < max_ticks
     };
     if let Some(t) = ui.seek_to.take() {
         seek(scene, ui, t);

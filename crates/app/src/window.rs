@@ -15,6 +15,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
 use super::aquarium::{AppOptions, Aquarium};
+use super::pacing::{Pacer, ViewPlan, ViewSnapshot};
 use super::showable::Showable;
 use super::ui_state::{FrameTimes, advance, refresh_views};
 use shoal_render::shaders::{ShaderSources, ShaderWatcher};
@@ -99,6 +100,21 @@ struct WindowState {
     view_targets: Vec<wgpu::Texture>,
     /// Whether the surface can be copied to (the views are drawn at their own size and copied).
     surface_copyable: bool,
+    /// The frame pacing: ticks a frame, and the view whole or a slice at a time.
+    pacer: Pacer,
+    /// A view drawn a slice at a time: the picture being drawn (shown, by swapping it with
+    /// `view_targets[0]`, when complete) and the moment it shows.
+    progressive: Option<(wgpu::Texture, ViewSnapshot)>,
+    /// `view_targets` hold a complete picture (else the one in progress is shown).
+    shown_complete: bool,
+}
+
+impl WindowState {
+    /// Forgets the view being drawn a slice at a time; the last complete one stays shown.
+    fn drop_progress(&mut self) {
+        self.pacer.restart_view();
+        self.progressive = None;
+    }
 }
 
 struct App {
@@ -258,6 +274,9 @@ impl App {
             egui_renderer,
             view_targets: Vec::new(),
             surface_copyable: copyable,
+            pacer: Pacer::default(),
+            progressive: None,
+            shown_complete: false,
         });
         Ok(())
     }
@@ -339,23 +358,37 @@ impl App {
         let frame_dt = (now - self.aq.ui.last_frame).as_secs_f32();
         self.aq.ui.last_frame = now;
 
+        if let Some(ws) = &self.window {
+            self.aq.ui.max_ticks = ws.pacer.max_ticks();
+        }
         let sim_start = Instant::now();
+        let ticks_before = self.aq.scene.world().tick_count();
         advance(&mut self.aq.scene, &mut self.aq.ui, frame_dt);
         let sim_ms = sim_start.elapsed().as_secs_f32() * 1e3;
+        let ticks = self
+            .aq
+            .scene
+            .world()
+            .tick_count()
+            .saturating_sub(ticks_before);
 
         let Some(ws) = self.window.as_mut() else {
             return Ok(());
         };
+        ws.pacer.simulated(ticks, sim_ms);
         if std::mem::take(&mut self.aq.ui.restart_requested) {
+            ws.drop_progress();
             restart_scene(ws, &mut self.aq);
         }
         // A reloaded species may lay its palette out otherwise: its meshes follow.
         let a_changed = self.aq.scene.take_meshes_changed();
         let b_changed = (self.aq.ui.split.as_mut()).is_some_and(|s| s.scene.take_meshes_changed());
-        if (a_changed || b_changed)
-            && let Err(e) = upload_meshes(&mut ws.renderer, &ws.gpu, &mut self.aq)
-        {
-            self.aq.ui.log(format!("species reload: {e}"));
+        if a_changed || b_changed {
+            // A picture in progress names the old meshes.
+            ws.drop_progress();
+            if let Err(e) = upload_meshes(&mut ws.renderer, &ws.gpu, &mut self.aq) {
+                self.aq.ui.log(format!("species reload: {e}"));
+            }
         }
         reload_shaders(ws, &mut self.aq);
         refresh_views(&mut self.aq.scene, &mut self.aq.ui);
@@ -383,7 +416,7 @@ impl App {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("window frame encoder"),
             });
-        let rt = encode_views(
+        let (rt, fish_drawn) = encode_views(
             ws,
             &mut self.aq,
             &mut encoder,
@@ -391,6 +424,7 @@ impl App {
             &view,
         )?;
         self.aq.ui.render_counts = rt;
+        self.aq.ui.view_status = ws.pacer.status();
         let extra = draw_panel(ws, &mut self.aq, &mut encoder, &view);
 
         let submit = Instant::now();
@@ -400,6 +434,8 @@ impl App {
         ws.window.pre_present_notify();
         ws.gpu.queue.present(surface_texture);
         let draw_ms = rt.draw_ms + submit.elapsed().as_secs_f32() * 1e3;
+        ws.pacer
+            .frame_done(fish_drawn, now.elapsed().as_secs_f32() * 1e3, sim_ms);
         self.presented += 1;
         if self.aq.ui.trace {
             // End-to-end tests count frames instead of sleeping.
@@ -440,14 +476,18 @@ fn views_width(ws: &WindowState, aq: &Aquarium) -> u32 {
 /// (the renderer's buffers hold one frame at a time, and queued writes land before the next
 /// submission), then the surface is cleared and `encoder` copies the views onto it side by
 /// side. Without a panel (before the first frame), or on a surface that cannot be copied to,
-/// the aquarium is drawn straight onto the whole surface. Returns A's render timings.
+/// the aquarium is drawn straight onto the whole surface.
+///
+/// The aquarium alone, when the pacer finds it slower than a frame, is drawn a slice of the fish
+/// at a time instead (see `pacing.rs`), and its last complete picture is copied meanwhile.
+/// Returns A's render timings and the fish drawn this frame.
 fn encode_views(
     ws: &mut WindowState,
     aq: &mut Aquarium,
     encoder: &mut wgpu::CommandEncoder,
     surface: &wgpu::Texture,
     surface_view: &wgpu::TextureView,
-) -> Result<shoal_render::RenderTimings, AppError> {
+) -> Result<(shoal_render::RenderTimings, usize), AppError> {
     let height = ws.config.height.max(1);
     let width = views_width(ws, aq);
     let panel_left = aq.ui.panel_rect_px.map(|r| r.left().round());
@@ -461,7 +501,8 @@ fn encode_views(
         input.overlay = &aq.ui.overlay;
         ws.renderer
             .encode(&ws.gpu, encoder, surface_view, (width, height), &input)?;
-        return Ok(ws.renderer.timings());
+        ws.drop_progress();
+        return Ok((ws.renderer.timings(), input.instances.len()));
     }
     let labels: &[&str] = match aq.ui.split {
         Some(_) => &["split view A", "split view B"],
@@ -473,27 +514,83 @@ fn encode_views(
         height,
         depth_or_array_layers: 1,
     };
+    let (device, format) = (ws.gpu.device.clone(), ws.config.format);
+    let new_target = |label: &str| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: extent,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        })
+    };
     if ws.view_targets.len() != labels.len()
         || ws.view_targets.first().is_none_or(|t| t.size() != extent)
     {
-        ws.view_targets = labels
-            .iter()
-            .map(|&label| {
-                ws.gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: extent,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: ws.config.format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                })
-            })
-            .collect();
+        ws.view_targets = labels.iter().map(|&label| new_target(label)).collect();
+        ws.drop_progress();
+        ws.shown_complete = false;
     }
+    let plan = match aq.ui.split {
+        Some(_) => ViewPlan::Whole,
+        None => ws.pacer.plan_view(aq.scene.num_fish()),
+    };
     let mut timings = None;
-    for (k, target) in ws.view_targets.iter().enumerate() {
+    let mut fish_drawn = 0;
+    if let ViewPlan::Slice { fish, part } = plan {
+        // A slice of the aquarium into the picture in progress, from the moment it shows.
+        if part.first {
+            let mut input = aq.scene.frame_input();
+            input.camera = aq.ui.camera;
+            input.overlay = &aq.ui.overlay;
+            let snapshot = ViewSnapshot::take(&input);
+            ws.progressive = Some((new_target("aquarium view in progress"), snapshot));
+        }
+        match &mut ws.progressive {
+            Some((target, snapshot)) => {
+                let total = snapshot.num_fish();
+                let input = snapshot.slice(fish.clone(), part);
+                fish_drawn = input.instances.len();
+                let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+                let mut own =
+                    ws.gpu
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                            label: Some("view slice encoder"),
+                        });
+                ws.renderer
+                    .encode_part(&ws.gpu, &mut own, &view, (each, height), &input, part)?;
+                ws.gpu.queue.submit([own.finish()]);
+                if part.last
+                    && let Some((done, _)) = ws.progressive.take()
+                {
+                    ws.view_targets[0] = done;
+                    ws.shown_complete = true;
+                }
+                aq.ui.trace_line("view slice", || {
+                    format!(
+                        "ui: view slice {}..{} of {total}{}",
+                        fish.start,
+                        fish.end,
+                        if part.last { " (shown)" } else { "" }
+                    )
+                });
+            }
+            // The picture was dropped (new meshes, a resize): the last complete one is shown
+            // and the next frame starts another.
+            None => ws.pacer.restart_view(),
+        }
+        timings = Some(ws.renderer.timings());
+    }
+    let whole_targets = if timings.is_some() {
+        &[][..]
+    } else {
+        &ws.view_targets[..]
+    };
+    for (k, target) in whole_targets.iter().enumerate() {
         let (scene, overlay) = match (&aq.ui.split, k) {
             (Some(split), 1) => (&split.scene, split.overlay.as_slice()),
             _ => (&aq.scene, aq.ui.overlay.as_slice()),
@@ -511,6 +608,8 @@ fn encode_views(
         ws.renderer
             .encode(&ws.gpu, &mut own, &view, (each, height), &input)?;
         ws.gpu.queue.submit([own.finish()]);
+        fish_drawn += input.instances.len();
+        ws.shown_complete = true;
         timings.get_or_insert(ws.renderer.timings());
     }
     // Under the panel and in an odd pixel column nothing is drawn: clear the surface first.
@@ -535,7 +634,13 @@ fn encode_views(
         occlusion_query_set: None,
         multiview_mask: None,
     }));
+    // Until a first picture is complete, the one being drawn shows how far it got.
+    let first_in_progress = match (&ws.progressive, ws.shown_complete) {
+        (Some((drawing, _)), false) => Some(drawing),
+        _ => None,
+    };
     for (k, target) in ws.view_targets.iter().enumerate() {
+        let target = first_in_progress.unwrap_or(target);
         encoder.copy_texture_to_texture(
             target.as_image_copy(),
             wgpu::TexelCopyTextureInfo {
@@ -551,7 +656,7 @@ fn encode_views(
             extent,
         );
     }
-    Ok(timings.unwrap_or_default())
+    Ok((timings.unwrap_or_default(), fish_drawn))
 }
 
 /// Uploads, in place of any before, the meshes of the views: A's, then, for the split tank, B's

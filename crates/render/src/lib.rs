@@ -43,7 +43,7 @@ pub mod testmesh;
 pub use camera::{Camera, Ray};
 pub use gpu::{Gpu, GpuError};
 pub use lod::{LodLevel, MAX_LODS, MeshBounds, MeshLods};
-pub use renderer::{Culling, DEFAULT_LOD_TOLERANCE_PX, RenderTimings, Renderer};
+pub use renderer::{Culling, DEFAULT_LOD_TOLERANCE_PX, FramePart, RenderTimings, Renderer};
 use shoal_core::skin::pose_program::{GpuFishPose, GpuPosePrograms};
 pub use target::OffscreenTarget;
 

@@ -79,6 +79,26 @@ impl Renderer {
         size: (u32, u32),
         input: &FrameInput<'_>,
     ) -> Result<(), RenderError> {
+        self.encode_part(gpu, encoder, view, size, input, FramePart::WHOLE)
+    }
+
+    /// [`Renderer::encode`] for one part of a frame drawn over several submissions (the window
+    /// draws a slow view a slice of the fish at a time): `input` holds that part's fish (their
+    /// instances, pose records and anchors, with their palette offsets into the whole frame's
+    /// palette) and props. The first part clears `view` and the depth and draws the water and
+    /// floor; the others draw over what the earlier parts left (the depth is kept between
+    /// them, so the fish hide each other as in one pass); the last draws the tank's edges and
+    /// the overlays. Every part must be submitted before the next is encoded, with the same
+    /// `view`, `size` and camera.
+    pub fn encode_part(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        size: (u32, u32),
+        input: &FrameInput<'_>,
+        part: FramePart,
+    ) -> Result<(), RenderError> {
         self.validate(input)?;
         self.frame += 1;
         let t0 = Instant::now();
@@ -103,7 +123,7 @@ impl Renderer {
         let lines = self.write_lines(gpu, input);
         let t1 = Instant::now();
         let draws =
-            self.record_scene_pass(encoder, view, input.look.shadows, &lines, &mut stats)?;
+            self.record_scene_pass(encoder, view, input.look.shadows, &lines, part, &mut stats)?;
         let t2 = Instant::now();
         let mut timings = RenderTimings {
             frame: self.frame,
@@ -378,13 +398,15 @@ impl Renderer {
         LineCounts { tank, all }
     }
 
-    /// Records the scene pass; returns its draw calls and adds its triangles to `stats`.
+    /// Records the scene pass (or `part` of it, see [`Renderer::encode_part`]); returns its draw
+    /// calls and adds its triangles to `stats`.
     fn record_scene_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &wgpu::TextureView,
         shadows: bool,
         lines: &LineCounts,
+        part: FramePart,
         stats: &mut RenderTimings,
     ) -> Result<u32, RenderError> {
         let Some(att) = self.attachments.as_ref() else {
@@ -394,6 +416,14 @@ impl Renderer {
             Some(msaa) => (msaa, Some(view)),
             None => (view, None),
         };
+        // A part the next one draws over keeps its multisampled colour and its depth.
+        let keep = |kept: bool| {
+            if kept {
+                wgpu::StoreOp::Store
+            } else {
+                wgpu::StoreOp::Discard
+            }
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("scene pass"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -401,19 +431,23 @@ impl Renderer {
                 depth_slice: None,
                 resolve_target: resolve,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: if resolve.is_some() {
-                        wgpu::StoreOp::Discard
+                    load: if part.first {
+                        wgpu::LoadOp::Clear(wgpu::Color::BLACK)
                     } else {
-                        wgpu::StoreOp::Store
+                        wgpu::LoadOp::Load
                     },
+                    store: keep(resolve.is_none() || !part.last),
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &att.depth,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
+                    load: if part.first {
+                        wgpu::LoadOp::Clear(1.0)
+                    } else {
+                        wgpu::LoadOp::Load
+                    },
+                    store: keep(!part.last),
                 }),
                 stencil_ops: None,
             }),
@@ -422,11 +456,14 @@ impl Renderer {
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.pipelines.background);
-        pass.draw(0..3, 0..1);
-        pass.set_pipeline(&self.pipelines.floor);
-        pass.draw(0..6, 0..1);
-        let mut draws = 2;
+        let mut draws = 0;
+        if part.first {
+            pass.set_pipeline(&self.pipelines.background);
+            pass.draw(0..3, 0..1);
+            pass.set_pipeline(&self.pipelines.floor);
+            pass.draw(0..6, 0..1);
+            draws += 2;
+        }
 
         let mut triangles = 0u64;
         if self.last_frame_gpu_culled {
@@ -440,6 +477,9 @@ impl Renderer {
             stats.num_triangles = triangles;
         }
 
+        if !part.last {
+            return Ok(draws);
+        }
         pass.set_vertex_buffer(0, self.lines.buffer.slice(..));
         pass.set_pipeline(&self.pipelines.lines_fogged);
         pass.draw(0..lines.tank, 0..1);
@@ -592,6 +632,23 @@ impl Renderer {
             }
         }
     }
+}
+
+/// Which part of a frame drawn over several submissions [`Renderer::encode_part`] draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FramePart {
+    /// The first: clears the view and the depth, draws the water and the floor.
+    pub first: bool,
+    /// The last: draws the tank's edges and the overlays; the depth is not kept after it.
+    pub last: bool,
+}
+
+impl FramePart {
+    /// A whole frame in one part (what [`Renderer::encode`] draws).
+    pub const WHOLE: Self = Self {
+        first: true,
+        last: true,
+    };
 }
 
 /// The index range of one material's part of a level.

@@ -16,6 +16,8 @@ mod readback;
 mod records;
 mod upload;
 
+pub use encode::FramePart;
+
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};

@@ -7,6 +7,7 @@ mod common;
 mod render_cull;
 mod render_lod;
 mod render_materials;
+mod render_parts;
 mod render_reference;
 mod render_shaders;
 mod render_skinning;
