@@ -116,6 +116,15 @@ pub(super) fn heading_vector(h: f32) -> Vec2 {
     Vec2::new(h.cos(), h.sin())
 }
 
+/// The widest valid radius of the rules (f32::max skips NaN; negative radii are off), NaN when
+/// none is valid.
+fn widest(radii: [f32; 3]) -> f32 {
+    radii
+        .into_iter()
+        .filter(|r| *r >= 0.0)
+        .fold(f32::NAN, f32::max)
+}
+
 /// Squared radius of a rule, or −1 (nothing is within it) for a NaN or negative radius.
 fn squared(radius: f32) -> f32 {
     if radius.is_nan() || radius < 0.0 {
@@ -217,10 +226,7 @@ impl World {
         let species = self.state.fish.species[me];
         let r2 = radii.map(squared);
         let mut sums = CrowdSums::default();
-        let reach = radii
-            .into_iter()
-            .filter(|r| *r >= 0.0)
-            .fold(f32::NAN, f32::max);
+        let reach = widest(radii);
         if reach.is_nan() || k == 0 {
             return Some(sums);
         }
@@ -345,11 +351,7 @@ impl World {
         let species = self.state.fish.species[me];
         let r2 = radii.map(squared);
         let mut sums = CrowdSums::default();
-        // The widest valid radius (f32::max skips NaN; negative radii are off).
-        let reach = radii
-            .into_iter()
-            .filter(|r| *r >= 0.0)
-            .fold(f32::NAN, f32::max);
+        let reach = widest(radii);
         if reach.is_nan() {
             return Some(sums);
         }

@@ -27,7 +27,19 @@ fn probe(src: &str, lanes: usize) -> (tempfile::TempDir, Simulation) {
 
 /// A still fish (speed 0, heading +x) running `probe` at `pos`.
 fn still(sim: &mut Simulation, pos: Vec3) -> FishId {
-    sim.spawn("black_porgy", pos, 0.0, 0.0, Some(0.0), Some("probe"))
+    swimming(sim, pos, 0.0, 0.0)
+}
+
+/// A porgy's body length in this world (the test species).
+fn porgy_length(sim: &Simulation) -> f32 {
+    sim.world()
+        .species(sim.world().species_by_name("black_porgy").unwrap())
+        .body_length()
+}
+
+/// A fish running `probe` at `pos`, heading `heading` (radians, pitch 0) at `speed`.
+fn swimming(sim: &mut Simulation, pos: Vec3, heading: f32, speed: f32) -> FishId {
+    sim.spawn("black_porgy", pos, heading, 0.0, Some(speed), Some("probe"))
         .unwrap()
 }
 
@@ -259,10 +271,7 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
     // A fish heading into the wall, one body length from it, is woken as soon as it may be.
     let (_d, mut sim) = probe(COUNTER, 1);
     sim.set_lod_on(true);
-    let l = sim
-        .world()
-        .species(sim.world().species_by_name("black_porgy").unwrap())
-        .body_length();
+    let l = porgy_length(&sim);
     let walled = still(&mut sim, Vec3::new(500.0 - l, 200.0, 0.0));
     let free = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
     for _ in 0..48 {
@@ -279,20 +288,13 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
 fn test_a_side_wall_within_a_body_length_wakes_a_fish_swimming_along_it() {
     let (_d, mut sim) = probe(COUNTER, 1);
     sim.set_lod_on(true);
-    let l = sim
-        .world()
-        .species(sim.world().species_by_name("black_porgy").unwrap())
-        .body_length();
-    let along = sim
-        .spawn(
-            "black_porgy",
-            Vec3::new(500.0 - 0.5 * l, 200.0, 0.0),
-            std::f32::consts::FRAC_PI_2,
-            0.0,
-            Some(0.0),
-            Some("probe"),
-        )
-        .unwrap();
+    let l = porgy_length(&sim);
+    let along = swimming(
+        &mut sim,
+        Vec3::new(500.0 - 0.5 * l, 200.0, 0.0),
+        std::f32::consts::FRAC_PI_2,
+        0.0,
+    );
     let free = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
     for _ in 0..48 {
         sim.step();
@@ -309,20 +311,13 @@ fn test_a_fish_that_would_reach_a_wall_before_it_is_due_is_woken() {
     for (heading, expected) in [(0.0, 2), (std::f32::consts::PI, 1)] {
         let (_d, mut sim) = probe(COUNTER, 1);
         sim.set_lod_on(true);
-        let l = sim
-            .world()
-            .species(sim.world().species_by_name("black_porgy").unwrap())
-            .body_length();
-        let fish = sim
-            .spawn(
-                "black_porgy",
-                Vec3::new(500.0 - 3.0 * l, 200.0, 0.0),
-                heading,
-                0.0,
-                Some(6.0 * l),
-                Some("probe"),
-            )
-            .unwrap();
+        let l = porgy_length(&sim);
+        let fish = swimming(
+            &mut sim,
+            Vec3::new(500.0 - 3.0 * l, 200.0, 0.0),
+            heading,
+            6.0 * l,
+        );
         for _ in 0..7 {
             sim.step();
         }
