@@ -642,22 +642,23 @@ fn a_value_written_as_an_expression_is_replaced_only_after_confirmation() {
     );
 }
 
-/// The timings section shows how many decisions a tick makes and, with behaviour level of
-/// detail on, how the fish fall into its bands: the selected fish is near a focus (full rate),
-/// a fish far from it and from the camera is in the slow band.
-#[test]
-fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
-    let scripts = scripts_with(&[(
-        "scenes/lod_panel.lua",
-        r#"return {
+/// Two wandering porgies 3,000 units apart in a long tank, with level of detail on: a near band
+/// of 200 units at full rate and the rest at a quarter.
+const LOD_TWO_FISH: &str = r#"return {
   tank = { min = {-2000, 0, -400}, max = {2000, 400, 400} },
   lod = { on = true, bands = { {radius = 200, every = 1}, {every = 4} } },
   fish = {
     { species = "black_porgy", behavior = "wander", pos = {1500, 200, 0}, heading = 0 },
     { species = "black_porgy", behavior = "wander", pos = {-1500, 200, 0}, heading = 0 },
   },
-}"#,
-    )]);
+}"#;
+
+/// The timings section shows how many decisions a tick makes and, with behaviour level of
+/// detail on, how the fish fall into its bands: the selected fish is near a focus (full rate),
+/// a fish far from it and from the camera is in the slow band.
+#[test]
+fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
+    let scripts = scripts_with(&[("scenes/lod_panel.lua", LOD_TWO_FISH)]);
     let sim = Simulation::from_scene_with_scripts(
         &repo(),
         scripts.path(),
@@ -701,17 +702,7 @@ fn the_panel_shows_the_behaviour_level_of_detail_bands_and_decisions() {
 /// B's focus is A's.
 #[test]
 fn the_split_tanks_b_gets_the_level_of_detail_focus_too() {
-    let scripts = scripts_with(&[(
-        "scenes/lod_split.lua",
-        r#"return {
-  tank = { min = {-2000, 0, -400}, max = {2000, 400, 400} },
-  lod = { on = true, bands = { {radius = 200, every = 1}, {every = 4} } },
-  fish = {
-    { species = "black_porgy", behavior = "wander", pos = {1500, 200, 0}, heading = 0 },
-    { species = "black_porgy", behavior = "wander", pos = {-1500, 200, 0}, heading = 0 },
-  },
-}"#,
-    )]);
+    let scripts = scripts_with(&[("scenes/lod_split.lua", LOD_TWO_FISH)]);
     let load = || {
         Simulation::from_scene_with_scripts(
             &repo(),

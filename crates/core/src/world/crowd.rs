@@ -135,6 +135,17 @@ fn squared(radius: f32) -> f32 {
 }
 
 impl World {
+    /// The dense index of the fish a grid key stands for: the key itself while the grid is
+    /// exact (nothing spawned or despawned since its rebuild), else its id's current slot
+    /// (`None` for a fish despawned since).
+    pub(super) fn grid_key_dense(&self, key: u32) -> Option<usize> {
+        if self.index.grid_exact {
+            Some(key as usize)
+        } else {
+            self.state.fish.dense(self.index.grid_ids[key as usize])
+        }
+    }
+
     /// [`World::steer_separation`], [`World::steer_alignment`] and [`World::steer_cohesion`] of
     /// a fish at once, from one scan of the grid at the largest of the three radii (world units;
     /// any order; a NaN or negative radius finds nothing): bitwise the same answers as the three
@@ -299,12 +310,7 @@ impl World {
                 self.index
                     .grid
                     .for_each_within(centre, reach, |key, _, grid_d2| {
-                        let dense = if self.index.grid_exact {
-                            Some(key as usize)
-                        } else {
-                            fish.dense(self.index.grid_ids[key as usize])
-                        };
-                        if let Some(o) = dense {
+                        if let Some(o) = self.grid_key_dense(key) {
                             add(o, grid_d2);
                         }
                         true
@@ -427,12 +433,7 @@ impl World {
         self.index
             .grid
             .for_each_within(centre, reach, |key, _, grid_d2| {
-                let dense = if self.index.grid_exact {
-                    Some(key as usize)
-                } else {
-                    self.state.fish.dense(self.index.grid_ids[key as usize])
-                };
-                if let Some(o) = dense {
+                if let Some(o) = self.grid_key_dense(key) {
                     visit(o, grid_d2);
                 }
                 true
@@ -652,11 +653,7 @@ mod tests {
         let mut grid_d2 = vec![f32::NEG_INFINITY; w.state.fish.len()];
         if !(w.index.grid_exact && w.index.grid_positions_current) {
             for (slot, &key) in w.index.grid.keys().iter().enumerate() {
-                let o = if w.index.grid_exact {
-                    Some(key as usize)
-                } else {
-                    w.state.fish.dense(w.index.grid_ids[key as usize])
-                };
+                let o = w.grid_key_dense(key);
                 if let Some(o) = o {
                     grid_d2[o] = w.index.grid.positions()[slot].distance_squared(agent.pos);
                 }
