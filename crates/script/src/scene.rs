@@ -307,7 +307,7 @@ pub fn take_measures(scene: &Table, file: &str) -> Result<Vec<String>, FieldErro
 
 /// A scene's `lod` table: `lod = { on = true, focus = { {0, 150, 0} },
 /// bands = { {radius = 600, every = 1, cap = 500}, {radius = 1500, every = 2}, {every = 4} },
-/// wake = true }`.
+/// wake = true, wall_lookahead = 2.5 }`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LodDesc {
@@ -324,6 +324,10 @@ pub struct LodDesc {
     /// Whether events wake slow fish (default true).
     #[serde(default)]
     pub wake: Option<bool>,
+    /// Seconds ahead a slow fish looks for walls and rocks to be woken for (default 2.5, the
+    /// shipped behaviours' wall horizon).
+    #[serde(default)]
+    pub wall_lookahead: Option<f32>,
 }
 
 /// One band of a scene's `lod.bands`.
@@ -365,6 +369,9 @@ impl LodDesc {
         }
         if let Some(w) = self.wake {
             lod.wake = w;
+        }
+        if let Some(s) = self.wall_lookahead {
+            lod.wall_lookahead = s;
         }
         lod
     }

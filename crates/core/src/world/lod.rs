@@ -11,8 +11,9 @@
 //!
 //! An **event wakes** a slow fish at once: when a fish not due has not decided for a whole base
 //! period `P` and any of these holds, it decides this tick —
-//! it touched the tank or a rock on the last motion step, a side wall lies within a body length,
-//! or it would come within two body lengths of a wall or a rock straight ahead before it is next
+//! it touched the tank or a rock on the last motion step, a wall, the floor or the surface lies
+//! within a body length, or it is headed for one or for a rock within the lookahead the shipped
+//! behaviours use (2.5 s at cruising speed, `lod.wall_lookahead`) plus the time until it is next
 //! due (while these last, it decides every base period); a predator of another
 //! species or a pellet came within its view range since its last decision (a fish that decided
 //! with it in view has reacted, and keeps swimming on that). Each is a handful of comparisons
@@ -33,9 +34,15 @@ use super::sense::forward;
 use super::tick::TICK_DT;
 use super::{FishId, SpeciesId, World};
 
-/// A side wall this many body lengths away, in any direction, wakes a slow fish (see
-/// [`World::obstacle_near`]).
+/// A wall, the floor or the surface this many body lengths away, in any direction, wakes a
+/// slow fish (see [`World::obstacle_near`]).
 pub const WALL_MARGIN_LENGTHS: f32 = 1.0;
+
+/// The default [`Lod::wall_lookahead`], seconds: the shipped behaviours look for a side wall
+/// where they will be 2.5 s ahead at cruising speed (`C.WALL_LOOKAHEAD` in
+/// scripts/behaviors/lib/common.lua), so a slow fish is woken for the walls a full-rate one
+/// would already be turning from.
+pub const DEFAULT_WALL_LOOKAHEAD_S: f32 = 2.5;
 
 /// Most bands a schedule may have.
 pub const MAX_BANDS: usize = 6;
@@ -67,6 +74,11 @@ pub struct Lod {
     pub focus: Vec<Vec3>,
     /// Whether events wake slow fish (see the module docs).
     pub wake: bool,
+    /// Seconds ahead, at cruising speed or faster, a slow fish looks for walls and rocks:
+    /// it is woken when the point it would reach then lies within [`WALL_MARGIN_LENGTHS`]
+    /// of a wall, the floor or the surface, or a rock lies on the way. Set it to the horizon
+    /// the behaviours avoid walls at ([`DEFAULT_WALL_LOOKAHEAD_S`] for the shipped ones).
+    pub wall_lookahead: f32,
 }
 
 impl Default for Lod {
@@ -76,6 +88,7 @@ impl Default for Lod {
             bands: default_bands(),
             focus: Vec::new(),
             wake: true,
+            wall_lookahead: DEFAULT_WALL_LOOKAHEAD_S,
         }
     }
 }
@@ -137,6 +150,9 @@ pub enum LodError {
     /// A focus point is not finite.
     #[error("focus: {0} is not a finite point")]
     Focus(Vec3),
+    /// The wall lookahead is not a number of seconds from 0 to 60.
+    #[error("wall_lookahead: {0} must be a number of seconds from 0 to 60")]
+    WallLookahead(f32),
 }
 
 impl Lod {
@@ -167,6 +183,9 @@ impl Lod {
         }
         if let Some(p) = self.focus.iter().find(|p| !p.is_finite()) {
             return Err(LodError::Focus(*p));
+        }
+        if !(0.0..=60.0).contains(&self.wall_lookahead) {
+            return Err(LodError::WallLookahead(self.wall_lookahead));
         }
         Ok(())
     }
@@ -462,36 +481,48 @@ impl World {
             });
     }
 
-    /// Whether dense fish `d` touched the tank or a rock on the last motion step, has a side
-    /// wall within [`WALL_MARGIN_LENGTHS`] body lengths in any direction, or would come within
-    /// two body lengths of the tank's bounds or a rock, straight ahead, before it next decides
-    /// (`until_due` ticks away at its present speed). Looking only two body lengths ahead
-    /// missed fish closing on a wall at a slant or pushed along it by their school: with level
-    /// of detail on, the 10,000-fish scene touched the walls 9 % more often (docs/lod.md).
+    /// Whether dense fish `d` touched the tank or a rock on the last motion step, has a wall,
+    /// the floor or the surface within [`WALL_MARGIN_LENGTHS`] body lengths in any direction,
+    /// or is headed for one: the point it reaches in [`Lod::wall_lookahead`] seconds plus the
+    /// ticks until it is next due (`until_due`), at its cruising speed or faster and never
+    /// nearer than two body lengths, lies within that margin of the tank's bounds, or a rock
+    /// lies on the way. This is the horizon at which the shipped behaviours turn from a wall
+    /// (`C.sense_collision`), widened by how far the fish swims before it decides again: a
+    /// narrower wake (two body lengths straight ahead, then also a side wall within one) left
+    /// the 10,000-fish scene touching the walls 7–9 % more often with level of detail on
+    /// (docs/performance.md).
     fn obstacle_near(&self, d: usize, until_due: u64) -> bool {
         let f = &self.state.fish;
         if f.contact[d] {
             return true;
         }
         let root = &f.roots[d];
-        let species = &self.catalog.species[usize::from(f.species[d].0)].desc;
-        let l = species.motion.l;
+        let motion = &self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .motion;
+        let l = motion.l;
         let tank = &self.state.tank;
-        // Side walls (x and z) in any direction: what a school presses a fish against.
-        let margin = WALL_MARGIN_LENGTHS * l;
-        let side = (root.pos.x - tank.min.x)
-            .min(tank.max.x - root.pos.x)
-            .min(root.pos.z - tank.min.z)
-            .min(tank.max.z - root.pos.z);
-        if side <= margin {
+        let margin = Vec3::splat(WALL_MARGIN_LENGTHS * l);
+        let (inner_min, inner_max) = (tank.min + margin, tank.max - margin);
+        let outside = |p: Vec3| p.cmplt(inner_min).any() || p.cmpgt(inner_max).any();
+        // Any face in any direction: what a school presses a fish against.
+        if outside(root.pos) {
             return true;
         }
-        let travel = root.speed.max(0.0) * until_due as f32 * TICK_DT;
-        let reach = 2.0 * l + if travel.is_finite() { travel } else { 0.0 };
+        let speed = root.speed.max(motion.s);
+        let speed = if speed.is_finite() {
+            speed.max(0.0)
+        } else {
+            0.0
+        };
+        let reach =
+            (2.0 * l).max(speed * self.lod.wall_lookahead) + speed * until_due as f32 * TICK_DT;
+        // The shipped behaviours look for side walls level, along the heading alone; the
+        // pitched direction finds the floor and surface. The tank is a box: a path stays
+        // inside when both of its ends do.
         let dir = forward(root.heading, root.pitch);
-        let ahead = root.pos + dir * reach;
-        // The tank is a box: the path stays inside when both of its ends do.
-        if ahead.cmplt(tank.min).any() || ahead.cmpgt(tank.max).any() {
+        if outside(root.pos + forward(root.heading, 0.0) * reach) || outside(root.pos + dir * reach)
+        {
             return true;
         }
         // A rock anywhere along the path (a far lookahead can step over one).

@@ -126,6 +126,7 @@ fn test_bands_follow_the_distance_to_the_focus() {
             bands: bands([150.0, 450.0]),
             focus: vec![Vec3::new(-300.0, 180.0, 0.0)],
             wake: true,
+            ..Default::default()
         })
         .unwrap();
     let near = row(&mut sim, -300.0);
@@ -171,6 +172,7 @@ fn test_a_band_holds_at_most_its_cap_and_the_nearest_keep_it() {
             bands: capped([150.0, 450.0], [Some(5), Some(10)]),
             focus: vec![focus],
             wake: true,
+            ..Default::default()
         })
         .unwrap();
     let near = row(&mut sim, -300.0);
@@ -221,6 +223,7 @@ fn test_a_cap_breaks_ties_by_slot() {
             bands: capped([150.0, 450.0], [Some(2), None]),
             focus: vec![focus],
             wake: true,
+            ..Default::default()
         })
         .unwrap();
     let fish: Vec<FishId> = [
@@ -249,7 +252,7 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
     let (_d, mut sim) = probe(COUNTER, 2);
     sim.set_lod_on(true);
     let fish = row(&mut sim, -200.0);
-    let far = still(&mut sim, Vec3::new(350.0, 200.0, 200.0));
+    let far = still(&mut sim, Vec3::new(250.0, 200.0, 150.0));
     for _ in 0..10 {
         sim.step();
     }
@@ -310,7 +313,15 @@ fn test_a_side_wall_within_a_body_length_wakes_a_fish_swimming_along_it() {
 fn test_a_fish_that_would_reach_a_wall_before_it_is_due_is_woken() {
     for (heading, expected) in [(0.0, 2), (std::f32::consts::PI, 1)] {
         let (_d, mut sim) = probe(COUNTER, 1);
-        sim.set_lod_on(true);
+        // No lookahead: only the two body lengths and the swim until it is due count (at six
+        // lengths a second the lookahead would wake it for the far wall too).
+        sim.world_mut()
+            .set_lod(Lod {
+                on: true,
+                wall_lookahead: 0.0,
+                ..Default::default()
+            })
+            .unwrap();
         let l = porgy_length(&sim);
         let fish = swimming(
             &mut sim,
@@ -329,6 +340,50 @@ fn test_a_fish_that_would_reach_a_wall_before_it_is_due_is_woken() {
         );
         assert_eq!(decisions(&sim, fish), expected, "heading {heading}");
     }
+}
+
+/// A fish cruising (one body length a second) straight for a side wall 3.6 body lengths
+/// away is woken at the first tick it may be: the shipped behaviours turn from a wall they
+/// would reach in 2.5 s at cruising speed, give or take a body length, and a slow fish must see
+/// that wall when a full-rate one would. Five lengths away it is not woken; a fish a body length
+/// above the floor or below the surface is woken every base period, whatever its heading.
+#[test]
+fn test_a_slow_fish_is_woken_for_a_wall_where_the_behaviours_would_turn_from_it() {
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.set_lod_on(true);
+    let l = porgy_length(&sim);
+    let three = swimming(&mut sim, Vec3::new(500.0 - 3.6 * l, 200.0, 0.0), 0.0, l);
+    let five = swimming(&mut sim, Vec3::new(500.0 - 5.0 * l, 200.0, -150.0), 0.0, l);
+    let floor = swimming(&mut sim, Vec3::new(-200.0, 0.5 * l, 0.0), 0.0, l);
+    let surface = swimming(&mut sim, Vec3::new(-200.0, 400.0 - 0.5 * l, 150.0), 0.0, l);
+    for _ in 0..7 {
+        sim.step();
+    }
+    assert_eq!(decisions(&sim, three), 2, "woken at tick 6");
+    assert_eq!(
+        decisions(&sim, five),
+        0,
+        "not woken (its phase comes at tick 23)"
+    );
+    for _ in 7..48 {
+        sim.step();
+    }
+    assert_eq!(decisions(&sim, floor), 8, "woken every base period");
+    assert_eq!(decisions(&sim, surface), 8, "woken every base period");
+    // With no lookahead only two body lengths and the time until it is due count.
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.world_mut()
+        .set_lod(Lod {
+            on: true,
+            wall_lookahead: 0.0,
+            ..Default::default()
+        })
+        .unwrap();
+    let three = swimming(&mut sim, Vec3::new(500.0 - 3.6 * l, 200.0, 0.0), 0.0, l);
+    for _ in 0..7 {
+        sim.step();
+    }
+    assert_eq!(decisions(&sim, three), 1, "not woken without the lookahead");
 }
 
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
@@ -443,6 +498,7 @@ fn test_pools_of_one_and_four_threads_run_the_same_world_bit_for_bit() {
                 bands: capped([500.0, 1000.0], [Some(300), Some(900)]),
                 focus: vec![(tank.min * 3.0 + tank.max) * 0.25],
                 wake: true,
+                ..Default::default()
             };
             sim.world_mut().set_lod(lod).unwrap();
             let mut schedule = Vec::new();
@@ -552,6 +608,9 @@ fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
     assert_eq!(lod.bands[1].every, 3);
     assert!(lod.bands[1].radius.is_infinite());
     assert_eq!(lod.bands[0].cap, None);
+    assert_eq!(lod.wall_lookahead, 2.5, "the default lookahead");
+    let sim = write("lod = { wall_lookahead = 4 }").unwrap();
+    assert_eq!(sim.world().lod().wall_lookahead, 4.0);
     let sim =
         write("lod = { bands = { {radius = 100, every = 1, cap = 40}, {every = 3} } }").unwrap();
     assert_eq!(sim.world().lod().bands[0].cap, Some(40));
@@ -571,6 +630,10 @@ fn test_a_scene_sets_level_of_detail_and_bad_fields_are_named() {
             "lod.bands[1].radius",
         ),
         ("lod = { focus = { {0, 0/0, 0} } }", "lod.focus[1]"),
+        (
+            "lod = { wall_lookahead = -1 }",
+            "lod.wall_lookahead: -1 must be a number of seconds from 0 to 60",
+        ),
         (
             "lod = { bands = { {radius = 100, every = 1, cap = 5}, {every = 2, cap = 3} } }",
             "lod.bands[2].cap: the last band takes every fish",
