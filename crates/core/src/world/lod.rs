@@ -14,7 +14,8 @@
 //! it touched the tank or a rock on the last motion step, a wall, the floor or the surface lies
 //! within a body length, or it is headed for one or for a rock within the lookahead the shipped
 //! behaviours use (2.5 s at cruising speed, `lod.wall_lookahead`) plus the time until it is next
-//! due (while these last, it decides every base period); a predator of another
+//! due (while these last, it decides every base period); another fish within half a body
+//! length, on the ticks it would decide at full rate; a predator of another
 //! species or a pellet came within its view range since its last decision (a fish that decided
 //! with it in view has reacted, and keeps swimming on that). Each is a handful of comparisons
 //! (the predators and pellets mark the fish around them from one grid query each), so the check
@@ -43,6 +44,11 @@ pub const WALL_MARGIN_LENGTHS: f32 = 1.0;
 /// scripts/behaviors/lib/common.lua), so a slow fish is woken for the walls a full-rate one
 /// would already be turning from.
 pub const DEFAULT_WALL_LOOKAHEAD_S: f32 = 2.5;
+
+/// Another fish's centre this many body lengths away wakes a slow fish on the ticks it would
+/// decide at its species' full rate (see [`World::crowded`]): bodies that close are about to
+/// touch, which a full-rate fish's separation rule would already be answering.
+pub const COLLISION_LENGTHS: f32 = 0.5;
 
 /// Most bands a schedule may have.
 pub const MAX_BANDS: usize = 6;
@@ -333,7 +339,10 @@ impl World {
                 // The ticks until it is next due: how far it swims on its last request before
                 // it decides again.
                 let until_due = p - phase % p;
-                if (alert && !f.alerted[d]) || world.obstacle_near(d, until_due) {
+                if (alert && !f.alerted[d])
+                    || world.obstacle_near(d, until_due)
+                    || (phase.is_multiple_of(base) && world.crowded(d))
+                {
                     return (1 + band as u8) | WOKEN | alert_bit;
                 }
                 0
@@ -530,6 +539,31 @@ impl World {
             let along = (o.pos - root.pos).dot(dir).clamp(0.0, reach);
             o.pos.distance_squared(root.pos + dir * along) <= o.radius * o.radius
         })
+    }
+
+    /// Whether another fish's centre lies within [`COLLISION_LENGTHS`] of dense fish `d`'s
+    /// body lengths: one grid query of a few cells, stopped at the first fish found. Asked only
+    /// on the ticks the fish would decide at full rate, so a crowded slow fish answers its
+    /// neighbours as often as a full-rate one and costs at most one query a base period. False
+    /// when the grid is not exact and current (fish came or went since it was built, or it
+    /// was not rebuilt this tick): those are inputs, so the schedule stays a function of them.
+    fn crowded(&self, d: usize) -> bool {
+        if !(self.index.grid_exact && self.index.grid_positions_current) {
+            return false;
+        }
+        let f = &self.state.fish;
+        let l = self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .motion
+            .l;
+        let mut found = false;
+        self.index
+            .grid
+            .for_each_within(f.roots[d].pos, COLLISION_LENGTHS * l, |key, _, _| {
+                found = key as usize != d;
+                !found
+            });
+        found
     }
 
     /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:

@@ -47,13 +47,18 @@ fn decisions(sim: &Simulation, id: FishId) -> u64 {
     sim.memory_json(id)["n"].as_u64().unwrap_or(0)
 }
 
-/// Twelve still fish in mid-water, far from the walls and from each other's view of anything.
+/// Twelve still fish in mid-water, far from the walls and from each other's view of anything,
+/// and more than half a body length apart (nearer, they would wake each other).
 fn row(sim: &mut Simulation, x: f32) -> Vec<FishId> {
     (0..12)
         .map(|k| {
             still(
                 sim,
-                Vec3::new(x, 120.0 + 12.0 * k as f32, -100.0 + 15.0 * k as f32),
+                Vec3::new(
+                    x,
+                    150.0 + 30.0 * (k % 3) as f32,
+                    -45.0 + 30.0 * (k / 3) as f32,
+                ),
             )
         })
         .collect()
@@ -384,6 +389,44 @@ fn test_a_slow_fish_is_woken_for_a_wall_where_the_behaviours_would_turn_from_it(
         sim.step();
     }
     assert_eq!(decisions(&sim, three), 1, "not woken without the lookahead");
+}
+
+/// Two slow fish whose centres are a third of a body length apart are about to touch: each is
+/// woken on the ticks it would decide at full rate, as a full-rate fish's separation would
+/// answer. A pair 0.7 lengths apart is not woken; nor is a crowded pair with wakes off.
+#[test]
+fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
+    for wake in [true, false] {
+        let (_d, mut sim) = probe(COUNTER, 1);
+        sim.world_mut()
+            .set_lod(Lod {
+                on: true,
+                wake,
+                ..Default::default()
+            })
+            .unwrap();
+        let l = porgy_length(&sim);
+        let close = [
+            still(&mut sim, Vec3::new(-200.0, 200.0, 0.0)),
+            still(&mut sim, Vec3::new(-200.0, 200.0, l / 3.0)),
+        ];
+        let apart = [
+            still(&mut sim, Vec3::new(100.0, 200.0, 0.0)),
+            still(&mut sim, Vec3::new(100.0, 200.0, 0.7 * l)),
+        ];
+        for _ in 0..48 {
+            sim.step();
+        }
+        // Slot 0 decides on ticks 0, 6, … 42; slot 1 would on 5, 11, … 47, but a fish is woken
+        // only once it has been idle a whole base period (tick 5 is too early).
+        let expected = if wake { [8, 7] } else { [2, 2] };
+        for (id, n) in close.into_iter().zip(expected) {
+            assert_eq!(decisions(&sim, id), n, "wake {wake}: {id:?}");
+        }
+        for id in apart {
+            assert_eq!(decisions(&sim, id), 2, "wake {wake}: {id:?}");
+        }
+    }
 }
 
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
