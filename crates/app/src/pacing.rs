@@ -321,6 +321,8 @@ impl ViewSnapshot {
         FrameInput {
             palettes: &self.palettes,
             instances,
+            // Each slice is other fish: nothing to keep from the last frame.
+            instances_revision: None,
             camera: self.camera,
             tank: self.tank,
             time_s: self.time_s,

@@ -299,6 +299,10 @@ pub struct Renderer {
     culling_supported: bool,
     /// Whether the last frame was culled on the GPU (its counts are still there).
     last_frame_gpu_culled: bool,
+    /// The instances last checked: their [`FrameInput::instances_revision`], number, and the
+    /// meshes and fish palette entries they were checked against. A frame that matches all
+    /// four skips checking each instance again.
+    checked_instances: Option<(u64, usize, usize, usize)>,
     /// Frames encoded so far ([`RenderTimings::frame`] of the last).
     frame: u64,
     scratch_bases: Vec<u8>,
@@ -533,6 +537,7 @@ impl Renderer {
             culling: cull_pass::default_culling(gpu),
             culling_supported,
             last_frame_gpu_culled: false,
+            checked_instances: None,
             frame: 0,
             scratch_bases: Vec::new(),
             lines,
