@@ -119,12 +119,14 @@ impl Renderer {
         input: &FrameInput<'_>,
         part: FramePart,
     ) -> Result<(), RenderError> {
+        let t_check = Instant::now();
         self.validate(input)?;
         self.frame += 1;
         let t0 = Instant::now();
         self.ensure_attachments(&gpu.device, size);
         let frame = self.write_globals(gpu, input, size);
         self.write_palettes(gpu, input);
+        let t_pose = Instant::now();
         self.record_frame_pose(gpu, encoder, input);
         let t_cull = Instant::now();
         let gpu_cull = self.culling == Culling::Gpu;
@@ -147,7 +149,9 @@ impl Renderer {
         let t2 = Instant::now();
         let mut timings = RenderTimings {
             frame: self.frame,
+            check_ms: (t0 - t_check).as_secs_f32() * 1e3,
             upload_ms: (t1 - t0).as_secs_f32() * 1e3,
+            pose_upload_ms: (t_cull - t_pose).as_secs_f32() * 1e3,
             cull_ms,
             draw_ms: (t2 - t1).as_secs_f32() * 1e3,
             num_draw_calls: draws,
