@@ -27,8 +27,8 @@ struct LineCounts {
 
 impl Renderer {
     /// Checks a frame against the uploaded meshes. The instances are checked once per
-    /// [`FrameInput::instances_revision`] (again when the meshes or the palette's length
-    /// change).
+    /// [`FrameInput::instances_revision`] (again after a mesh upload or clear, or when the
+    /// palette's length changes).
     fn validate(&mut self, input: &FrameInput<'_>) -> Result<(), RenderError> {
         let key = input.instances_revision.map(|r| {
             (

@@ -657,6 +657,8 @@ impl Renderer {
     pub fn clear_meshes(&mut self) {
         self.meshes.clear();
         self.num_lod_buckets = 0;
+        // The instances are checked against the meshes: again against the new ones.
+        self.checked_instances = None;
     }
 
     fn ensure_attachments(&mut self, device: &wgpu::Device, size: (u32, u32)) {

@@ -475,6 +475,66 @@ fn changes_named_by_a_new_revision_are_drawn_and_a_kept_revision_keeps_the_recor
     );
 }
 
+/// The instances are checked once per revision, but again when the meshes change: a fish whose
+/// mesh is gone (the meshes cleared) is refused under the revision it was drawn with, and a bad
+/// instance under a new revision is refused too.
+#[test]
+fn instances_kept_by_a_revision_are_checked_again_when_the_meshes_change() {
+    let gpu = gpu();
+    let rig = common::PosedPorgy::load();
+    let a = school(&rig, 10);
+    let mut r = renderer(&gpu, &rig, Culling::Gpu, 1.0);
+    let rev = shoal_render::next_instances_revision();
+    draw_named(&gpu, &mut r, &a, true, 1, Some(rev));
+    let target = OffscreenTarget::new(&gpu, 32, 32);
+    let instances = [FishInstance {
+        mesh: MeshId(0),
+        palette_offset: 0,
+        tint: [1.0; 3],
+        selected: false,
+    }];
+    let input = FrameInput {
+        gpu_pose: None,
+        palettes: &a.palettes,
+        instances: &instances,
+        instances_revision: Some(rev),
+        camera: camera(),
+        tank: TankBounds::default(),
+        time_s: 0.0,
+        props: &[],
+        overlay: &[],
+        look: Look::default(),
+    };
+    r.clear_meshes();
+    let err = r
+        .render(&gpu, target.view(), target.size(), &input)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("fish 0 uses mesh 0 but only 0 meshes"),
+        "{err}"
+    );
+    r.upload_mesh(&gpu, &rig.upload()).unwrap();
+    let past_the_palette = [FishInstance {
+        palette_offset: a.palettes.len() as u32,
+        ..instances[0]
+    }];
+    let err = r
+        .render(
+            &gpu,
+            target.view(),
+            target.size(),
+            &FrameInput {
+                instances: &past_the_palette,
+                instances_revision: Some(shoal_render::next_instances_revision()),
+                ..input
+            },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("fish 0 needs palette entries"), "{err}");
+}
+
 /// The draw counts: the GPU path records every level's draw but counts as drawing only those
 /// with instances, which are the draws the CPU path records; and the counts read without
 /// waiting say which frame they are from, and are that frame's.
