@@ -492,7 +492,11 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     println!(
         "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
          last frame; LOD tolerance {} px; {}; culling: {}; pose ms: the tick's pose stage, \
-         CPU, median; upload ms: the renderer's CPU work before recording the draws, mean; cull \
+         CPU, median; instances ms: the window's scene bringing its fish instances and props \
+         up to the world, CPU, mean (kept while no fish comes, goes or changes species); \
+         check ms: the renderer checking the frame (the instances once per revision, the pose \
+         records every frame), mean; upload ms: the renderer's CPU work before recording the \
+         draws, mean; pose up ms: of that, writing the pose pass's per-fish records, mean; cull \
          ms: of that, culling and levels of detail; records ms: of that, on the GPU path, \
          bringing the per-fish culling records up to date, mean; written: records written a \
          frame, mean (all of them in the warm-up frame, then only changed ones); draws: \
@@ -509,12 +513,15 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         }
     );
     println!(
-        "{:>7} {:>12} {:>10} {:>10} {:>10} {:>8} {:>10} {:>8} {:>6} {:>7} {:>7} {:>24} {:>12}",
+        "{:>7} {:>12} {:>10} {:>10} {:>12} {:>8} {:>10} {:>12} {:>8} {:>10} {:>8} {:>6} {:>7} {:>7} {:>24} {:>12}",
         "fish",
         "median ms",
         "p99 ms",
         "pose ms",
+        "instances ms",
+        "check ms",
         "upload ms",
+        "pose up ms",
         "cull ms",
         "records ms",
         "written",
@@ -581,6 +588,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         let mut times = Vec::with_capacity(args.frames);
         let mut pose_ms = Vec::with_capacity(args.frames);
         let mut upload = 0.0;
+        let mut instances = 0.0;
+        let mut check = 0.0;
+        let mut pose_upload = 0.0;
         let mut cull = 0.0;
         let mut records = 0.0;
         let mut written = 0.0;
@@ -597,6 +607,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             if frame >= 1 {
                 times.push(ms);
                 upload += f64::from(renderer.timings().upload_ms);
+                instances += f64::from(scene.instances_ms());
+                check += f64::from(renderer.timings().check_ms);
+                pose_upload += f64::from(renderer.timings().pose_upload_ms);
                 cull += f64::from(renderer.timings().cull_ms);
                 records += f64::from(renderer.timings().records_ms);
                 written += f64::from(renderer.timings().num_records_written);
@@ -613,8 +626,11 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
             .join("/");
         println!(
-            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>10.3} {:>8.3} {:>10.3} {:>8.0} {:>6} {:>7} {:>7} {:>24} {:>12}",
+            "{n:>7} {median:>12.2} {p99:>10.2} {pose:>10.3} {:>12.3} {:>8.3} {:>10.3} {:>12.3} {:>8.3} {:>10.3} {:>8.0} {:>6} {:>7} {:>7} {:>24} {:>12}",
+            instances / args.frames as f64,
+            check / args.frames as f64,
             upload / args.frames as f64,
+            pose_upload / args.frames as f64,
             cull / args.frames as f64,
             records / args.frames as f64,
             written / args.frames as f64,

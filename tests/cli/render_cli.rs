@@ -210,27 +210,32 @@ fn bench_render_reports_triangles_per_frame() {
         let rows: Vec<Vec<&str>> = stdout
             .lines()
             .map(|l| l.split_whitespace().collect::<Vec<_>>())
-            .filter(|c| c.len() == 13 && c[0].parse::<u64>().is_ok())
+            .filter(|c| c.len() == 16 && c[0].parse::<u64>().is_ok())
             .collect();
         assert_eq!(rows.len(), 2, "{stdout}");
         for (row, fish) in rows.iter().zip([1u64, 12]) {
             assert_eq!(row[0].parse::<u64>().unwrap(), fish);
             // The tick's pose stage on the CPU: the GPU pass's records, by default.
             assert!(row[3].parse::<f64>().unwrap() >= 0.0, "{stdout}");
+            // The scene's instances, the renderer's checks, the upload and of it the pose
+            // records: CPU milliseconds, the pose records within the upload.
+            let ms: Vec<f64> = row[4..10].iter().map(|c| c.parse().unwrap()).collect();
+            assert!(ms.iter().all(|&m| m >= 0.0), "{stdout}");
+            assert!(ms[3] <= ms[2], "pose up ms within upload ms: {stdout}");
             // No record changes after the warm-up frame: none written (0 on the CPU path).
-            assert_eq!(row[7], "0", "{stdout}");
+            assert_eq!(row[10], "0", "{stdout}");
             // Draws recorded/that drew something: the CPU path records only those that draw,
             // the GPU path every level's (5 of the porgy's 10 draw here).
-            let draws: Vec<u32> = row[8].split('/').map(|n| n.parse().unwrap()).collect();
+            let draws: Vec<u32> = row[11].split('/').map(|n| n.parse().unwrap()).collect();
             assert_eq!(draws.len(), 2, "{stdout}");
             if culling == "cpu" {
                 assert_eq!(draws[0], draws[1], "{stdout}");
             } else {
                 assert!(draws[1] < draws[0], "{stdout}");
             }
-            let (drawn, culled): (u64, u64) = (row[9].parse().unwrap(), row[10].parse().unwrap());
+            let (drawn, culled): (u64, u64) = (row[12].parse().unwrap(), row[13].parse().unwrap());
             assert_eq!((drawn, culled), (fish, 0), "{stdout}");
-            let per_lod: Vec<u64> = row[11].split('/').map(|n| n.parse().unwrap()).collect();
+            let per_lod: Vec<u64> = row[14].split('/').map(|n| n.parse().unwrap()).collect();
             assert_eq!(per_lod.iter().sum::<u64>(), fish, "{stdout}");
             if full_detail {
                 assert_eq!(per_lod[0], fish, "{stdout}");
@@ -243,7 +248,7 @@ fn bench_render_reports_triangles_per_frame() {
             let expected: u64 = per_lod.iter().zip(&levels).map(|(n, t)| n * t).sum::<u64>()
                 + near * levels[2]
                 + (fish - near) * outline;
-            assert_eq!(row[12].parse::<u64>().unwrap(), expected, "{stdout}");
+            assert_eq!(row[15].parse::<u64>().unwrap(), expected, "{stdout}");
         }
     }
 }

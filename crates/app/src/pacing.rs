@@ -227,6 +227,8 @@ fn smooth(old: Option<f32>, new: f32) -> f32 {
 pub(super) struct ViewSnapshot {
     palettes: Vec<Mat4>,
     instances: Vec<FishInstance>,
+    /// The scene's name for `instances` ([`FrameInput::instances_revision`]).
+    instances_revision: Option<u64>,
     camera: Camera,
     tank: TankBounds,
     time_s: f32,
@@ -247,11 +249,29 @@ struct PoseSnapshot {
 }
 
 impl ViewSnapshot {
-    /// A copy of `input`.
-    pub(super) fn take(input: &FrameInput<'_>) -> Self {
+    /// A copy of `input`. The instances are taken from `spare` (an earlier view's snapshot)
+    /// without copying them when the scene names them by the same revision: they are the same
+    /// while no fish comes, goes or changes (the fish's poses are copied every view).
+    pub(super) fn take(input: &FrameInput<'_>, spare: Option<ViewSnapshot>) -> Self {
+        let instances = match spare {
+            Some(s)
+                if input.instances_revision.is_some()
+                    && s.instances_revision == input.instances_revision
+                    && s.instances.len() == input.instances.len() =>
+            {
+                s.instances
+            }
+            Some(mut s) => {
+                s.instances.clear();
+                s.instances.extend_from_slice(input.instances);
+                s.instances
+            }
+            None => input.instances.to_vec(),
+        };
         Self {
             palettes: input.palettes.to_vec(),
-            instances: input.instances.to_vec(),
+            instances,
+            instances_revision: input.instances_revision,
             camera: input.camera,
             tank: input.tank,
             time_s: input.time_s,
@@ -321,6 +341,8 @@ impl ViewSnapshot {
         FrameInput {
             palettes: &self.palettes,
             instances,
+            // Each slice is other fish: nothing to keep from the last frame.
+            instances_revision: None,
             camera: self.camera,
             tank: self.tank,
             time_s: self.time_s,
@@ -458,5 +480,53 @@ mod tests {
             panic!();
         };
         assert!(part.first && fish.start == 0);
+    }
+
+    /// A view's moment reuses the last one's instance list while the scene names it by the
+    /// same revision (no copy per view of a steady scene), and copies the new one otherwise.
+    #[test]
+    fn a_snapshot_reuses_the_instances_of_the_same_revision_and_copies_new_ones() {
+        let fish = |n: u32, tint: f32| -> Vec<FishInstance> {
+            (0..n)
+                .map(|i| FishInstance {
+                    mesh: shoal_render::MeshId(0),
+                    palette_offset: i * 7,
+                    tint: [tint; 3],
+                    selected: false,
+                })
+                .collect()
+        };
+        fn input(instances: &[FishInstance], revision: Option<u64>) -> FrameInput<'_> {
+            FrameInput {
+                palettes: &[],
+                instances,
+                instances_revision: revision,
+                camera: Camera::default(),
+                tank: TankBounds::default(),
+                time_s: 0.0,
+                props: &[],
+                overlay: &[],
+                look: Look::default(),
+                gpu_pose: None,
+            }
+        }
+        let a = fish(600, 1.0);
+        let first = ViewSnapshot::take(&input(&a, Some(5)), None);
+        assert_eq!(first.instances, a);
+        let kept = first.instances.as_ptr();
+        // The same revision: the list is taken over, not copied.
+        let second = ViewSnapshot::take(&input(&a, Some(5)), Some(first));
+        assert_eq!(second.instances.as_ptr(), kept);
+        assert_eq!(second.instances, a);
+        // A new revision (a fish tinted): copied.
+        let mut b = a.clone();
+        b[17].tint = [0.5; 3];
+        let third = ViewSnapshot::take(&input(&b, Some(6)), Some(second));
+        assert_eq!(third.instances, b);
+        // No revision: always copied.
+        let fourth = ViewSnapshot::take(&input(&a, None), Some(third));
+        assert_eq!(fourth.instances, a);
+        let fifth = ViewSnapshot::take(&input(&b, None), Some(fourth));
+        assert_eq!(fifth.instances, b);
     }
 }

@@ -1006,10 +1006,21 @@ fn timings(ui: &mut egui::Ui, scene: &DynScene, st: &UiState) {
         "fish drawn {} (per level of detail, full first: {:?}), culled {}; shadows {}",
         c.num_fish_drawn, c.num_fish_per_lod, c.num_fish_culled, c.num_shadows_drawn
     ));
-    ui.label(format!(
-        "{} triangles, {} draw calls",
-        c.num_triangles, c.num_draw_calls
-    ));
+    ui.label(draws_line(c));
+}
+
+/// The view's triangles and draw calls: those recorded and, of them, those that drew something
+/// (the same on the CPU path; on the GPU path every level's draw is recorded and the culling
+/// pass leaves some empty, counted on the GPU and read back a frame or two late).
+pub(super) fn draws_line(c: &shoal_render::RenderTimings) -> String {
+    let mut line = format!(
+        "{} triangles, {} draw calls recorded, {} drew something",
+        c.num_triangles, c.num_draw_calls, c.num_nonempty_draw_calls
+    );
+    if c.counts_frame == 0 {
+        line.push_str(" (GPU counts not read back yet)");
+    }
+    line
 }
 
 /// The last tick's behaviour decisions and, with level of detail on, how they fell per band:

@@ -85,6 +85,15 @@ pub struct WorldScene<S: Showable> {
     sim: S,
     species: Vec<SpeciesDraw>,
     instances: Vec<FishInstance>,
+    /// Names `instances` for the renderer ([`FrameInput::instances_revision`]): a new value
+    /// whenever they are rebuilt or patched.
+    instances_revision: u64,
+    /// What `instances` were built from: the world's [`World::fish_revision`] and the mesh
+    /// base. While both stay, a frame keeps the list (the fish move without changing it).
+    instances_built_from: Option<(u64, u32)>,
+    /// CPU time of the last [`WorldScene::rebuild_instances`] (instances and props),
+    /// milliseconds.
+    instances_ms: f32,
     rock: PropMesh,
     pellet: PropMesh,
     props: Vec<Prop>,
@@ -128,6 +137,9 @@ impl<S: Showable> WorldScene<S> {
             sim,
             species,
             instances: Vec::new(),
+            instances_revision: shoal_render::next_instances_revision(),
+            instances_built_from: None,
+            instances_ms: 0.0,
             rock: PropMesh::rock(),
             pellet: PropMesh::pellet(),
             props: Vec::new(),
@@ -233,7 +245,12 @@ impl<S: Showable> WorldScene<S> {
         self.sim.world()
     }
 
+    /// Brings the instances and props up to the world: the props every time (few: rocks and
+    /// food), the instances only when the fish, their species or palette offsets changed
+    /// ([`World::fish_revision`]) or the meshes moved, so that a frame of moving fish costs
+    /// nothing per fish here.
     fn rebuild_instances(&mut self) {
+        let start = Instant::now();
         let relayout = self.layout_changed();
         if relayout {
             self.species = Self::species_draws(self.sim.world());
@@ -284,16 +301,33 @@ impl<S: Showable> WorldScene<S> {
                 });
             }
         }
-        self.instances.clear();
-        let fish = w.palette_offsets().iter().zip(w.fish_species());
-        for ((offset, species), id) in fish.zip(w.fish_id_slice()) {
-            self.instances.push(FishInstance {
-                mesh: MeshId(base + u32::from(species.0)),
-                palette_offset: *offset,
-                tint: [1.0; 3],
-                selected: self.selected == Some(*id),
-            });
+        let built_from = Some((w.fish_revision(), base));
+        if relayout || built_from != self.instances_built_from {
+            self.instances.clear();
+            let fish = w.palette_offsets().iter().zip(w.fish_species());
+            for ((offset, species), id) in fish.zip(w.fish_id_slice()) {
+                self.instances.push(FishInstance {
+                    mesh: MeshId(base + u32::from(species.0)),
+                    palette_offset: *offset,
+                    tint: [1.0; 3],
+                    selected: self.selected == Some(*id),
+                });
+            }
+            self.instances_built_from = built_from;
+            self.instances_revision = shoal_render::next_instances_revision();
         }
+        self.instances_ms = start.elapsed().as_secs_f32() * 1e3;
+    }
+
+    /// CPU time the last frame spent bringing the instances and props up to the world,
+    /// milliseconds (constant in the fish count while no fish comes, goes or changes species).
+    pub fn instances_ms(&self) -> f32 {
+        self.instances_ms
+    }
+
+    /// The fish to draw, one per live fish in dense order, as the renderer gets them.
+    pub fn instances(&self) -> &[FishInstance] {
+        &self.instances
     }
 
     /// Every mesh to upload once at start: each species' in species order (`MeshId(i)` for
@@ -408,6 +442,7 @@ impl<S: Showable> WorldScene<S> {
             gpu_pose,
             palettes: w.palettes(),
             instances: &self.instances,
+            instances_revision: Some(self.instances_revision),
             camera: self.default_camera(),
             tank: TankBounds {
                 min: t.min,
@@ -456,11 +491,15 @@ impl<S: Showable> WorldScene<S> {
 
     /// Highlights `fish` (or none) from now on.
     pub fn set_selected(&mut self, fish: Option<FishId>) {
+        if fish == self.selected {
+            return;
+        }
         self.selected = fish;
         let ids = self.sim.world().fish_id_slice();
         for (inst, id) in self.instances.iter_mut().zip(ids) {
             inst.selected = fish == Some(*id);
         }
+        self.instances_revision = shoal_render::next_instances_revision();
     }
 
     /// The highlighted fish.

@@ -105,6 +105,9 @@ struct WindowState {
     /// A view drawn a slice at a time: the picture being drawn (shown, by swapping it with
     /// `view_targets[0]`, when complete) and the moment it shows.
     progressive: Option<(wgpu::Texture, ViewSnapshot)>,
+    /// The last progressive view's moment, kept for the next one to reuse its instance list
+    /// ([`ViewSnapshot::take`]).
+    spare_snapshot: Option<ViewSnapshot>,
     /// `view_targets` hold a complete picture (else the one in progress is shown).
     shown_complete: bool,
 }
@@ -113,7 +116,9 @@ impl WindowState {
     /// Forgets the view being drawn a slice at a time; the last complete one stays shown.
     fn drop_progress(&mut self) {
         self.pacer.restart_view();
-        self.progressive = None;
+        if let Some((_, snapshot)) = self.progressive.take() {
+            self.spare_snapshot = Some(snapshot);
+        }
     }
 }
 
@@ -276,6 +281,7 @@ impl App {
             surface_copyable: copyable,
             pacer: Pacer::default(),
             progressive: None,
+            spare_snapshot: None,
             shown_complete: false,
         });
         Ok(())
@@ -546,7 +552,11 @@ fn encode_views(
             let mut input = aq.scene.frame_input();
             input.camera = aq.ui.camera;
             input.overlay = &aq.ui.overlay;
-            let snapshot = ViewSnapshot::take(&input);
+            let spare = match ws.progressive.take() {
+                Some((_, snapshot)) => Some(snapshot),
+                None => ws.spare_snapshot.take(),
+            };
+            let snapshot = ViewSnapshot::take(&input, spare);
             ws.progressive = Some((new_target("aquarium view in progress"), snapshot));
         }
         match &mut ws.progressive {
@@ -565,8 +575,9 @@ fn encode_views(
                     .encode_part(&ws.gpu, &mut own, &view, (each, height), &input, part)?;
                 ws.gpu.queue.submit([own.finish()]);
                 if part.last
-                    && let Some((done, _)) = ws.progressive.take()
+                    && let Some((done, snapshot)) = ws.progressive.take()
                 {
+                    ws.spare_snapshot = Some(snapshot);
                     ws.view_targets[0] = done;
                     ws.shown_complete = true;
                 }

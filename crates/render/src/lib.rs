@@ -272,6 +272,13 @@ impl Default for Look {
     }
 }
 
+/// A value for [`FrameInput::instances_revision`] no caller has had: one counter for the
+/// process, so that two instance lists (two scenes, a restarted one) never share a value.
+pub fn next_instances_revision() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Everything one frame needs. Borrowed: nothing is copied until the upload.
 #[derive(Debug, Clone, Copy)]
 pub struct FrameInput<'a> {
@@ -280,6 +287,14 @@ pub struct FrameInput<'a> {
     pub palettes: &'a [Mat4],
     /// The fish to draw.
     pub instances: &'a [FishInstance],
+    /// Names the content of `instances` (and its length): the same value promises the same
+    /// instances as the frame that last had it, so the renderer keeps what it built from them
+    /// (the culling pass's per-fish records, the checks) instead of rebuilding and comparing
+    /// them — a steady frame then costs the CPU nothing per fish there. Take a new value from
+    /// [`next_instances_revision`] whenever any instance changes (a fish came or went, was
+    /// tinted, selected, changed species or palette offset); moving fish do not change their
+    /// instances. `None`: unknown, everything is rebuilt and compared (always correct).
+    pub instances_revision: Option<u64>,
     /// The camera.
     pub camera: Camera,
     /// The tank.

@@ -404,3 +404,110 @@ fn a_species_reloaded_with_other_driven_joints_asks_for_its_meshes_again() {
     assert_eq!(scene.palette_layout()[1], before[1].as_slice());
     assert_eq!(assert_uploads_skin_as_the_per_joint_palettes(&scene), 20);
 }
+
+/// The scene keeps its instance list while the fish only move (issue 35: a steady frame costs
+/// the CPU nothing per fish there or in the renderer) and names a changed one anew: a fish
+/// selected, one despawned. A renderer that drew the kept list draws each changed frame as a
+/// new renderer draws it, and writes no fish's culling record in the steady frames between.
+#[test]
+fn the_scene_keeps_its_instances_while_fish_move_and_renames_them_when_they_change() {
+    let mut scene = porgy_scene(40);
+    let gpu = Gpu::headless().expect("a GPU adapter (lavapipe: apt install mesa-vulkan-drivers)");
+    let target = OffscreenTarget::new(&gpu, 200, 120);
+    let new_renderer = |scene: &WorldScene<WanderPipeline>| {
+        let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT).unwrap();
+        assert_eq!(
+            renderer.set_culling(shoal_render::Culling::Gpu),
+            shoal_render::Culling::Gpu
+        );
+        for m in scene.meshes() {
+            renderer.upload_mesh(&gpu, &m).unwrap();
+        }
+        renderer
+    };
+    let mut kept = new_renderer(&scene);
+    let draw = |renderer: &mut Renderer, scene: &WorldScene<WanderPipeline>| {
+        renderer
+            .render(&gpu, target.view(), target.size(), &scene.frame_input())
+            .unwrap();
+        let t = renderer.timings();
+        (
+            target.read_rgba8(&gpu).unwrap(),
+            t,
+            renderer.read_gpu_counts(&gpu).unwrap(),
+        )
+    };
+    let revision = |scene: &WorldScene<WanderPipeline>| {
+        scene
+            .frame_input()
+            .instances_revision
+            .expect("the scene names its instances")
+    };
+    draw(&mut kept, &scene);
+    let r0 = revision(&scene);
+    let roots_before = scene.world().roots().to_vec();
+    scene.step(0.1);
+    assert_ne!(
+        scene.world().roots(),
+        roots_before.as_slice(),
+        "the fish moved"
+    );
+    assert_eq!(revision(&scene), r0, "moving fish keep the instances");
+    let (_, t, _) = draw(&mut kept, &scene);
+    assert_eq!(t.num_records_written, 0, "a steady frame: {t:?}");
+
+    let ids: Vec<_> = scene.world().fish_ids().collect();
+    scene.set_selected(Some(ids[7]));
+    let r1 = revision(&scene);
+    assert_ne!(r1, r0, "a selection renames the instances");
+    assert!(scene.instances()[7].selected);
+    scene.set_selected(Some(ids[7]));
+    assert_eq!(
+        revision(&scene),
+        r1,
+        "the same selection again changes nothing"
+    );
+    let (_, t, _) = draw(&mut kept, &scene);
+    assert_eq!(t.num_records_written, 1, "fish 7's record: {t:?}");
+
+    // The selected fish goes; the last takes its place (and its palette range: one species),
+    // so only that place's record changes (no longer selected).
+    assert!(scene.sim_mut().world_mut().despawn(ids[7]));
+    scene.step(1.0 / 60.0);
+    let r2 = revision(&scene);
+    assert_ne!(r2, r1, "a despawn renames the instances");
+    let w = scene.world();
+    assert_eq!(scene.instances().len(), 39);
+    for (i, inst) in scene.instances().iter().enumerate() {
+        assert_eq!(inst.palette_offset, w.palette_offsets()[i]);
+        assert!(!inst.selected);
+    }
+    let (img, t, counts) = draw(&mut kept, &scene);
+    assert_eq!(t.num_records_written, 1, "{t:?}");
+    assert_eq!(counts.num_fish_drawn + counts.num_fish_culled, 39);
+    let mut fresh = new_renderer(&scene);
+    let (fresh_img, _, fresh_counts) = draw(&mut fresh, &scene);
+    assert_eq!(
+        (
+            counts.num_fish_drawn,
+            counts.num_fish_culled,
+            counts.num_triangles
+        ),
+        (
+            fresh_counts.num_fish_drawn,
+            fresh_counts.num_fish_culled,
+            fresh_counts.num_triangles
+        )
+    );
+    let diff: u64 = img
+        .pixels()
+        .zip(fresh_img.pixels())
+        .map(|(a, b)| (0..3).map(|c| u64::from(a[c].abs_diff(b[c]))).sum::<u64>())
+        .sum();
+    let mean = diff as f64 / (3.0 * f64::from(img.width() * img.height()));
+    assert!(mean < 0.05, "the kept renderer's picture differs by {mean}");
+    scene.step(1.0 / 60.0);
+    assert_eq!(revision(&scene), r2);
+    let (_, t, _) = draw(&mut kept, &scene);
+    assert_eq!(t.num_records_written, 0, "a steady frame again: {t:?}");
+}

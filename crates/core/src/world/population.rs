@@ -71,6 +71,7 @@ impl World {
         });
         let last = *self.pose.palette_offsets.last().unwrap_or(&0);
         self.pose.palette_offsets.push(last + slots);
+        self.pose.fish_revision = super::pose::buffers::next_fish_revision();
         if predator {
             self.index.predators.push(id);
         }
@@ -94,6 +95,7 @@ impl World {
     }
 
     pub(super) fn relayout_palettes(&mut self) {
+        self.pose.fish_revision = super::pose::buffers::next_fish_revision();
         self.pose.palette_offsets.clear();
         self.pose.palette_offsets.push(0);
         let mut total = 0u32;

@@ -168,6 +168,14 @@ impl World {
         &self.pose.palette_offsets
     }
 
+    /// A value that changes whenever the live fish, their dense order, their species or their
+    /// [`World::palette_offsets`] change (a spawn, a despawn, a restore, a species reloaded with
+    /// other palette slots), and only then; unique across worlds. A renderer's caller keeps its
+    /// per-fish draw list while this stays the same (the fish move without changing it).
+    pub fn fish_revision(&self) -> u64 {
+        self.pose.fish_revision
+    }
+
     /// Timings of the last tick's stages.
     pub fn counters(&self) -> &StageCounters {
         &self.counters

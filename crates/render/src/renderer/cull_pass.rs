@@ -3,8 +3,9 @@
 //! by writing only those that changed ([`super::records`]), and a table per mesh; the CPU
 //! records a fixed set of passes and indirect draws, one per mesh, level and material (and per
 //! mesh and material for the near and outline shadows), so its work per frame does not depend
-//! on how many fish are in view (it still builds and compares each fish's record: see
-//! [`super::records`]). The compute passes cull each record against the view, pick its level by projected error
+//! on how many fish are in view, nor, while the caller's [`FrameInput::instances_revision`]
+//! stays the same, on how many fish there are (it keeps their records; otherwise it builds and
+//! compares each fish's record: see [`super::records`]). The compute passes cull each record against the view, pick its level by projected error
 //! (the arithmetic of [`crate::lod`]), group the instances by draw and write each draw's indirect
 //! arguments. The counts the CPU path keeps for [`super::RenderTimings`] stay on the GPU until
 //! [`Renderer::read_gpu_counts`] reads them, or the window's read-back without waiting brings
@@ -108,11 +109,15 @@ enum CountsReadback {
 /// The culling pass's buffers (grow-only), its uniform and the frame's draw list.
 #[derive(Debug)]
 pub(super) struct CullBuffers {
-    /// One per fish, then per prop; written where they changed ([`RecordBuffer::sync`]).
+    /// One per fish, then per prop; written where they changed ([`RecordBuffer::sync_from`]).
     records: RecordBuffer<CullRecord>,
     /// What the last frame's record sync wrote, and how long it took (CPU, milliseconds).
     pub record_sync: SyncStats,
     pub records_ms: f32,
+    /// [`FrameInput::instances_revision`] and the number of fish of the records the GPU holds:
+    /// a frame with the same (`Some`) revision keeps the fish's records as they are.
+    fish_revision: Option<u64>,
+    num_fish: usize,
     tables: GrowBuffer,
     params: wgpu::Buffer,
     state: GrowBuffer,
@@ -157,6 +162,8 @@ impl CullBuffers {
             args: storage("culling pass: indirect draws", wgpu::BufferUsages::INDIRECT),
             record_sync: SyncStats::default(),
             records_ms: 0.0,
+            fish_revision: None,
+            num_fish: 0,
             scratch_tables: Vec::new(),
             draws: Vec::new(),
             num_buckets: 0,
@@ -367,11 +374,30 @@ impl Renderer {
             is_fish: 0,
             tint: [p.tint[0], p.tint[1], p.tint[2], 1.0],
         });
-        let num_records = (input.instances.len() + input.props.len()) as u32;
-        let next = self.cull.records.next();
-        next.extend(fish);
+        let num_fish = input.instances.len();
+        let num_records = (num_fish + input.props.len()) as u32;
+        let c = &mut self.cull;
+        // The caller's revision says the instances are those the fish's records were built
+        // from: only the props' records (after them) are built and compared, so a steady frame
+        // costs nothing per fish here.
+        let keep = match input.instances_revision {
+            Some(r)
+                if c.fish_revision == Some(r)
+                    && c.num_fish == num_fish
+                    && c.records.len() >= num_fish =>
+            {
+                num_fish
+            }
+            _ => 0,
+        };
+        let next = c.records.next();
+        if keep == 0 {
+            next.extend(fish);
+        }
         next.extend(props);
-        self.cull.record_sync = self.cull.records.sync(device, queue);
+        c.record_sync = c.records.sync_from(device, queue, keep);
+        c.fish_revision = input.instances_revision;
+        c.num_fish = num_fish;
         self.cull.records_ms = t_records.elapsed().as_secs_f32() * 1e3;
 
         let c = &mut self.cull;

@@ -26,24 +26,22 @@ struct LineCounts {
 }
 
 impl Renderer {
-    /// Checks a frame against the uploaded meshes.
-    fn validate(&self, input: &FrameInput<'_>) -> Result<(), RenderError> {
-        for (i, inst) in input.instances.iter().enumerate() {
-            let Some(mesh) = self.meshes.get(inst.mesh.0 as usize) else {
-                return Err(RenderError::InvalidFrame(format!(
-                    "fish {i} uses mesh {} but only {} meshes are uploaded",
-                    inst.mesh.0,
-                    self.meshes.len()
-                )));
-            };
-            let end = inst.palette_offset as usize + mesh.num_joints as usize;
-            if end > fish_palette_len(input) {
-                return Err(RenderError::InvalidFrame(format!(
-                    "fish {i} needs palette entries {}..{end} but the palette has {}",
-                    inst.palette_offset,
-                    fish_palette_len(input)
-                )));
-            }
+    /// Checks a frame against the uploaded meshes. The instances are checked once per
+    /// [`FrameInput::instances_revision`] (again after a mesh upload or clear, or when the
+    /// palette's length changes).
+    fn validate(&mut self, input: &FrameInput<'_>) -> Result<(), RenderError> {
+        let key = input.instances_revision.map(|r| {
+            (
+                r,
+                input.instances.len(),
+                self.meshes.len(),
+                fish_palette_len(input),
+            )
+        });
+        if key.is_none() || key != self.checked_instances {
+            self.checked_instances = None;
+            self.validate_instances(input)?;
+            self.checked_instances = key;
         }
         if let Some(pose) = &input.gpu_pose {
             super::pose_pass::validate(pose, input.instances.len())?;
@@ -64,6 +62,28 @@ impl Renderer {
                     )));
                 }
                 Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks each instance's mesh and palette range.
+    fn validate_instances(&self, input: &FrameInput<'_>) -> Result<(), RenderError> {
+        for (i, inst) in input.instances.iter().enumerate() {
+            let Some(mesh) = self.meshes.get(inst.mesh.0 as usize) else {
+                return Err(RenderError::InvalidFrame(format!(
+                    "fish {i} uses mesh {} but only {} meshes are uploaded",
+                    inst.mesh.0,
+                    self.meshes.len()
+                )));
+            };
+            let end = inst.palette_offset as usize + mesh.num_joints as usize;
+            if end > fish_palette_len(input) {
+                return Err(RenderError::InvalidFrame(format!(
+                    "fish {i} needs palette entries {}..{end} but the palette has {}",
+                    inst.palette_offset,
+                    fish_palette_len(input)
+                )));
             }
         }
         Ok(())
@@ -99,12 +119,14 @@ impl Renderer {
         input: &FrameInput<'_>,
         part: FramePart,
     ) -> Result<(), RenderError> {
+        let t_check = Instant::now();
         self.validate(input)?;
         self.frame += 1;
         let t0 = Instant::now();
         self.ensure_attachments(&gpu.device, size);
         let frame = self.write_globals(gpu, input, size);
         self.write_palettes(gpu, input);
+        let t_pose = Instant::now();
         self.record_frame_pose(gpu, encoder, input);
         let t_cull = Instant::now();
         let gpu_cull = self.culling == Culling::Gpu;
@@ -127,7 +149,9 @@ impl Renderer {
         let t2 = Instant::now();
         let mut timings = RenderTimings {
             frame: self.frame,
+            check_ms: (t0 - t_check).as_secs_f32() * 1e3,
             upload_ms: (t1 - t0).as_secs_f32() * 1e3,
+            pose_upload_ms: (t_cull - t_pose).as_secs_f32() * 1e3,
             cull_ms,
             draw_ms: (t2 - t1).as_secs_f32() * 1e3,
             num_draw_calls: draws,

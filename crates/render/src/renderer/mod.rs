@@ -54,9 +54,16 @@ pub struct RenderTimings {
     pub frame: u64,
     /// The frame the counts are from (see above); 0: no counts yet.
     pub counts_frame: u64,
+    /// Checking the frame before the upload: each instance's mesh and palette range (once per
+    /// [`crate::FrameInput::instances_revision`]; every frame without one), the GPU pose pass's
+    /// records (every frame: they change as the fish move) and the props.
+    pub check_ms: f32,
     /// Culling, choosing levels of detail, sorting instances and writing the palette, instance
     /// and line buffers.
     pub upload_ms: f32,
+    /// Of `upload_ms`, writing the GPU pose pass's per-fish records and recording the pass (0
+    /// without it): one record a fish a frame while the simulation runs on the CPU.
+    pub pose_upload_ms: f32,
     /// Of `upload_ms`, culling and levels of detail: on the CPU ([`Culling::Cpu`]) choosing
     /// each instance's draws and writing the instances sorted by draw; on the GPU
     /// ([`Culling::Gpu`]) bringing the per-instance records up to date and recording the
@@ -64,7 +71,8 @@ pub struct RenderTimings {
     pub cull_ms: f32,
     /// Of `cull_ms`, on the GPU path: comparing each fish's and prop's record (palette
     /// offset, mesh, tint, selected) with the one the GPU holds from earlier frames and writing
-    /// the changed ones. 0 on the CPU path.
+    /// the changed ones; the props' alone while the instances' revision stays the same. 0 on
+    /// the CPU path.
     pub records_ms: f32,
     /// On the GPU path, records written this frame: every one in the first frame (or after
     /// the buffer grew), then only those that changed (0 in a steady frame, however the fish
@@ -299,6 +307,10 @@ pub struct Renderer {
     culling_supported: bool,
     /// Whether the last frame was culled on the GPU (its counts are still there).
     last_frame_gpu_culled: bool,
+    /// The instances last checked: their [`FrameInput::instances_revision`], number, and the
+    /// meshes and fish palette entries they were checked against. A frame that matches all
+    /// four skips checking each instance again.
+    checked_instances: Option<(u64, usize, usize, usize)>,
     /// Frames encoded so far ([`RenderTimings::frame`] of the last).
     frame: u64,
     scratch_bases: Vec<u8>,
@@ -533,6 +545,7 @@ impl Renderer {
             culling: cull_pass::default_culling(gpu),
             culling_supported,
             last_frame_gpu_culled: false,
+            checked_instances: None,
             frame: 0,
             scratch_bases: Vec::new(),
             lines,
@@ -644,6 +657,8 @@ impl Renderer {
     pub fn clear_meshes(&mut self) {
         self.meshes.clear();
         self.num_lod_buckets = 0;
+        // The instances are checked against the meshes: again against the new ones.
+        self.checked_instances = None;
     }
 
     fn ensure_attachments(&mut self, device: &wgpu::Device, size: (u32, u32)) {

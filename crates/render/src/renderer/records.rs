@@ -2,9 +2,12 @@
 //! keeps a copy of what the GPU buffer holds and, each frame, writes only the runs of records
 //! that differ from it. A fish's record (palette offset, mesh, tint, selected) changes when fish
 //! come or go, are selected, or change species; a fish that moves changes only its palette,
-//! which the pose pass or the palette upload writes and the culling pass reads. In a steady
-//! frame nothing is written: the CPU builds the records and compares them with its copy, a
-//! chunk at a time (`memcmp`), and uploads nothing.
+//! which the pose pass or the palette upload writes and the culling pass reads. When the
+//! caller names its instances ([`crate::FrameInput::instances_revision`]) and they are the
+//! last frame's, the fish's records are kept as they are and only the props' (after them) are
+//! built and compared ([`RecordBuffer::sync_from`]): a steady frame costs nothing per fish.
+//! Otherwise the CPU builds every record and compares them with its copy, a chunk at a time
+//! (`memcmp`), and writes only what changed.
 
 use bytemuck::Pod;
 
@@ -18,7 +21,7 @@ const MERGE_GAP: usize = 16;
 /// last.
 const MAX_WRITES: usize = 64;
 
-/// What [`RecordBuffer::sync`] did this frame.
+/// What [`RecordBuffer::sync_from`] did this frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(super) struct SyncStats {
     /// Records written to the GPU (changed ones, the few unchanged ones between changed runs
@@ -54,33 +57,62 @@ impl<T: Pod> RecordBuffer<T> {
         }
     }
 
-    /// The frame's records, empty: fill it, then [`RecordBuffer::sync`].
+    /// The frame's records (all, or those after the ones kept), empty: fill it, then
+    /// [`RecordBuffer::sync_from`].
     pub fn next(&mut self) -> &mut Vec<T> {
         self.next.clear();
         &mut self.next
     }
 
-    /// Makes the GPU buffer hold the records put in [`RecordBuffer::next`], writing only the
-    /// runs that differ from what it held; all of them when the buffer had to grow (a new
-    /// buffer holds nothing).
-    pub fn sync(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> SyncStats {
+    /// How many records the GPU buffer holds (as last synced).
+    pub fn len(&self) -> usize {
+        self.mirror.len()
+    }
+
+    /// Makes the GPU buffer hold its first `keep` records (at most [`RecordBuffer::len`],
+    /// known not to have changed: they are not looked at) followed by the records put in
+    /// [`RecordBuffer::next`], writing only the runs of those that differ from what it held;
+    /// all of them when the buffer had to grow (a new buffer holds nothing: the kept records
+    /// are written again from the CPU's copy). The cost follows the records in `next`, not the
+    /// kept ones.
+    pub fn sync_from(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        keep: usize,
+    ) -> SyncStats {
+        let keep = keep.min(self.mirror.len());
         let size = std::mem::size_of::<T>() as u64;
-        if self.gpu.ensure(device, self.next.len() as u64 * size) {
-            self.mirror.clear();
-        }
-        changed_runs(&self.mirror, &self.next, &mut self.runs);
         let mut stats = SyncStats::default();
+        if self
+            .gpu
+            .ensure(device, (keep + self.next.len()) as u64 * size)
+        {
+            // A new buffer: the kept records go in again, the rest as new.
+            self.mirror.truncate(keep);
+            if keep > 0 {
+                queue.write_buffer(&self.gpu.buffer, 0, bytemuck::cast_slice(&self.mirror));
+                stats.written += keep as u32;
+                stats.writes += 1;
+            }
+        }
+        changed_runs(&self.mirror[keep..], &self.next, &mut self.runs);
         for &(start, end) in &self.runs {
             queue.write_buffer(
                 &self.gpu.buffer,
-                start as u64 * size,
+                (keep + start) as u64 * size,
                 bytemuck::cast_slice(&self.next[start..end]),
             );
             stats.written += (end - start) as u32;
             stats.writes += 1;
         }
-        // The GPU now holds what `next` holds; the old mirror is next frame's scratch.
-        std::mem::swap(&mut self.mirror, &mut self.next);
+        if keep == 0 {
+            // The GPU now holds what `next` holds; the old mirror is next frame's scratch.
+            std::mem::swap(&mut self.mirror, &mut self.next);
+        } else {
+            self.mirror.truncate(keep);
+            self.mirror.extend_from_slice(&self.next);
+        }
         stats
     }
 }

@@ -169,6 +169,8 @@ impl Renderer {
                 )
             })
             .collect();
+        // The instances are checked against the meshes: again with this one.
+        self.checked_instances = None;
         let first_bucket = self.num_lod_buckets;
         self.num_lod_buckets += lods.levels.len() as u32;
         self.meshes.push(GpuMesh {

@@ -132,6 +132,18 @@ fn draw_with(
     shadows: bool,
     frames: usize,
 ) -> (image::RgbaImage, RenderTimings) {
+    draw_named(gpu, renderer, school, shadows, frames, None)
+}
+
+/// [`draw_with`], the instances named by `revision` ([`FrameInput::instances_revision`]).
+fn draw_named(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    school: &School,
+    shadows: bool,
+    frames: usize,
+    revision: Option<u64>,
+) -> (image::RgbaImage, RenderTimings) {
     let (porgy, rock, pellet) = (MeshId(0), MeshId(1), MeshId(2));
     let instances: Vec<FishInstance> = school
         .fish
@@ -157,6 +169,7 @@ fn draw_with(
         gpu_pose: None,
         palettes: &school.palettes,
         instances: &instances,
+        instances_revision: revision,
         camera: camera(),
         tank,
         time_s: 1.0,
@@ -355,6 +368,171 @@ fn a_fish_whose_record_changes_is_drawn_where_and_as_it_now_is() {
     // A steady frame after them writes nothing.
     let (_, t) = draw_with(&gpu, &mut kept, &d, true, 1);
     assert_eq!(t.num_records_written, 0, "{t:?}");
+}
+
+/// Fish records kept by the caller's revision ([`FrameInput::instances_revision`]): while the
+/// revision stays, the renderer neither builds nor compares the fish's records (only the
+/// props'), so a steady frame costs the CPU nothing per fish; each change under a new revision
+/// — a fish tinted, another selected, one despawned (the last moved into its place) — is drawn
+/// as a new renderer draws it, with exactly its records written; props that come under a kept
+/// revision are written, the fish's records too when the buffer has to grow for them.
+#[test]
+fn changes_named_by_a_new_revision_are_drawn_and_a_kept_revision_keeps_the_records() {
+    let gpu = gpu();
+    let rig = common::PosedPorgy::load();
+    // 506 fish and 3 props: 509 records, in a buffer of 512 (it grows by powers of two).
+    let mut a = school(&rig, 506);
+    let centre = TankBounds::default().center();
+    let near = centre + (camera().eye() - centre) * 0.75;
+    // Fish 5 near the camera, large in the view: its changes show.
+    a.fish[5].0 = add_palette(&rig, &mut a, near);
+    let mut kept = renderer(&gpu, &rig, Culling::Gpu, 1.0);
+    let rev_a = shoal_render::next_instances_revision();
+    let (img_a, t) = draw_named(&gpu, &mut kept, &a, true, 2, Some(rev_a));
+    assert_eq!(
+        t.num_records_written, 0,
+        "a steady frame writes nothing: {t:?}"
+    );
+
+    // The same revision with other instances (a promise broken on purpose): the fish's
+    // records are not looked at, so nothing changes on the GPU.
+    let mut lie = a.clone();
+    lie.fish[5].1 = [0.1, 0.1, 1.0];
+    lie.fish.swap(5, 100);
+    let (img, t) = draw_named(&gpu, &mut kept, &lie, true, 1, Some(rev_a));
+    assert_eq!(t.num_records_written, 0, "{t:?}");
+    let (mean, _) = difference(&img, &img_a);
+    assert!(mean < 0.01, "the kept records were rebuilt: {mean}");
+
+    // B: fish 5 tinted; C: fish 40 selected too; D: fish 5 despawned, the last in its place.
+    let mut b = a.clone();
+    b.fish[5].1 = [0.1, 1.0, 0.1];
+    let mut c = b.clone();
+    c.fish[40].2 = true;
+    let mut d = c.clone();
+    d.fish.swap_remove(5);
+    let mut previous = img_a;
+    // D: fish 5 changed, and the props' records moved down one place (3).
+    for (name, next, written) in [("B", &b, 1), ("C", &c, 1), ("D", &d, 1 + 3)] {
+        let rev = shoal_render::next_instances_revision();
+        let (img, t) = draw_named(&gpu, &mut kept, next, true, 1, Some(rev));
+        assert_eq!(t.num_records_written, written, "frame {name}: {t:?}");
+        let t = kept.read_gpu_counts(&gpu).unwrap();
+        let (fresh_img, fresh) = draw(&gpu, &rig, next, Culling::Gpu, 1.0, true);
+        assert_eq!(counts(&t), counts(&fresh), "frame {name}: {t:?} {fresh:?}");
+        let (mean, most) = difference(&img, &fresh_img);
+        assert!(
+            mean < 0.05,
+            "frame {name}: {mean} (largest {most}) from a new renderer's"
+        );
+        // The change shows: a missed one would leave the picture as it was (the rest of the
+        // frame is the same, to the pixel).
+        let (mean, most) = difference(&img, &previous);
+        assert!(
+            most > 40,
+            "frame {name} differs from the one before by only {mean} (largest {most})"
+        );
+        // Kept: the next frame writes nothing.
+        let (_, t) = draw_named(&gpu, &mut kept, next, true, 1, Some(rev));
+        assert_eq!(t.num_records_written, 0, "after frame {name}: {t:?}");
+        previous = img;
+    }
+
+    // E: pellets dropped, the fish kept (same revision): the props are written; 505 fish and
+    // 8 props need a bigger buffer, so the fish's records go in again from the CPU's copy.
+    let rev_d = shoal_render::next_instances_revision();
+    draw_named(&gpu, &mut kept, &d, true, 1, Some(rev_d));
+    let mut e = d.clone();
+    for k in 0..5 {
+        let pos = near + Vec3::new(8.0 * k as f32 - 16.0, 12.0, 0.0);
+        e.props.push((
+            1,
+            Mat4::from_scale_rotation_translation(Vec3::splat(4.0), Quat::IDENTITY, pos),
+        ));
+    }
+    let (img, t) = draw_named(&gpu, &mut kept, &e, true, 1, Some(rev_d));
+    assert_eq!(t.num_records_written, 505 + 8, "{t:?}");
+    let t = kept.read_gpu_counts(&gpu).unwrap();
+    let (fresh_img, fresh) = draw(&gpu, &rig, &e, Culling::Gpu, 1.0, true);
+    assert_eq!(counts(&t), counts(&fresh), "{t:?} {fresh:?}");
+    let (mean, most) = difference(&img, &fresh_img);
+    assert!(
+        mean < 0.05,
+        "frame E: {mean} (largest {most}) from a new renderer's"
+    );
+    // F: the fish kept, a pellet eaten (the records after it are alike: a prop's place is in
+    // the palette) and the first rock turned into a pellet: one record written.
+    let mut f = e.clone();
+    f.props.remove(4);
+    f.props[0].0 = 1;
+    let (img, t) = draw_named(&gpu, &mut kept, &f, true, 1, Some(rev_d));
+    assert_eq!(t.num_records_written, 1, "{t:?}");
+    let (fresh_img, _) = draw(&gpu, &rig, &f, Culling::Gpu, 1.0, true);
+    let (mean, most) = difference(&img, &fresh_img);
+    assert!(
+        mean < 0.05,
+        "frame F: {mean} (largest {most}) from a new renderer's"
+    );
+}
+
+/// The instances are checked once per revision, but again when the meshes change: a fish whose
+/// mesh is gone (the meshes cleared) is refused under the revision it was drawn with, and a bad
+/// instance under a new revision is refused too.
+#[test]
+fn instances_kept_by_a_revision_are_checked_again_when_the_meshes_change() {
+    let gpu = gpu();
+    let rig = common::PosedPorgy::load();
+    let a = school(&rig, 10);
+    let mut r = renderer(&gpu, &rig, Culling::Gpu, 1.0);
+    let rev = shoal_render::next_instances_revision();
+    draw_named(&gpu, &mut r, &a, true, 1, Some(rev));
+    let target = OffscreenTarget::new(&gpu, 32, 32);
+    let instances = [FishInstance {
+        mesh: MeshId(0),
+        palette_offset: 0,
+        tint: [1.0; 3],
+        selected: false,
+    }];
+    let input = FrameInput {
+        gpu_pose: None,
+        palettes: &a.palettes,
+        instances: &instances,
+        instances_revision: Some(rev),
+        camera: camera(),
+        tank: TankBounds::default(),
+        time_s: 0.0,
+        props: &[],
+        overlay: &[],
+        look: Look::default(),
+    };
+    r.clear_meshes();
+    let err = r
+        .render(&gpu, target.view(), target.size(), &input)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("fish 0 uses mesh 0 but only 0 meshes"),
+        "{err}"
+    );
+    r.upload_mesh(&gpu, &rig.upload()).unwrap();
+    let past_the_palette = [FishInstance {
+        palette_offset: a.palettes.len() as u32,
+        ..instances[0]
+    }];
+    let err = r
+        .render(
+            &gpu,
+            target.view(),
+            target.size(),
+            &FrameInput {
+                instances: &past_the_palette,
+                instances_revision: Some(shoal_render::next_instances_revision()),
+                ..input
+            },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("fish 0 needs palette entries"), "{err}");
 }
 
 /// The draw counts: the GPU path records every level's draw but counts as drawing only those

@@ -47,6 +47,7 @@ fn frame<'a>(
         gpu_pose: None,
         palettes,
         instances,
+        instances_revision: None,
         camera,
         tank: TankBounds::default(),
         time_s: 1.0,

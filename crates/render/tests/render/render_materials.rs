@@ -135,6 +135,7 @@ fn render(
         gpu_pose: None,
         palettes: &palettes,
         instances: &instances,
+        instances_revision: None,
         camera,
         tank: tank(),
         time_s: 0.0,

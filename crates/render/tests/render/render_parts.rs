@@ -96,6 +96,7 @@ fn draw(
         gpu_pose: None,
         palettes: &palettes,
         instances: &instances,
+        instances_revision: None,
         camera: Camera {
             target: tank.center(),
             yaw_rad: 0.35,
@@ -119,6 +120,7 @@ fn draw(
         let fish = k * each..((k + 1) * each).min(instances.len());
         let input = FrameInput {
             instances: &instances[fish],
+            instances_revision: None,
             props: if part.first { &props } else { &[] },
             overlay: if part.last { &overlay } else { &[] },
             ..whole

@@ -210,6 +210,7 @@ fn aquarium_with_fish_rocks_and_food() {
         gpu_pose: None,
         palettes: &palette,
         instances: &instances,
+        instances_revision: None,
         camera,
         tank: TankBounds::default(),
         time_s: 1.0,
@@ -274,6 +275,7 @@ fn black_porgy_asset_posed_by_the_species_rig() {
         gpu_pose: None,
         palettes: &palette,
         instances: &instances,
+        instances_revision: None,
         camera: Camera {
             target: Vec3::new(0.0, 55.0, 0.0),
             yaw_rad: 0.15,
@@ -338,6 +340,7 @@ fn skinned_fish_closeup_with_skeleton_overlay() {
         gpu_pose: None,
         palettes: &palette,
         instances: &instances,
+        instances_revision: None,
         camera: Camera {
             target: Vec3::new(0.0, 55.0, 0.0),
             yaw_rad: 0.2,
@@ -388,6 +391,7 @@ fn instanced_school_is_one_draw_call() {
         gpu_pose: None,
         palettes: &palette,
         instances: &instances,
+        instances_revision: None,
         camera: Camera::default(),
         tank: TankBounds::default(),
         time_s: 0.5,
@@ -401,6 +405,7 @@ fn instanced_school_is_one_draw_call() {
     let one = FrameInput {
         gpu_pose: None,
         instances: &instances[..1],
+        instances_revision: None,
         ..input
     };
     let _ = render(&gpu, &mut renderer, &one);
@@ -418,6 +423,7 @@ fn caustics_animate_with_time() {
         gpu_pose: None,
         palettes: &[],
         instances: &[],
+        instances_revision: None,
         camera: Camera::default(),
         tank: TankBounds::default(),
         time_s,

@@ -21,6 +21,7 @@ fn render_fish(gpu: &Gpu, renderer: &mut Renderer, palette: &[Mat4]) -> image::R
         gpu_pose: None,
         palettes: palette,
         instances: &instances,
+        instances_revision: None,
         camera: Camera {
             target: Vec3::new(-25.0, 60.0, 0.0),
             yaw_rad: 0.0,

@@ -20,6 +20,10 @@ pub(in crate::world) struct PoseBuffers {
     /// `palette_offsets[i]..palette_offsets[i + 1]` is dense fish i's palette range (its
     /// species' slots, see `pose.rs`).
     pub palette_offsets: Vec<u32>,
+    /// Names the fish set, their species and `palette_offsets` as they are now: a new value
+    /// ([`next_fish_revision`], unique across worlds) whenever any of them changes (see
+    /// [`crate::world::World::fish_revision`]).
+    pub fish_revision: u64,
     pub palettes: Vec<Mat4>,
     /// Where the pose stage poses (see [`PoseMode`]).
     pub pose_mode: PoseMode,
@@ -41,6 +45,7 @@ impl Default for PoseBuffers {
     fn default() -> Self {
         Self {
             palette_offsets: vec![0],
+            fish_revision: next_fish_revision(),
             palettes: Vec::new(),
             pose_mode: PoseMode::Cpu,
             gpu_programs: Ok(GpuPosePrograms::default()),
@@ -49,6 +54,13 @@ impl Default for PoseBuffers {
             shapes_current: true,
         }
     }
+}
+
+/// A fish revision no world has had: one counter for the process, so that two worlds (a scene
+/// restarted, the split tank's two) never share a value.
+pub(in crate::world) fn next_fish_revision() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 impl PoseBuffers {
