@@ -368,28 +368,24 @@ impl World {
             };
             (u64::from(d2.to_bits()) << 32) | u64::from(id)
         };
-        let neighbour = |d2: f32, slot: usize, o: usize, pos: Vec3| Neighbour {
-            order: order(d2, slot, o),
-            dense: o as u32,
-            slot: slot as u32,
-            within: d2,
-            pos,
-        };
         // How many fish the cells within reach hold (stopping once past `gather_max`).
         let mut in_cells = 0usize;
         grid.for_each_run_within(centre, reach, |run| {
             in_cells += run.len();
             in_cells <= gather_max
         });
-        if in_cells <= gather_max {
-            GATHERED.with_borrow_mut(|gathered| {
-                // (squared distance, slot) of every other fish within reach.
-                gathered.clear();
+        GATHERED.with_borrow_mut(|cands| {
+            // Candidates as (squared distance bits << 32) | slot: eight bytes each, ordered by
+            // distance; their ids are read only for the few left at the end.
+            cands.clear();
+            let cand = |d2: f32, slot: usize| (u64::from(d2.to_bits()) << 32) | slot as u64;
+            if in_cells <= gather_max {
+                // Every other fish within reach, in one pass over the cells.
                 if have_columns {
                     let query = LaneQuery::new(centre, me, SpeciesId(0), [-1.0; 3]);
                     let reach2 = wide::f32x4::splat(reach2);
                     grid.for_each_run_within(centre, reach, |run| {
-                        columns.gather_run(run, &query, reach2, gathered);
+                        columns.gather_run(run, &query, reach2, cands);
                         true
                     });
                 } else {
@@ -397,45 +393,47 @@ impl World {
                         for slot in run {
                             let d2 = positions[slot].distance_squared(centre);
                             if d2 <= reach2 && keys[slot] as usize != me {
-                                gathered.push((d2, slot as u32));
+                                cands.push(cand(d2, slot));
                             }
                         }
                         true
                     });
                 }
-                chosen.extend(gathered.iter().map(|&(d2, slot)| {
-                    let slot = slot as usize;
-                    neighbour(d2, slot, keys[slot] as usize, positions[slot])
-                }));
-            });
-            if chosen.len() > k {
-                chosen.select_nth_unstable_by_key(k - 1, |c| c.order);
-                chosen.truncate(k);
+            } else {
+                // Cells nearest first, gathering every fish no farther than the k-th so far:
+                // once k are held the list is cut to the k nearest (and any tied with the
+                // k-th), once on reaching k and then each time it doubles, which tightens the
+                // reach the walk skips cells by.
+                let mut need = reach2;
+                grid.for_each_run_nearest_first(centre, reach, |run| {
+                    for slot in run {
+                        let d2 = positions[slot].distance_squared(centre);
+                        if d2 <= need && keys[slot] as usize != me {
+                            cands.push(cand(d2, slot));
+                        }
+                    }
+                    if cands.len() >= 2 * k || (cands.len() >= k && need == reach2) {
+                        need = keep_nearest(cands, k);
+                    }
+                    need
+                });
             }
-            return;
-        }
-        // Cells nearest first, gathering every fish nearer than the k-th best so far: at
-        // least k held, the k least are selected (once on reaching k, then each time the
-        // list doubles), which tightens the reach the walk skips cells by.
-        let mut need = reach2;
-        grid.for_each_run_nearest_first(centre, reach, |run| {
-            for slot in run {
-                let pos = positions[slot];
-                let d2 = pos.distance_squared(centre);
-                if d2 > need {
-                    continue;
-                }
+            if cands.len() > k {
+                keep_nearest(cands, k);
+            }
+            // The k nearest and any tied with the k-th: ties go by id.
+            chosen.extend(cands.iter().map(|&c| {
+                let slot = (c & u64::from(u32::MAX)) as usize;
                 let o = keys[slot] as usize;
-                if o != me {
-                    chosen.push(neighbour(d2, slot, o, pos));
+                let d2 = f32::from_bits((c >> 32) as u32);
+                Neighbour {
+                    order: order(d2, slot, o),
+                    dense: o as u32,
+                    slot: slot as u32,
+                    within: d2,
+                    pos: positions[slot],
                 }
-            }
-            if chosen.len() >= 2 * k || (chosen.len() >= k && need == reach2) {
-                chosen.select_nth_unstable_by_key(k - 1, |c| c.order);
-                chosen.truncate(k);
-                need = chosen[k - 1].within;
-            }
-            need
+            }));
         });
         if chosen.len() > k {
             chosen.select_nth_unstable_by_key(k - 1, |c| c.order);
@@ -543,6 +541,23 @@ impl World {
     }
 }
 
+/// Cuts `cands` ((squared distance bits << 32) | slot, more than `k` of them) to the `k` least
+/// by distance and every one tied with the k-th in distance (so that ties can still go by id);
+/// returns the k-th distance.
+fn keep_nearest(cands: &mut Vec<u64>, k: usize) -> f32 {
+    cands.select_nth_unstable(k - 1);
+    let kth = cands[k - 1] >> 32;
+    let mut end = k;
+    for i in k..cands.len() {
+        if cands[i] >> 32 == kth {
+            cands.swap(end, i);
+            end += 1;
+        }
+    }
+    cands.truncate(end);
+    f32::from_bits(kth as u32)
+}
+
 /// One neighbour a bounded crowd query chose.
 #[derive(Clone, Copy, Debug)]
 struct Neighbour {
@@ -572,8 +587,8 @@ fn gather_limit(k: usize) -> usize {
 }
 
 thread_local! {
-    /// Scratch of [`World::nearest_on_grid`]: the grid slots within reach.
-    static GATHERED: std::cell::RefCell<Vec<(f32, u32)>> =
+    /// Scratch of [`World::nearest_on_grid`]: its candidates.
+    static GATHERED: std::cell::RefCell<Vec<u64>> =
         const { std::cell::RefCell::new(Vec::new()) };
     /// The chosen neighbours of a bounded crowd query (order key, dense index, squared distance
     /// each rule tests, position), per thread so queries take `&self` and never allocate once

@@ -145,7 +145,8 @@ impl CrowdColumns {
         }
     }
 
-    /// Pushes `(squared distance, slot)` onto `out` for each candidate of grid slots `run`
+    /// Pushes `(squared distance bits << 32) | slot` onto `out` for each candidate of grid
+    /// slots `run`
     /// within `reach2` of `query`'s centre, but the querying fish, in slot order. The squared
     /// distance is the one [`LaneSums`] tests (so `Vec3::distance_squared`'s, bitwise).
     #[inline]
@@ -154,7 +155,7 @@ impl CrowdColumns {
         run: Range<usize>,
         query: &LaneQuery,
         reach2: f32x4,
-        out: &mut Vec<(f32, u32)>,
+        out: &mut Vec<u64>,
     ) {
         let Range { start, end } = run;
         if start >= end {
@@ -180,7 +181,7 @@ impl CrowdColumns {
             let d2 = d2.to_array();
             while lanes != 0 {
                 let lane = lanes.trailing_zeros() as usize;
-                out.push((d2[lane], (4 * g + lane) as u32));
+                out.push((u64::from(d2[lane].to_bits()) << 32) | (4 * g + lane) as u64);
                 lanes &= lanes - 1;
             }
         }
