@@ -176,9 +176,10 @@ impl World {
     /// within its own radius (alignment and cohesion only its own species). `None` takes every
     /// fish, as [`World::steer_crowd`] does; [`CROWD_NEAREST`] is the usual choice.
     ///
-    /// With a bound the grid is searched nearest cells first and stops once no cell left can
-    /// hold a nearer fish, so the cost follows `nearest`, not the school's density. The chosen
-    /// neighbours are summed in order of distance: the answer depends only on the world, not
+    /// With a bound, cells holding few fish (at most 16 per neighbour asked for) are read in
+    /// one pass and the nearest selected; in a denser school the grid is searched nearest cells
+    /// first and the search stops once no cell left can hold a nearer fish, so the cost follows
+    /// `nearest`, not the school's density. The chosen neighbours are summed in order of distance: the answer depends only on the world, not
     /// on the grid's cells or the thread (so lanes and replays stay bit-exact).
     pub fn steer_crowd_nearest(
         &self,

@@ -146,9 +146,9 @@ impl CrowdColumns {
     }
 
     /// Pushes `(squared distance bits << 32) | slot` onto `out` for each candidate of grid
-    /// slots `run`
-    /// within `reach2` of `query`'s centre, but the querying fish, in slot order. The squared
-    /// distance is the one [`LaneSums`] tests (so `Vec3::distance_squared`'s, bitwise).
+    /// slots `run` within `reach2` of `query`'s centre, but the querying fish, in slot order.
+    /// The squared distance is the one [`LaneSums`] tests (so `Vec3::distance_squared`'s,
+    /// bitwise).
     #[inline]
     pub(super) fn gather_run(
         &self,
