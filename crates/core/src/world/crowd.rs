@@ -16,13 +16,12 @@
 //! the world's other neighbour queries (the grid as of its rebuild, current positions, plus the
 //! fish spawned since).
 
-use std::collections::BinaryHeap;
 use std::sync::atomic::Ordering;
 
 use glam::{Vec2, Vec3};
 
 use super::steer::{self, Agent, Steer};
-use super::{FishId, World};
+use super::{FishId, SpeciesId, World};
 
 mod simd;
 
@@ -177,9 +176,10 @@ impl World {
     /// within its own radius (alignment and cohesion only its own species). `None` takes every
     /// fish, as [`World::steer_crowd`] does; [`CROWD_NEAREST`] is the usual choice.
     ///
-    /// With a bound the grid is searched nearest cells first and stops once no cell left can
-    /// hold a nearer fish, so the cost follows `nearest`, not the school's density. The chosen
-    /// neighbours are summed in order of distance: the answer depends only on the world, not
+    /// With a bound, cells holding few fish (at most 16 per neighbour asked for) are read in
+    /// one pass and the nearest selected; in a denser school the grid is searched nearest cells
+    /// first and the search stops once no cell left can hold a nearer fish, so the cost follows
+    /// `nearest`, not the school's density. The chosen neighbours are summed in order of distance: the answer depends only on the world, not
     /// on the grid's cells or the thread (so lanes and replays stay bit-exact).
     pub fn steer_crowd_nearest(
         &self,
@@ -248,51 +248,11 @@ impl World {
             |d2: f32, o: usize| (u64::from(d2.to_bits()) << 32) | u64::from(fish.ids[o].index);
         NEAREST.with_borrow_mut(|chosen| {
             chosen.clear();
-            if self.index.grid_exact && self.index.grid_positions_current {
+            let current = self.index.grid_exact && self.index.grid_positions_current;
+            if current {
                 // Nothing moved since the rebuild: the k nearest by the grid's positions (the
-                // roots'), cells nearest first, keeping the k best in a max-heap.
-                let grid = &self.index.grid;
-                let (keys, positions) = (grid.keys(), grid.positions());
-                let mut heap = BinaryHeap::with_capacity(k.min(64) + 1);
-                // The k-th best squared distance so far (reach² until k are held): a farther
-                // candidate is skipped before its id is read (a scattered load per fish).
-                let mut need = reach2;
-                grid.for_each_run_nearest_first(centre, reach, |run| {
-                    for slot in run {
-                        let d2 = positions[slot].distance_squared(centre);
-                        if d2 > need {
-                            continue;
-                        }
-                        let o = keys[slot] as usize;
-                        if o == me {
-                            continue;
-                        }
-                        let key = order(d2, o);
-                        if heap.len() < k {
-                            heap.push((key, slot as u32));
-                        } else if heap.peek().is_some_and(|&(top, _)| key < top) {
-                            heap.pop();
-                            heap.push((key, slot as u32));
-                        } else {
-                            continue;
-                        }
-                        if heap.len() == k {
-                            need = heap
-                                .peek()
-                                .map_or(reach2, |&(top, _)| f32::from_bits((top >> 32) as u32));
-                        }
-                    }
-                    need = match heap.peek() {
-                        Some(&(top, _)) if heap.len() == k => f32::from_bits((top >> 32) as u32),
-                        _ => reach2,
-                    };
-                    need
-                });
-                chosen.extend(heap.into_iter().map(|(key, slot)| {
-                    let slot = slot as usize;
-                    let pos = positions[slot];
-                    (key, keys[slot], pos.distance_squared(centre), pos)
-                }));
+                // roots').
+                self.nearest_on_grid(me, centre, reach, k, gather_limit(k), chosen);
             } else {
                 // Fish moved (or were spawned or despawned): the candidates the unbounded query
                 // would take (within reach by the grid and by their current positions), the
@@ -304,7 +264,13 @@ impl World {
                     let pos = fish.roots[o].pos;
                     let d2 = pos.distance_squared(centre);
                     if d2 <= reach2 {
-                        chosen.push((order(d2, o), o as u32, f32::max(d2, grid_d2), pos));
+                        chosen.push(Neighbour {
+                            order: order(d2, o),
+                            dense: o as u32,
+                            slot: NO_SLOT,
+                            within: f32::max(d2, grid_d2),
+                            pos,
+                        });
                     }
                 };
                 self.index
@@ -323,31 +289,157 @@ impl World {
                     }
                 }
                 if chosen.len() > k {
-                    chosen.select_nth_unstable_by_key(k - 1, |c| c.0);
+                    chosen.select_nth_unstable_by_key(k - 1, |c| c.order);
                     chosen.truncate(k);
                 }
             }
-            chosen.sort_unstable_by_key(|c| c.0);
+            chosen.sort_unstable_by_key(|c| c.order);
+            // The crowding columns, when filled, hold each grid slot's species and heading
+            // vector next to its position (the same values as the fish arrays while the grid is
+            // current).
+            let columns = &self.index.crowd_columns;
+            let columns = (current && columns.len() == self.index.grid.len()).then_some(columns);
+            let species_id = u32::from(species.0);
             // `within`: the larger of the current and the grid's squared distance (a candidate
             // counts for a rule when both put it within the radius, as the unbounded query).
-            for &(_, o, within, pos) in chosen.iter() {
-                let o = o as usize;
-                let d2 = pos.distance_squared(centre);
-                let same = fish.species[o] == species;
+            for n in chosen.iter() {
+                let o = n.dense as usize;
+                let d2 = n.pos.distance_squared(centre);
+                let (same, heading) = match columns {
+                    Some(c) if n.slot != NO_SLOT => {
+                        let (heading, s, _) = c.candidate(n.slot as usize);
+                        (s == species_id, Some(heading))
+                    }
+                    _ => (fish.species[o] == species, None),
+                };
                 sums.add(
                     centre,
-                    pos,
+                    n.pos,
                     d2,
                     [
-                        within <= r2[0],
-                        same && within <= r2[1],
-                        same && within <= r2[2],
+                        n.within <= r2[0],
+                        same && n.within <= r2[1],
+                        same && n.within <= r2[2],
                     ],
-                    || heading_vector(fish.roots[o].heading),
+                    || heading.unwrap_or_else(|| heading_vector(fish.roots[o].heading)),
                 );
             }
         });
         Some(sums)
+    }
+
+    /// The `k` fish nearest to dense fish `me` at `centre` within `reach` by the grid's
+    /// positions (the grid must be exact and current), pushed onto `chosen` in no particular
+    /// order.
+    ///
+    /// Two ways to the same set: when the cells within `reach` hold at most `gather_max` fish
+    /// (a sparse neighbourhood, or one a few cells wide), every one within reach is gathered in
+    /// one pass over the cells' slots (four at a time on the crowding columns) and the `k`
+    /// least selected; otherwise the cells are walked nearest first
+    /// ([`Grid::for_each_run_nearest_first`](super::grid::Grid::for_each_run_nearest_first))
+    /// and the walk stops once no cell left can hold a nearer fish. Either way the set is the
+    /// `k` least by (squared distance, id) of the fish within reach, so which way was taken
+    /// never shows.
+    fn nearest_on_grid(
+        &self,
+        me: usize,
+        centre: Vec3,
+        reach: f32,
+        k: usize,
+        gather_max: usize,
+        chosen: &mut Vec<Neighbour>,
+    ) {
+        let grid = &self.index.grid;
+        let (keys, positions) = (grid.keys(), grid.positions());
+        let fish = &self.state.fish;
+        let reach2 = reach * reach;
+        let columns = &self.index.crowd_columns;
+        let have_columns = columns.len() == keys.len();
+        // Ask the next rebuild for the columns (a plain load first: see `crowd_sums`).
+        if !self.index.crowd_wanted.load(Ordering::Relaxed) {
+            self.index.crowd_wanted.store(true, Ordering::Relaxed);
+        }
+        // Neighbour order: squared distance (non-negative floats order like their bits), then
+        // id (from the columns, next to the position, when they are filled).
+        let order = |d2: f32, slot: usize, o: usize| {
+            let id = if have_columns {
+                columns.id(slot)
+            } else {
+                fish.ids[o].index
+            };
+            (u64::from(d2.to_bits()) << 32) | u64::from(id)
+        };
+        // How many fish the cells within reach hold (stopping once past `gather_max`).
+        let mut in_cells = 0usize;
+        grid.for_each_run_within(centre, reach, |run| {
+            in_cells += run.len();
+            in_cells <= gather_max
+        });
+        GATHERED.with_borrow_mut(|cands| {
+            // Candidates as (squared distance bits << 32) | slot: eight bytes each, ordered by
+            // distance; their ids are read only for the few left at the end.
+            cands.clear();
+            let cand = |d2: f32, slot: usize| (u64::from(d2.to_bits()) << 32) | slot as u64;
+            if in_cells <= gather_max {
+                // Every other fish within reach, in one pass over the cells.
+                if have_columns {
+                    let query = LaneQuery::new(centre, me, SpeciesId(0), [-1.0; 3]);
+                    let reach2 = wide::f32x4::splat(reach2);
+                    grid.for_each_run_within(centre, reach, |run| {
+                        columns.gather_run(run, &query, reach2, cands);
+                        true
+                    });
+                } else {
+                    grid.for_each_run_within(centre, reach, |run| {
+                        for slot in run {
+                            let d2 = positions[slot].distance_squared(centre);
+                            if d2 <= reach2 && keys[slot] as usize != me {
+                                cands.push(cand(d2, slot));
+                            }
+                        }
+                        true
+                    });
+                }
+            } else {
+                // Cells nearest first, gathering every fish no farther than the k-th so far:
+                // once k are held the list is cut to the k nearest (and any tied with the
+                // k-th), once on reaching k and then each time it doubles, which tightens the
+                // reach the walk skips cells by.
+                let mut need = reach2;
+                grid.for_each_run_nearest_first(centre, reach, |run| {
+                    for slot in run {
+                        let d2 = positions[slot].distance_squared(centre);
+                        if d2 <= need && keys[slot] as usize != me {
+                            cands.push(cand(d2, slot));
+                        }
+                    }
+                    if cands.len() >= 2 * k || (cands.len() >= k && need == reach2) {
+                        need = keep_nearest(cands, k);
+                    }
+                    need
+                });
+            }
+            if cands.len() > k {
+                keep_nearest(cands, k);
+            }
+            // The k nearest and any tied with the k-th: ties go by id.
+            chosen.extend(cands.iter().map(|&c| {
+                let slot = (c & u64::from(u32::MAX)) as usize;
+                let o = keys[slot] as usize;
+                let d2 = f32::from_bits((c >> 32) as u32);
+                Neighbour {
+                    order: order(d2, slot, o),
+                    dense: o as u32,
+                    slot: slot as u32,
+                    within: d2,
+                    pos: positions[slot],
+                }
+            }));
+        });
+        if chosen.len() > k {
+            chosen.select_nth_unstable_by_key(k - 1, |c| c.order);
+            chosen.truncate(k);
+        }
     }
 
     /// The crowding sums of fish `id` at `centre` (its root) for the rules' `radii`
@@ -450,11 +542,59 @@ impl World {
     }
 }
 
+/// Cuts `cands` ((squared distance bits << 32) | slot, more than `k` of them) to the `k` least
+/// by distance and every one tied with the k-th in distance (so that ties can still go by id);
+/// returns the k-th distance.
+fn keep_nearest(cands: &mut Vec<u64>, k: usize) -> f32 {
+    cands.select_nth_unstable(k - 1);
+    let kth = cands[k - 1] >> 32;
+    let mut end = k;
+    for i in k..cands.len() {
+        if cands[i] >> 32 == kth {
+            cands.swap(end, i);
+            end += 1;
+        }
+    }
+    cands.truncate(end);
+    f32::from_bits(kth as u32)
+}
+
+/// One neighbour a bounded crowd query chose.
+#[derive(Clone, Copy, Debug)]
+struct Neighbour {
+    /// (squared distance, id) as one sortable key.
+    order: u64,
+    /// Dense index.
+    dense: u32,
+    /// Grid slot, or [`NO_SLOT`] when found off the grid's current positions.
+    slot: u32,
+    /// The squared distance each rule tests.
+    within: f32,
+    pos: Vec3,
+}
+
+/// [`Neighbour::slot`] of a neighbour not found on a current grid.
+const NO_SLOT: u32 = u32::MAX;
+
+/// [`gather_limit`] per neighbour asked for (see docs/performance.md, "Bounded perception at
+/// 10,000 fish").
+const GATHER_PER_NEIGHBOUR: usize = 16;
+
+/// Most fish in the cells within reach for which a bounded crowd query of `k` gathers every one
+/// within reach in one pass instead of walking the cells nearest first (see
+/// [`World::nearest_on_grid`]).
+fn gather_limit(k: usize) -> usize {
+    k.saturating_mul(GATHER_PER_NEIGHBOUR)
+}
+
 thread_local! {
+    /// Scratch of [`World::nearest_on_grid`]: its candidates.
+    static GATHERED: std::cell::RefCell<Vec<u64>> =
+        const { std::cell::RefCell::new(Vec::new()) };
     /// The chosen neighbours of a bounded crowd query (order key, dense index, squared distance
     /// each rule tests, position), per thread so queries take `&self` and never allocate once
     /// warm.
-    static NEAREST: std::cell::RefCell<Vec<(u64, u32, f32, Vec3)>> =
+    static NEAREST: std::cell::RefCell<Vec<Neighbour>> =
         const { std::cell::RefCell::new(Vec::new()) };
 }
 
@@ -736,6 +876,60 @@ mod tests {
             }
         }
         assert!(differs > 100, "the bound changed {differs} answers");
+    }
+
+    /// Both ways of the bounded query on a current grid — gathering every fish in the cells
+    /// within reach, or walking the cells nearest first — choose the brute-force set (the k
+    /// least by squared distance, then id, of the other fish within reach), with the crowding
+    /// columns off and on, in a dense school and a sparse one, and so each other's.
+    #[test]
+    fn gathering_and_walking_choose_the_brute_force_nearest() {
+        for (seed, n) in [(31, 4000), (37, 300)] {
+            let Scene { mut world, l, .. } = random_scene(seed, n);
+            for columns in [false, true] {
+                if columns {
+                    // A query asks the next rebuild for the columns.
+                    world.index.crowd_wanted.store(true, Ordering::Relaxed);
+                    world.rebuild_grid();
+                }
+                assert_eq!(world.index.crowd_columns.len() == n, columns);
+                assert!(world.index.grid_exact && world.index.grid_positions_current);
+                let mut compared = 0;
+                for id in world.fish_ids().step_by(13) {
+                    let me = world.state.fish.dense(id).unwrap();
+                    let centre = world.state.fish.roots[me].pos;
+                    for reach in [1.5 * l, 6.0 * l] {
+                        let mut all: Vec<u64> = (0..n)
+                            .filter(|&o| o != me)
+                            .filter_map(|o| {
+                                let d2 = world.state.fish.roots[o].pos.distance_squared(centre);
+                                (d2 <= reach * reach).then(|| {
+                                    (u64::from(d2.to_bits()) << 32)
+                                        | u64::from(world.state.fish.ids[o].index)
+                                })
+                            })
+                            .collect();
+                        all.sort_unstable();
+                        for k in [1, 7, 24, 30] {
+                            let want = &all[..k.min(all.len())];
+                            for gather_max in [0, usize::MAX] {
+                                let mut got = Vec::new();
+                                world.nearest_on_grid(me, centre, reach, k, gather_max, &mut got);
+                                let mut got: Vec<u64> = got.iter().map(|c| c.order).collect();
+                                got.sort_unstable();
+                                assert_eq!(
+                                    got, want,
+                                    "{n} fish, columns {columns}, fish {id:?}, reach {reach}, \
+                                     k {k}, gather up to {gather_max}"
+                                );
+                                compared += usize::from(want.len() == k && k > 1);
+                            }
+                        }
+                    }
+                }
+                assert!(compared > 100, "full answers compared: {compared}");
+            }
+        }
     }
 
     #[test]

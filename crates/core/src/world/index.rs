@@ -132,6 +132,7 @@ impl SpatialIndex {
                 &self.grid_species,
                 roots.len(),
                 |k| roots[k].heading,
+                |k| state.fish.ids[k].index,
             );
         } else {
             self.crowd_columns.clear();

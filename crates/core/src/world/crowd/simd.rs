@@ -29,7 +29,8 @@ pub(in crate::world) struct CrowdColumns {
     groups: Vec<Candidates>,
     /// Slots filled (without the padding).
     slots: usize,
-    /// Scratch of [`CrowdColumns::fill`]: each fish's heading vector, in fish order.
+    /// Scratch of [`CrowdColumns::fill`]: each fish's heading vector and id index, in fish
+    /// order.
     headings: Vec<Vec2>,
 }
 
@@ -65,7 +66,8 @@ impl CrowdColumns {
     }
 
     /// Fills the columns from the grid's cell-ordered `keys`, `positions` and `species`, with
-    /// the heading of fish `k` (a key, `0..num_fish`) read by `heading(k)`, over both cores.
+    /// the heading of fish `k` (a key, `0..num_fish`) read by `heading(k)` and its id's index
+    /// by `id(k)`, over both cores.
     /// The headings' cosines and sines are taken first in fish order, where `heading` reads
     /// memory in order, then gathered in slot order.
     pub(in crate::world) fn fill(
@@ -75,6 +77,7 @@ impl CrowdColumns {
         species: &[SpeciesId],
         num_fish: usize,
         heading: impl Fn(usize) -> f32 + Sync,
+        id: impl Fn(usize) -> u32 + Sync,
     ) {
         use rayon::prelude::*;
         self.slots = keys.len();
@@ -101,12 +104,12 @@ impl CrowdColumns {
                     [0.0; 4],
                     [0.0; 4],
                 ];
-                let (mut sp, mut key) = ([0; 4], [PAD_KEY; 4]);
+                let (mut sp, mut key, mut ids) = ([0; 4], [PAD_KEY; 4], [0; 4]);
                 for (lane, ((&k, p), s)) in keys.iter().zip(positions).zip(species).enumerate() {
                     let h = headings[k as usize];
                     (f[0][lane], f[1][lane], f[2][lane]) = (p.x, p.y, p.z);
                     (f[3][lane], f[4][lane]) = (h.x, h.y);
-                    (sp[lane], key[lane]) = (u32::from(s.0), k);
+                    (sp[lane], key[lane], ids[lane]) = (u32::from(s.0), k, id(k as usize));
                 }
                 *group = Candidates {
                     x: f32x4::new(f[0]),
@@ -116,6 +119,7 @@ impl CrowdColumns {
                     sin: f32x4::new(f[4]),
                     species: u32x4::new(sp),
                     key: u32x4::new(key),
+                    id: u32x4::new(ids),
                 };
             });
     }
@@ -140,6 +144,67 @@ impl CrowdColumns {
             sums.add(query, valid, &self.groups[g]);
         }
     }
+
+    /// Pushes `(squared distance bits << 32) | slot` onto `out` for each candidate of grid
+    /// slots `run` within `reach2` of `query`'s centre, but the querying fish, in slot order.
+    /// The squared distance is the one [`LaneSums`] tests (so `Vec3::distance_squared`'s,
+    /// bitwise).
+    #[inline]
+    pub(super) fn gather_run(
+        &self,
+        run: Range<usize>,
+        query: &LaneQuery,
+        reach2: f32x4,
+        out: &mut Vec<u64>,
+    ) {
+        let Range { start, end } = run;
+        if start >= end {
+            return;
+        }
+        let first = start / 4;
+        let last = (end - 1) / 4;
+        for g in first..=last {
+            let mut valid = u32x4::splat(!0);
+            if g == first {
+                valid &= u32x4::new(FROM[start % 4]);
+            }
+            if g == last {
+                valid &= u32x4::new(BEFORE[end % 4]);
+            }
+            let c = &self.groups[g];
+            let d2 = query.distance_squared(c);
+            let take = valid & !c.key.simd_eq(query.me) & d2.simd_le(reach2).to_bits();
+            let mut lanes = take.to_bitmask();
+            if lanes == 0 {
+                continue;
+            }
+            let d2 = d2.to_array();
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                out.push((u64::from(d2[lane].to_bits()) << 32) | (4 * g + lane) as u64);
+                lanes &= lanes - 1;
+            }
+        }
+    }
+
+    /// The candidate in grid slot `slot`: its heading vector (cosine, sine), species and id's
+    /// index.
+    #[inline]
+    pub(super) fn candidate(&self, slot: usize) -> (Vec2, u32, u32) {
+        let c = &self.groups[slot / 4];
+        let lane = slot % 4;
+        (
+            Vec2::new(c.cos.to_array()[lane], c.sin.to_array()[lane]),
+            c.species.to_array()[lane],
+            c.id.to_array()[lane],
+        )
+    }
+
+    /// The id's index of the candidate in grid slot `slot`.
+    #[inline]
+    pub(super) fn id(&self, slot: usize) -> u32 {
+        self.groups[slot / 4].id.to_array()[slot % 4]
+    }
 }
 
 /// Four candidates' fields.
@@ -152,6 +217,8 @@ struct Candidates {
     sin: f32x4,
     species: u32x4,
     key: u32x4,
+    /// The fish's id's index (the tie-break of the nearest-k query's order).
+    id: u32x4,
 }
 
 /// One crowd query, splatted across the lanes.
@@ -173,6 +240,7 @@ impl Candidates {
         sin: f32x4::ZERO,
         species: u32x4::ZERO,
         key: u32x4::splat(PAD_KEY),
+        id: u32x4::ZERO,
     };
 }
 
@@ -190,6 +258,16 @@ impl LaneQuery {
             species: u32x4::splat(u32::from(species.0)),
             r2: r2.map(f32x4::splat),
         }
+    }
+
+    /// Squared distances from the centre to four candidates, summed as
+    /// `Vec3::distance_squared` sums them.
+    #[inline(always)]
+    fn distance_squared(&self, c: &Candidates) -> f32x4 {
+        let dx = self.centre[0] - c.x;
+        let dy = self.centre[1] - c.y;
+        let dz = self.centre[2] - c.z;
+        dx * dx + dy * dy + dz * dz
     }
 }
 
@@ -266,7 +344,14 @@ mod tests {
             .collect();
         let species: Vec<SpeciesId> = (0..n).map(|i| SpeciesId((i % 3 == 0) as u16)).collect();
         let mut c = CrowdColumns::default();
-        c.fill(&keys, &positions, &species, n as usize, |k| 0.37 * k as f32);
+        c.fill(
+            &keys,
+            &positions,
+            &species,
+            n as usize,
+            |k| 0.37 * k as f32,
+            |k| 1000 + k as u32,
+        );
         let me = 5usize;
         let slot = keys.iter().position(|&k| k as usize == me).unwrap();
         let q = LaneQuery::new(positions[slot], me, species[slot], [4.0, 36.0, 100.0]);
