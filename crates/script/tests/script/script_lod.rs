@@ -25,6 +25,23 @@ fn probe(src: &str, lanes: usize) -> (tempfile::TempDir, Simulation) {
     (dir, sim)
 }
 
+/// [`probe`] of [`COUNTER`] on one lane, with level of detail set to `lod`.
+fn counter_with(lod: Lod) -> (tempfile::TempDir, Simulation) {
+    let (dir, mut sim) = probe(COUNTER, 1);
+    sim.world_mut().set_lod(lod).unwrap();
+    (dir, sim)
+}
+
+/// Level of detail on, with no wall lookahead: only two body lengths and the swim until a fish
+/// is due count.
+fn no_lookahead() -> Lod {
+    Lod {
+        on: true,
+        wall_lookahead: 0.0,
+        ..Default::default()
+    }
+}
+
 /// A still fish (speed 0, heading +x) running `probe` at `pos`.
 fn still(sim: &mut Simulation, pos: Vec3) -> FishId {
     swimming(sim, pos, 0.0, 0.0)
@@ -317,16 +334,8 @@ fn test_a_side_wall_within_a_body_length_wakes_a_fish_swimming_along_it() {
 #[test]
 fn test_a_fish_that_would_reach_a_wall_before_it_is_due_is_woken() {
     for (heading, expected) in [(0.0, 2), (std::f32::consts::PI, 1)] {
-        let (_d, mut sim) = probe(COUNTER, 1);
-        // No lookahead: only the two body lengths and the swim until it is due count (at six
-        // lengths a second the lookahead would wake it for the far wall too).
-        sim.world_mut()
-            .set_lod(Lod {
-                on: true,
-                wall_lookahead: 0.0,
-                ..Default::default()
-            })
-            .unwrap();
+        // No lookahead (at six lengths a second it would wake the fish for the far wall too).
+        let (_d, mut sim) = counter_with(no_lookahead());
         let l = porgy_length(&sim);
         let fish = swimming(
             &mut sim,
@@ -376,14 +385,7 @@ fn test_a_slow_fish_is_woken_for_a_wall_where_the_behaviours_would_turn_from_it(
     assert_eq!(decisions(&sim, floor), 8, "woken every base period");
     assert_eq!(decisions(&sim, surface), 8, "woken every base period");
     // With no lookahead only two body lengths and the time until it is due count.
-    let (_d, mut sim) = probe(COUNTER, 1);
-    sim.world_mut()
-        .set_lod(Lod {
-            on: true,
-            wall_lookahead: 0.0,
-            ..Default::default()
-        })
-        .unwrap();
+    let (_d, mut sim) = counter_with(no_lookahead());
     let three = swimming(&mut sim, Vec3::new(500.0 - 3.6 * l, 200.0, 0.0), 0.0, l);
     for _ in 0..7 {
         sim.step();
@@ -397,14 +399,11 @@ fn test_a_slow_fish_is_woken_for_a_wall_where_the_behaviours_would_turn_from_it(
 #[test]
 fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
     for wake in [true, false] {
-        let (_d, mut sim) = probe(COUNTER, 1);
-        sim.world_mut()
-            .set_lod(Lod {
-                on: true,
-                wake,
-                ..Default::default()
-            })
-            .unwrap();
+        let (_d, mut sim) = counter_with(Lod {
+            on: true,
+            wake,
+            ..Default::default()
+        });
         let l = porgy_length(&sim);
         let close = [
             still(&mut sim, Vec3::new(-200.0, 200.0, 0.0)),

@@ -127,20 +127,7 @@ impl CrowdColumns {
     /// Adds the candidates of grid slots `run` to `sums` for `query`.
     #[inline]
     pub(super) fn add_run(&self, run: Range<usize>, query: &LaneQuery, sums: &mut LaneSums) {
-        let Range { start, end } = run;
-        if start >= end {
-            return;
-        }
-        let first = start / 4;
-        let last = (end - 1) / 4;
-        for g in first..=last {
-            let mut valid = u32x4::splat(!0);
-            if g == first {
-                valid &= u32x4::new(FROM[start % 4]);
-            }
-            if g == last {
-                valid &= u32x4::new(BEFORE[end % 4]);
-            }
+        for (g, valid) in groups_of(run) {
             sums.add(query, valid, &self.groups[g]);
         }
     }
@@ -157,20 +144,7 @@ impl CrowdColumns {
         reach2: f32x4,
         out: &mut Vec<u64>,
     ) {
-        let Range { start, end } = run;
-        if start >= end {
-            return;
-        }
-        let first = start / 4;
-        let last = (end - 1) / 4;
-        for g in first..=last {
-            let mut valid = u32x4::splat(!0);
-            if g == first {
-                valid &= u32x4::new(FROM[start % 4]);
-            }
-            if g == last {
-                valid &= u32x4::new(BEFORE[end % 4]);
-            }
+        for (g, valid) in groups_of(run) {
             let c = &self.groups[g];
             let d2 = query.distance_squared(c);
             let take = valid & !c.key.simd_eq(query.me) & d2.simd_le(reach2).to_bits();
@@ -205,6 +179,25 @@ impl CrowdColumns {
     pub(super) fn id(&self, slot: usize) -> u32 {
         self.groups[slot / 4].id.to_array()[slot % 4]
     }
+}
+
+/// The lane groups holding grid slots `run`, each with the mask of its lanes inside `run`
+/// (nothing for an empty run).
+#[inline]
+fn groups_of(run: Range<usize>) -> impl Iterator<Item = (usize, u32x4)> {
+    let Range { start, end } = run;
+    let (first, last) = (start / 4, end.saturating_sub(1) / 4);
+    let groups = (start < end).then_some(first..=last).into_iter().flatten();
+    groups.map(move |g| {
+        let mut valid = u32x4::splat(!0);
+        if g == first {
+            valid &= u32x4::new(FROM[start % 4]);
+        }
+        if g == last {
+            valid &= u32x4::new(BEFORE[end % 4]);
+        }
+        (g, valid)
+    })
 }
 
 /// Four candidates' fields.
