@@ -214,6 +214,28 @@ fn difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, u8) {
     (sum as f64 / (3.0 * f64::from(a.width() * a.height())), most)
 }
 
+/// Asserts that `img`, frame `name` of `school` just drawn by the kept renderer `kept`, is what
+/// a fresh renderer draws: the same counts (read back from `kept`, returned) and the picture
+/// within 0.05 grey levels on average.
+fn assert_drawn_as_fresh(
+    gpu: &Gpu,
+    rig: &common::PosedPorgy,
+    kept: &mut Renderer,
+    name: &str,
+    school: &School,
+    img: &image::RgbaImage,
+) -> RenderTimings {
+    let t = kept.read_gpu_counts(gpu).unwrap();
+    let (fresh_img, fresh) = draw(gpu, rig, school, Culling::Gpu, 1.0, true);
+    assert_eq!(counts(&t), counts(&fresh), "frame {name}: {t:?} {fresh:?}");
+    let (mean, most) = difference(img, &fresh_img);
+    assert!(
+        mean < 0.05,
+        "frame {name}: {mean} (largest {most}) from a new renderer's"
+    );
+    t
+}
+
 /// The counts the two paths must share.
 fn counts(t: &RenderTimings) -> (u32, u32, [u32; 5], u32, u32, u64) {
     (
@@ -336,14 +358,7 @@ fn a_fish_whose_record_changes_is_drawn_where_and_as_it_now_is() {
     let mut frames = Vec::new();
     for (name, next) in [("B", &b), ("C", &c), ("D", &d)] {
         let (img, _) = draw_with(&gpu, &mut kept, next, true, 1);
-        let t = kept.read_gpu_counts(&gpu).unwrap();
-        let (fresh_img, fresh) = draw(&gpu, &rig, next, Culling::Gpu, 1.0, true);
-        assert_eq!(counts(&t), counts(&fresh), "frame {name}: {t:?} {fresh:?}");
-        let (mean, most) = difference(&img, &fresh_img);
-        assert!(
-            mean < 0.05,
-            "frame {name}: {mean} (largest {most}) from a new renderer's"
-        );
+        let t = assert_drawn_as_fresh(&gpu, &rig, &mut kept, name, next, &img);
         frames.push((img, t));
     }
     let [(img_b, t_b), (img_c, t_c), (img_d, t_d)] = frames.try_into().unwrap();
@@ -417,14 +432,7 @@ fn changes_named_by_a_new_revision_are_drawn_and_a_kept_revision_keeps_the_recor
         let rev = shoal_render::next_instances_revision();
         let (img, t) = draw_named(&gpu, &mut kept, next, true, 1, Some(rev));
         assert_eq!(t.num_records_written, written, "frame {name}: {t:?}");
-        let t = kept.read_gpu_counts(&gpu).unwrap();
-        let (fresh_img, fresh) = draw(&gpu, &rig, next, Culling::Gpu, 1.0, true);
-        assert_eq!(counts(&t), counts(&fresh), "frame {name}: {t:?} {fresh:?}");
-        let (mean, most) = difference(&img, &fresh_img);
-        assert!(
-            mean < 0.05,
-            "frame {name}: {mean} (largest {most}) from a new renderer's"
-        );
+        assert_drawn_as_fresh(&gpu, &rig, &mut kept, name, next, &img);
         // The change shows: a missed one would leave the picture as it was (the rest of the
         // frame is the same, to the pixel).
         let (mean, most) = difference(&img, &previous);
