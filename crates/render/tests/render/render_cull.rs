@@ -460,14 +460,7 @@ fn changes_named_by_a_new_revision_are_drawn_and_a_kept_revision_keeps_the_recor
     }
     let (img, t) = draw_named(&gpu, &mut kept, &e, true, 1, Some(rev_d));
     assert_eq!(t.num_records_written, 505 + 8, "{t:?}");
-    let t = kept.read_gpu_counts(&gpu).unwrap();
-    let (fresh_img, fresh) = draw(&gpu, &rig, &e, Culling::Gpu, 1.0, true);
-    assert_eq!(counts(&t), counts(&fresh), "{t:?} {fresh:?}");
-    let (mean, most) = difference(&img, &fresh_img);
-    assert!(
-        mean < 0.05,
-        "frame E: {mean} (largest {most}) from a new renderer's"
-    );
+    assert_drawn_as_fresh(&gpu, &rig, &mut kept, "E", &e, &img);
     // F: the fish kept, a pellet eaten (the records after it are alike: a prop's place is in
     // the palette) and the first rock turned into a pellet: one record written.
     let mut f = e.clone();
