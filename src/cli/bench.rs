@@ -385,12 +385,13 @@ fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
             r.threads
         );
         println!(
-            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>9} {:>9} | {:>7} {:>9}",
+            "{:>7} {:>9} {:>8} {:>10} {:>9} | {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} | {:>9} {:>9} | {:>7} {:>9}",
             "fish",
             "median ms",
             "p99 ms",
             "fish-tick/s",
             "µs/fish",
+            "sched",
             "percep",
             "behav",
             "motion",
@@ -405,12 +406,13 @@ fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
     }
     let s = &r.stages;
     println!(
-        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>9} {:>9} | {:>7.1} {:>9.2}",
+        "{:>7} {:>9.3} {:>8.3} {:>10.3e} {:>9.3} | {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} | {:>9} {:>9} | {:>7.1} {:>9.2}",
         r.fish,
         r.median_ms,
         r.p99_ms,
         r.fish_ticks_per_s,
         r.us_per_fish,
+        s.schedule,
         s.perception,
         s.behavior,
         s.motion,

@@ -669,6 +669,7 @@ impl<S: Showable> WorldScene<S> {
         let ms = |ns: u64| ns as f32 * 1e-6;
         vec![
             ("frame's ticks (all stages)", self.step_ms),
+            ("schedule (who decides)", ms(c.schedule_ns)),
             ("perception (last tick)", ms(c.perception_ns)),
             ("behaviour / Lua", ms(c.lua_ns)),
             ("motion", ms(c.motion_ns)),

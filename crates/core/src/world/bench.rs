@@ -80,6 +80,8 @@ pub struct StageMillis {
     pub perception: f64,
     /// Behaviour decisions (Lua, or the Rust driver).
     pub behavior: f64,
+    /// Choosing who decides this tick (level of detail) and handing them their controls.
+    pub schedule: f64,
     /// Motion players, currents and contact.
     pub motion: f64,
     /// Rig pose and forward kinematics.
@@ -213,6 +215,7 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
         stages: StageMillis {
             perception: stage(|s| s.perception_ns),
             behavior: stage(|s| s.lua_ns),
+            schedule: stage(|s| s.schedule_ns),
             motion: stage(|s| s.motion_ns),
             skeleton: stage(|s| s.skeleton_ns),
             palette: stage(|s| s.palette_ns),

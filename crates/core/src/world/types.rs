@@ -293,13 +293,17 @@ pub struct BodySense {
 
 /// Wall time of each stage of the last tick, nanoseconds (the tuning panel and `shoal bench`
 /// show these). The world fills `motion_ns`, `skeleton_ns`, `palette_ns` and `grid_ns`; the Lua
-/// host (or a Rust driver) fills `perception_ns`, `lua_ns` and the per-decision figures.
+/// host (or a Rust driver) fills `perception_ns`, `lua_ns`, `schedule_ns` and the per-decision
+/// figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StageCounters {
     /// Sensor queries (vision, body sense, neighbour queries).
     pub perception_ns: u64,
     /// Behaviour scripts.
     pub lua_ns: u64,
+    /// Choosing which fish decide this tick (the level-of-detail schedule: bands, wakes), and
+    /// checking their controls out and in; part of the behaviour stage's wall time.
+    pub schedule_ns: u64,
     /// Motion players, currents and contact.
     pub motion_ns: u64,
     /// Rig pose and forward kinematics.
@@ -323,6 +327,7 @@ impl StageCounters {
     pub fn total_ns(&self) -> u64 {
         self.perception_ns
             + self.lua_ns
+            + self.schedule_ns
             + self.motion_ns
             + self.skeleton_ns
             + self.palette_ns

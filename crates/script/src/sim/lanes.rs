@@ -361,6 +361,7 @@ impl Behavior for Scripts {
         let shared: &Arc<World> = world;
         let debugger = self.debugger.as_ref();
         let busy = self.lanes.iter().filter(|l| l.num_due > 0).count();
+        let lanes_start = Instant::now();
         if busy > 1 {
             self.lanes
                 .par_iter_mut()
@@ -371,6 +372,7 @@ impl Behavior for Scripts {
                 lane.run(shared, time_s, debugger);
             }
         }
+        let lanes_wall = lanes_start.elapsed().as_nanos() as u64;
         let mut claims = Vec::new();
         let (mut perception, mut lanes_total, mut decisions) = (0u64, 0u64, 0u64);
         let w = exclusive(world);
@@ -388,16 +390,19 @@ impl Behavior for Scripts {
         for (_, fish, food) in claims {
             exclusive(world).try_eat(fish, food);
         }
-        // The stage's wall time, split between sensing and Lua as the lanes' CPU time was.
+        // The stage's wall time: the lanes' split between sensing and Lua as their CPU time
+        // was; the rest (schedule, controls out and in, bites) is the schedule's.
         let total = start.elapsed().as_nanos() as u64;
+        let lanes_wall = lanes_wall.min(total);
         let perception_wall = if lanes_total > 0 {
-            (u128::from(total) * u128::from(perception) / u128::from(lanes_total)) as u64
+            (u128::from(lanes_wall) * u128::from(perception) / u128::from(lanes_total)) as u64
         } else {
             0
         };
         let c = exclusive(world).counters_mut();
-        c.perception_ns = perception_wall.min(total);
-        c.lua_ns = total.saturating_sub(c.perception_ns);
+        c.perception_ns = perception_wall.min(lanes_wall);
+        c.lua_ns = lanes_wall - c.perception_ns;
+        c.schedule_ns = total - lanes_wall;
         // Each lane runs on one thread, so its time is (all but preemption) CPU time.
         c.decisions = decisions;
         c.sense_cpu_ns = perception;
