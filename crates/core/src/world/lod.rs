@@ -27,13 +27,14 @@
 //! keeps them). So a run with level of detail on is as deterministic as one without: the same
 //! whatever the number of lanes or threads, and a replay is bit-exact.
 
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::Vec3;
 
 use super::sense::forward;
 use super::tick::TICK_DT;
-use super::{FishId, SpeciesId, World};
+use super::{FishId, Obstacle, SpeciesId, World};
 
 /// A wall, the floor or the surface this many body lengths away, in any direction, wakes a
 /// slow fish (see [`World::obstacle_near`]).
@@ -306,47 +307,63 @@ impl World {
             let lod = &world.lod;
             let on = lod.on;
             marks.clear();
-            marks.par_extend((0..f.len()).into_par_iter().with_min_len(2048).map(|d| {
-                let Some(behavior) = &f.behaviors[d] else {
-                    return 0;
-                };
-                let (base, cap) = period(f.species[d], behavior);
-                let base = base.max(1);
-                let phase = tick + u64::from(f.ids[d].index);
-                if !on {
-                    return u8::from(phase.is_multiple_of(base));
+            // `period` per species and behaviour, remembered per thread: a tick asks it once
+            // for each of the few pairs instead of once per fish (behaviour names are shared,
+            // so the name's address tells them apart; another copy of a name only misses).
+            type Periods = Vec<(SpeciesId, usize, (u64, u64))>;
+            let period_of = |memo: &mut Periods, sid: SpeciesId, behavior: &Arc<str>| {
+                let name = Arc::as_ptr(behavior).cast::<u8>() as usize;
+                if let Some(&(_, _, p)) = memo.iter().find(|e| e.0 == sid && e.1 == name) {
+                    return p;
                 }
-                let band = usize::from(bands[d]);
-                let p = (base * u64::from(lod.bands[band].every))
-                    .min(cap.max(1))
-                    .max(1);
-                let due = phase.is_multiple_of(p);
-                let idle = tick.saturating_sub(f.last_decided[d]);
-                // Only fish that could be woken, or that decide now (they remember it), ask.
-                let could_wake = lod.wake && p > base && idle >= base;
-                if !(due || could_wake) {
-                    return 0;
-                }
-                let alert = lod.wake && world.alerted_now(d, alert);
-                let alert_bit = if alert { ALERT } else { 0 };
-                if due {
-                    return (1 + band as u8) | alert_bit;
-                }
-                // A predator or pellet wakes the fish when it came into view since its last
-                // decision (a fish that decided with it in view has reacted and goes on with
-                // that); contact and a wall or rock ahead wake it every base period while
-                // they last.
-                // The ticks until it is next due: how far it swims on its last request before
-                // it decides again.
-                let until_due = p - phase % p;
-                if (alert && !f.alerted[d])
-                    || world.obstacle_near(d, until_due)
-                    || (phase.is_multiple_of(base) && world.crowded(d))
-                {
-                    return (1 + band as u8) | WOKEN | alert_bit;
-                }
-                0
-            }));
+                let p = period(sid, behavior);
+                memo.push((sid, name, p));
+                p
+            };
+            marks.par_extend((0..f.len()).into_par_iter().with_min_len(2048).map_init(
+                Periods::new,
+                |memo, d| {
+                    let Some(behavior) = &f.behaviors[d] else {
+                        return 0;
+                    };
+                    let (base, cap) = period_of(memo, f.species[d], behavior);
+                    let base = base.max(1);
+                    let phase = tick + u64::from(f.ids[d].index);
+                    if !on {
+                        return u8::from(phase.is_multiple_of(base));
+                    }
+                    let band = usize::from(bands[d]);
+                    let p = (base * u64::from(lod.bands[band].every))
+                        .min(cap.max(1))
+                        .max(1);
+                    let due = phase.is_multiple_of(p);
+                    let idle = tick.saturating_sub(f.last_decided[d]);
+                    // Only fish that could be woken, or that decide now (they remember it), ask.
+                    let could_wake = lod.wake && p > base && idle >= base;
+                    if !(due || could_wake) {
+                        return 0;
+                    }
+                    let alert = lod.wake && world.alerted_now(d, alert);
+                    let alert_bit = if alert { ALERT } else { 0 };
+                    if due {
+                        return (1 + band as u8) | alert_bit;
+                    }
+                    // A predator or pellet wakes the fish when it came into view since its last
+                    // decision (a fish that decided with it in view has reacted and goes on with
+                    // that); contact and a wall or rock ahead wake it every base period while
+                    // they last.
+                    // The ticks until it is next due: how far it swims on its last request before
+                    // it decides again.
+                    let until_due = p - phase % p;
+                    if (alert && !f.alerted[d])
+                        || world.obstacle_near(d, until_due)
+                        || (phase.is_multiple_of(base) && world.crowded(d))
+                    {
+                        return (1 + band as u8) | WOKEN | alert_bit;
+                    }
+                    0
+                },
+            ));
         }
         let on = self.lod.on;
         let mut counts = LodCounts {
@@ -459,6 +476,20 @@ impl World {
                 -1.0
             }
         };
+        // A predator alerts only fish of other species: it looks as far as the farthest-seeing
+        // of those (the barracuda sees twice as far as the porgies it hunts, so its own range
+        // would visit eight times the fish).
+        let reach_of_others: Vec<f32> = (0..species.len())
+            .map(|own| {
+                species
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| *k != own)
+                    .map(|(_, s)| s.desc.view_range)
+                    .filter(|r| r.is_finite() && *r > 0.0)
+                    .fold(0.0f32, f32::max)
+            })
+            .collect();
         let alert = &alert[..];
         let grid = &self.index.grid;
         self.index
@@ -466,6 +497,13 @@ impl World {
             .par_iter()
             .with_min_len(16)
             .for_each(|spot| {
+                let reach = reach_of_others
+                    .get(usize::from(spot.species().0))
+                    .copied()
+                    .unwrap_or(reach);
+                if reach <= 0.0 {
+                    return;
+                }
                 grid.for_each_within(spot.pos(), reach, |key, _, d2| {
                     let d = key as usize;
                     if f.species[d] != spot.species() && d2 <= view2(d) {
@@ -501,10 +539,21 @@ impl World {
     /// the 10,000-fish scene touching the walls 7–9 % more often with level of detail on
     /// (docs/performance.md).
     fn obstacle_near(&self, d: usize, until_due: u64) -> bool {
-        let f = &self.state.fish;
-        if f.contact[d] {
+        if self.state.fish.contact[d] {
             return true;
         }
+        let path = self.wake_path(d, until_due);
+        // Any face in any direction: what a school presses a fish against.
+        if path.outside(path.pos) {
+            return true;
+        }
+        !path.clear(&self.state.obstacles) && path.hits(&self.state.obstacles)
+    }
+
+    /// The path [`World::obstacle_near`] looks along for dense fish `d`, due in `until_due`
+    /// ticks.
+    fn wake_path(&self, d: usize, until_due: u64) -> WakePath {
+        let f = &self.state.fish;
         let root = &f.roots[d];
         let motion = &self.catalog.species[usize::from(f.species[d].0)]
             .desc
@@ -512,33 +561,21 @@ impl World {
         let l = motion.l;
         let tank = &self.state.tank;
         let margin = Vec3::splat(WALL_MARGIN_LENGTHS * l);
-        let (inner_min, inner_max) = (tank.min + margin, tank.max - margin);
-        let outside = |p: Vec3| p.cmplt(inner_min).any() || p.cmpgt(inner_max).any();
-        // Any face in any direction: what a school presses a fish against.
-        if outside(root.pos) {
-            return true;
-        }
         let speed = root.speed.max(motion.s);
         let speed = if speed.is_finite() {
             speed.max(0.0)
         } else {
             0.0
         };
-        let reach =
-            (2.0 * l).max(speed * self.lod.wall_lookahead) + speed * until_due as f32 * TICK_DT;
-        // The shipped behaviours look for side walls level, along the heading alone; the
-        // pitched direction finds the floor and surface. The tank is a box: a path stays
-        // inside when both of its ends do.
-        let dir = forward(root.heading, root.pitch);
-        if outside(root.pos + forward(root.heading, 0.0) * reach) || outside(root.pos + dir * reach)
-        {
-            return true;
+        WakePath {
+            pos: root.pos,
+            heading: root.heading,
+            pitch: root.pitch,
+            reach: (2.0 * l).max(speed * self.lod.wall_lookahead)
+                + speed * until_due as f32 * TICK_DT,
+            inner_min: tank.min + margin,
+            inner_max: tank.max - margin,
         }
-        // A rock anywhere along the path (a far lookahead can step over one).
-        self.state.obstacles.iter().any(|o| {
-            let along = (o.pos - root.pos).dot(dir).clamp(0.0, reach);
-            o.pos.distance_squared(root.pos + dir * along) <= o.radius * o.radius
-        })
     }
 
     /// Whether another fish's centre lies within [`COLLISION_LENGTHS`] of dense fish `d`'s
@@ -593,5 +630,116 @@ impl World {
                 .foods
                 .iter()
                 .any(|(_, p)| !p.eaten && p.pos.distance_squared(root.pos) <= r2)
+    }
+}
+
+/// Where a slow fish is headed for the wall and rock wakes ([`World::obstacle_near`]): from
+/// `pos`, `reach` along its heading (level, for the side walls) and along its heading and
+/// pitch (for the floor, the surface and rocks), inside the tank shrunk by the wall margin.
+#[derive(Clone, Copy, Debug)]
+struct WakePath {
+    pos: Vec3,
+    heading: f32,
+    pitch: f32,
+    reach: f32,
+    inner_min: Vec3,
+    inner_max: Vec3,
+}
+
+impl WakePath {
+    /// Whether `p` lies outside the shrunk tank.
+    fn outside(&self, p: Vec3) -> bool {
+        p.cmplt(self.inner_min).any() || p.cmpgt(self.inner_max).any()
+    }
+
+    /// Whether the path cannot reach a wall or a rock, known without its direction: the box of
+    /// `reach` around `pos` lies inside the shrunk tank and every rock is farther than `reach`
+    /// beyond its radius. Each component of a unit direction is at most 1 and rounding is
+    /// monotonic, so `pos + dir * reach` lies between `pos - reach` and `pos + reach` as
+    /// computed here: when this is true, [`WakePath::hits`] is false. Most fish are far from
+    /// every wall and rock, and this spares them the sines and cosines.
+    fn clear(&self, obstacles: &[Obstacle]) -> bool {
+        let reach = Vec3::splat(self.reach);
+        !self.outside(self.pos - reach)
+            && !self.outside(self.pos + reach)
+            && obstacles
+                .iter()
+                .all(|o| far_apart(o.pos, self.pos, self.reach + o.radius))
+    }
+
+    /// Whether the path's end, level or pitched, lies outside the shrunk tank, or a rock lies
+    /// on the pitched path (a far lookahead can step over one). The shipped behaviours look
+    /// for side walls level, along the heading alone; the pitched direction finds the floor
+    /// and surface. The tank is a box: a path stays inside when both of its ends do.
+    fn hits(&self, obstacles: &[Obstacle]) -> bool {
+        let dir = forward(self.heading, self.pitch);
+        if self.outside(self.pos + forward(self.heading, 0.0) * self.reach)
+            || self.outside(self.pos + dir * self.reach)
+        {
+            return true;
+        }
+        obstacles.iter().any(|o| {
+            let along = (o.pos - self.pos).dot(dir).clamp(0.0, self.reach);
+            o.pos.distance_squared(self.pos + dir * along) <= o.radius * o.radius
+        })
+    }
+}
+
+/// Whether `a` and `b` are more than `distance` apart with room to spare (a thousandth of it
+/// plus a hundredth of a unit, far wider than single-precision rounding): a rock of radius
+/// `r` this far beyond `reach + r` from a fish cannot be touched by any point of its path,
+/// however the path's points are rounded.
+fn far_apart(a: Vec3, b: Vec3, distance: f32) -> bool {
+    let margin = distance * 1.001 + 0.01;
+    a.distance_squared(b) > margin * margin
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::super::test_world::random_scene_sized;
+    use super::*;
+
+    /// The cheap check never clears a path the full check finds blocked, over fish at random
+    /// positions, headings, pitches and speeds in a tank with rocks, for several lookaheads and
+    /// times until due; and both answers occur, so the check is exercised.
+    #[test]
+    fn a_path_cleared_without_its_direction_hits_nothing() {
+        let (mut cleared, mut hit) = (0, 0);
+        for seed in 0..4 {
+            let mut scene = random_scene_sized(seed, 600, Vec3::new(40.0, 16.0, 16.0));
+            let l = scene.l;
+            for k in 0..12 {
+                let c = Vec3::new(3.0 + 3.0 * k as f32, 8.0, 4.0 + (k % 3) as f32 * 4.0) * l;
+                scene.world.add_obstacle(c, (0.3 + 0.1 * k as f32) * l);
+            }
+            let world = &mut scene.world;
+            for lookahead in [0.0, 2.5, 6.0] {
+                world.lod.wall_lookahead = lookahead;
+                for d in 0..world.state.fish.len() {
+                    for until_due in [0, 5, 23] {
+                        let path = world.wake_path(d, until_due);
+                        let obstacles = &world.state.obstacles;
+                        let hits = path.hits(obstacles);
+                        if path.clear(obstacles) {
+                            cleared += 1;
+                            assert!(!hits, "fish {d}: cleared, but {path:?} hits");
+                        }
+                        hit += usize::from(hits);
+                    }
+                }
+            }
+        }
+        assert!(cleared > 1000 && hit > 1000, "cleared {cleared}, hit {hit}");
+    }
+
+    /// A rock is far from a point exactly when it is beyond the distance, with a margin.
+    #[test]
+    fn far_apart_keeps_a_margin() {
+        let a = Vec3::new(100.0, 0.0, 0.0);
+        assert!(!far_apart(a, Vec3::ZERO, 100.0));
+        assert!(!far_apart(a, Vec3::ZERO, 99.95));
+        assert!(far_apart(a, Vec3::ZERO, 99.0));
     }
 }

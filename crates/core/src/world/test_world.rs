@@ -26,6 +26,11 @@ pub fn bits(s: &Steer) -> [u32; 3] {
 /// pitches and speeds in a 10 × 5 × 5 body-length tank, a few on top of each other; 40 food
 /// pellets (some eaten) and three rocks; the grid rebuilt.
 pub fn random_scene(seed: u64, fish: usize) -> Scene {
+    random_scene_sized(seed, fish, Vec3::new(10.0, 5.0, 5.0))
+}
+
+/// [`random_scene`] in a tank of `lengths` body lengths.
+pub fn random_scene_sized(seed: u64, fish: usize, lengths: Vec3) -> Scene {
     let assets = crate::source_root().join("assets");
     let porgy = Species::load(SpeciesDesc::black_porgy(), &assets).expect("shipped porgy");
     let l = porgy.body_length();
@@ -38,7 +43,7 @@ pub fn random_scene(seed: u64, fish: usize) -> Scene {
     shark.desc.view_angle_deg = 200.0;
     let tank = Tank {
         min: Vec3::ZERO,
-        max: Vec3::new(10.0 * l, 5.0 * l, 5.0 * l),
+        max: lengths * l,
     };
     let mut world = World::new(tank, seed);
     let species = [

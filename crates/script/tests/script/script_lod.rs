@@ -428,6 +428,73 @@ fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
     }
 }
 
+/// A predator that comes into a slow fish's view wakes it at once, by the fish's own view range:
+/// a porgy (300 units) 280 units away is woken and one 340 away is not; a keener-eyed species
+/// (450) 420 units away is woken too, farther than any porgy could see; another barracuda is
+/// not (a predator alarms only other species).
+#[test]
+fn test_a_predator_coming_into_view_wakes_the_fish_that_see_it() {
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.set_lod_on(true);
+    let mut desc = shoal_core::world::SpeciesDesc::black_porgy();
+    desc.name = "keen".into();
+    desc.view_range = 450.0;
+    let keen = shoal_core::world::Species::load(desc, &common::repo().join("assets")).unwrap();
+    sim.add_species(keen, 10.0);
+    let near = still(&mut sim, Vec3::new(-280.0, 200.0, 0.0));
+    let beyond = still(&mut sim, Vec3::new(-340.0, 200.0, 0.0));
+    let keen = sim
+        .spawn(
+            "keen",
+            Vec3::new(-420.0, 200.0, 0.0),
+            0.0,
+            0.0,
+            Some(0.0),
+            Some("probe"),
+        )
+        .unwrap();
+    let kin = sim
+        .spawn(
+            "barracuda",
+            Vec3::new(0.0, 200.0, 200.0),
+            0.0,
+            0.0,
+            Some(0.0),
+            Some("probe"),
+        )
+        .unwrap();
+    // In the last band slot k decides on the ticks ≡ −k (mod 24): slot 0 on ticks 0 and 24,
+    // the others once by tick 23. At tick 30 none is due and each has been idle at least a
+    // base period (6 ticks), so each may be woken.
+    for _ in 0..30 {
+        sim.step();
+    }
+    let before: Vec<u64> = [near, beyond, keen, kin]
+        .iter()
+        .map(|&id| decisions(&sim, id))
+        .collect();
+    assert_eq!(before, [2, 1, 1, 1]);
+    sim.spawn(
+        "barracuda",
+        Vec3::new(0.0, 200.0, 0.0),
+        0.0,
+        0.0,
+        Some(0.0),
+        None,
+    )
+    .unwrap();
+    // The grid as a tick leaves it, so the schedule marks the fish around the predator from
+    // its grid query rather than scanning each fish.
+    sim.world_mut().rebuild_grid();
+    sim.step();
+    let after: Vec<u64> = [near, beyond, keen, kin]
+        .iter()
+        .map(|&id| decisions(&sim, id))
+        .collect();
+    assert_eq!(after, [3, 1, 2, 1], "near, beyond, keen, kin");
+    assert_eq!(sim.world().lod_counts().woken, 2);
+}
+
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
 /// a load error that names the file and the field.
 #[test]
