@@ -54,6 +54,12 @@ fn porgy_length(sim: &Simulation) -> f32 {
         .body_length()
 }
 
+/// A still fish of `species` (speed 0, heading +x) at `pos`, running `behavior`.
+fn still_of(sim: &mut Simulation, species: &str, pos: Vec3, behavior: Option<&str>) -> FishId {
+    sim.spawn(species, pos, 0.0, 0.0, Some(0.0), behavior)
+        .unwrap()
+}
+
 /// A fish running `probe` at `pos`, heading `heading` (radians, pitch 0) at `speed`.
 fn swimming(sim: &mut Simulation, pos: Vec3, heading: f32, speed: f32) -> FishId {
     sim.spawn("black_porgy", pos, heading, 0.0, Some(speed), Some("probe"))
@@ -443,55 +449,32 @@ fn test_a_predator_coming_into_view_wakes_the_fish_that_see_it() {
     sim.add_species(keen, 10.0);
     let near = still(&mut sim, Vec3::new(-280.0, 200.0, 0.0));
     let beyond = still(&mut sim, Vec3::new(-340.0, 200.0, 0.0));
-    let keen = sim
-        .spawn(
-            "keen",
-            Vec3::new(-420.0, 200.0, 0.0),
-            0.0,
-            0.0,
-            Some(0.0),
-            Some("probe"),
-        )
-        .unwrap();
-    let kin = sim
-        .spawn(
-            "barracuda",
-            Vec3::new(0.0, 200.0, 200.0),
-            0.0,
-            0.0,
-            Some(0.0),
-            Some("probe"),
-        )
-        .unwrap();
+    let keen = still_of(
+        &mut sim,
+        "keen",
+        Vec3::new(-420.0, 200.0, 0.0),
+        Some("probe"),
+    );
+    let kin = still_of(
+        &mut sim,
+        "barracuda",
+        Vec3::new(0.0, 200.0, 200.0),
+        Some("probe"),
+    );
+    let counts = |sim: &Simulation| [near, beyond, keen, kin].map(|id| decisions(sim, id));
     // In the last band slot k decides on the ticks ≡ −k (mod 24): slot 0 on ticks 0 and 24,
     // the others once by tick 23. At tick 30 none is due and each has been idle at least a
     // base period (6 ticks), so each may be woken.
     for _ in 0..30 {
         sim.step();
     }
-    let before: Vec<u64> = [near, beyond, keen, kin]
-        .iter()
-        .map(|&id| decisions(&sim, id))
-        .collect();
-    assert_eq!(before, [2, 1, 1, 1]);
-    sim.spawn(
-        "barracuda",
-        Vec3::new(0.0, 200.0, 0.0),
-        0.0,
-        0.0,
-        Some(0.0),
-        None,
-    )
-    .unwrap();
+    assert_eq!(counts(&sim), [2, 1, 1, 1]);
+    still_of(&mut sim, "barracuda", Vec3::new(0.0, 200.0, 0.0), None);
     // The grid as a tick leaves it, so the schedule marks the fish around the predator from
     // its grid query rather than scanning each fish.
     sim.world_mut().rebuild_grid();
     sim.step();
-    let after: Vec<u64> = [near, beyond, keen, kin]
-        .iter()
-        .map(|&id| decisions(&sim, id))
-        .collect();
-    assert_eq!(after, [3, 1, 2, 1], "near, beyond, keen, kin");
+    assert_eq!(counts(&sim), [3, 1, 2, 1], "near, beyond, keen, kin");
     assert_eq!(sim.world().lod_counts().woken, 2);
 }
 
