@@ -427,7 +427,8 @@ fn print_row(r: &SimBenchResult, header: bool, driver: Driver) {
 }
 
 /// The decisions a tick made, per level-of-detail band: `10000 fish: 1001.3 decisions/tick
-/// (level of detail on: band 1 120.0, band 2 300.5, band 3 580.8; 12.4 woken by events)`.
+/// (level of detail on: band 1 120.0, band 2 300.5, band 3 580.8; 12.4 woken by events: 3.1 by
+/// a predator or pellet in view, …)`.
 fn print_decisions(r: &SimBenchResult) {
     let bands = r
         .band_decisions_per_tick
@@ -438,8 +439,15 @@ fn print_decisions(r: &SimBenchResult) {
         .join(", ");
     if r.lod {
         println!(
-            "{} fish: {:.1} decisions/tick (level of detail on: {bands}; {:.1} woken by events)",
-            r.fish, r.decisions_per_tick, r.woken_per_tick
+            "{} fish: {:.1} decisions/tick (level of detail on: {bands}; {:.1} woken by events: \
+             {:.1} by a predator or pellet in view, {:.1} by a wall or rock, {:.1} by a \
+             neighbour within half a body length)",
+            r.fish,
+            r.decisions_per_tick,
+            r.woken_per_tick,
+            r.woken_by_per_tick.seen,
+            r.woken_by_per_tick.obstacle,
+            r.woken_by_per_tick.neighbour
         );
     } else {
         println!(

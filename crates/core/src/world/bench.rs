@@ -11,7 +11,9 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use super::{Behavior, Pipeline, SpawnParams, Species, StageCounters, Tank, World, WorldError};
+use super::{
+    Behavior, Pipeline, SpawnParams, Species, StageCounters, Tank, WokenBy, World, WorldError,
+};
 
 /// Body lengths³ of water per fish in [`bench_world`]: the density stays the same at every fish
 /// count, so cost per fish is comparable across counts.
@@ -133,6 +135,8 @@ pub struct SimBenchResult {
     pub band_decisions_per_tick: Vec<f64>,
     /// Of the decisions per tick, how many an event woke (mean).
     pub woken_per_tick: f64,
+    /// Those, by what woke them (means per tick).
+    pub woken_by_per_tick: WokenBy<f64>,
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -157,6 +161,7 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
     let mut stages: Vec<StageCounters> = Vec::with_capacity(ticks);
     let mut bands = [0u64; super::lod::MAX_BANDS];
     let (mut woken, mut num_bands) = (0u64, 0usize);
+    let mut woken_by = WokenBy::<u64>::default();
     for _ in 0..ticks {
         let start = Instant::now();
         sim.tick();
@@ -167,6 +172,9 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
             *b += u64::from(n);
         }
         woken += u64::from(lod.woken);
+        woken_by.seen += u64::from(lod.woken_by.seen);
+        woken_by.obstacle += u64::from(lod.woken_by.obstacle);
+        woken_by.neighbour += u64::from(lod.woken_by.neighbour);
         num_bands = num_bands.max(usize::from(lod.bands));
     }
     let per_tick = |n: u64| n as f64 / ticks.max(1) as f64;
@@ -234,6 +242,11 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
         lod: world.lod().on,
         band_decisions_per_tick: bands[..num_bands].iter().map(|&n| per_tick(n)).collect(),
         woken_per_tick: per_tick(woken),
+        woken_by_per_tick: WokenBy {
+            seen: per_tick(woken_by.seen),
+            obstacle: per_tick(woken_by.obstacle),
+            neighbour: per_tick(woken_by.neighbour),
+        },
     }
 }
 

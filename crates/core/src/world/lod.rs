@@ -232,8 +232,21 @@ pub struct LodCounts {
     pub decisions: [u32; MAX_BANDS],
     /// Decisions an event caused (fish that were not due by their band).
     pub woken: u32,
+    /// Of those, what woke them (the first of the checks, in this order, that held).
+    pub woken_by: WokenBy<u32>,
     /// Bands in use.
     pub bands: u8,
+}
+
+/// What woke slow fish (see the module docs), per cause.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct WokenBy<T> {
+    /// A predator of another species or a pellet came into view.
+    pub seen: T,
+    /// Contact, or a wall, the floor, the surface or a rock near or ahead.
+    pub obstacle: T,
+    /// Another fish within half a body length.
+    pub neighbour: T,
 }
 
 impl LodCounts {
@@ -243,6 +256,12 @@ impl LodCounts {
     }
 }
 
+/// What woke a fish, in its entry of a tick's schedule (with [`WOKEN`]).
+const BY_SEEN: u8 = 0x08;
+const BY_OBSTACLE: u8 = 0x10;
+const BY_NEIGHBOUR: u8 = 0x20;
+/// The `1 + band` part of an entry (bands ≤ [`MAX_BANDS`] fit in three bits).
+const BAND_BITS: u8 = 0x07;
 /// One fish's entry of a tick's schedule: 0 not due, else `1 + band` (+ [`WOKEN`] if an event
 /// woke it).
 const WOKEN: u8 = 0x80;
@@ -355,13 +374,16 @@ impl World {
                     // The ticks until it is next due: how far it swims on its last request before
                     // it decides again.
                     let until_due = p - phase % p;
-                    if (alert && !f.alerted[d])
-                        || world.obstacle_near(d, until_due)
-                        || (phase.is_multiple_of(base) && world.crowded(d))
-                    {
-                        return (1 + band as u8) | WOKEN | alert_bit;
-                    }
-                    0
+                    let by = if alert && !f.alerted[d] {
+                        BY_SEEN
+                    } else if world.obstacle_near(d, until_due) {
+                        BY_OBSTACLE
+                    } else if phase.is_multiple_of(base) && world.crowded(d) {
+                        BY_NEIGHBOUR
+                    } else {
+                        return 0;
+                    };
+                    (1 + band as u8) | WOKEN | by | alert_bit
                 },
             ));
         }
@@ -380,9 +402,13 @@ impl World {
             if m == 0 {
                 continue;
             }
-            let band = usize::from((m & !(WOKEN | ALERT)) - 1);
+            let band = usize::from((m & BAND_BITS) - 1);
             counts.decisions[band] += 1;
             counts.woken += u32::from(m & WOKEN != 0);
+            let by = &mut counts.woken_by;
+            by.seen += u32::from(m & BY_SEEN != 0);
+            by.obstacle += u32::from(m & BY_OBSTACLE != 0);
+            by.neighbour += u32::from(m & BY_NEIGHBOUR != 0);
             f.last_decided[d] = tick;
             f.alerted[d] = m & ALERT != 0;
             out.push((f.ids[d], f.species[d]));

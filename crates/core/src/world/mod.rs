@@ -65,7 +65,7 @@ pub use contact::{drift, resolve_contact};
 pub use crowd::{CROWD_NEAREST, Crowd};
 pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
-pub use lod::{Lod, LodBand, LodCounts, LodError};
+pub use lod::{Lod, LodBand, LodCounts, LodError, WokenBy};
 pub use registry::Species;
 pub use state::{EATEN_HISTORY, FoodDrops, WorldState, random_point};
 pub use tick::{Behavior, Pipeline, TICK_DT, step};

@@ -7,7 +7,7 @@ use crate::common;
 use std::path::Path;
 
 use glam::Vec3;
-use shoal_core::world::{FishId, Lod, LodBand};
+use shoal_core::world::{FishId, Lod, LodBand, WokenBy};
 use shoal_script::Simulation;
 use shoal_script::timeline::inputs::{Input, TimedInput};
 use shoal_script::timeline::{self, RecordSpec};
@@ -305,12 +305,17 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
     let l = porgy_length(&sim);
     let walled = still(&mut sim, Vec3::new(500.0 - l, 200.0, 0.0));
     let free = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
+    let mut woken_by_walls = 0;
     for _ in 0..48 {
         sim.step();
+        let by = sim.world().lod_counts().woken_by;
+        assert_eq!((by.seen, by.neighbour), (0, 0));
+        woken_by_walls += by.obstacle;
     }
-    // Woken each base period (every 6 ticks), not every tick.
+    // Woken each base period (every 6 ticks), not every tick: 8 decisions, 2 of them due.
     assert_eq!(decisions(&sim, walled), 8);
     assert_eq!(decisions(&sim, free), 2);
+    assert_eq!(woken_by_walls, 6);
 }
 
 /// A still fish beside a side wall, heading along it (nothing straight ahead), is woken each
@@ -419,8 +424,13 @@ fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
             still(&mut sim, Vec3::new(100.0, 200.0, 0.0)),
             still(&mut sim, Vec3::new(100.0, 200.0, 0.7 * l)),
         ];
+        let mut by = WokenBy::default();
         for _ in 0..48 {
             sim.step();
+            let now = sim.world().lod_counts().woken_by;
+            by.seen += now.seen;
+            by.obstacle += now.obstacle;
+            by.neighbour += now.neighbour;
         }
         // Slot 0 decides on ticks 0, 6, … 42; slot 1 would on 5, 11, … 47, but a fish is woken
         // only once it has been idle a whole base period (tick 5 is too early).
@@ -431,6 +441,13 @@ fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
         for id in apart {
             assert_eq!(decisions(&sim, id), 2, "wake {wake}: {id:?}");
         }
+        // Of the close pair's 15 decisions, 4 were due (ticks 0, 24 and 23, 47): their
+        // neighbour woke the other 11.
+        assert_eq!(
+            (by.seen, by.obstacle, by.neighbour),
+            (0, 0, if wake { 11 } else { 0 }),
+            "wake {wake}"
+        );
     }
 }
 
@@ -476,6 +493,14 @@ fn test_a_predator_coming_into_view_wakes_the_fish_that_see_it() {
     sim.step();
     assert_eq!(counts(&sim), [3, 1, 2, 1], "near, beyond, keen, kin");
     assert_eq!(sim.world().lod_counts().woken, 2);
+    assert_eq!(
+        sim.world().lod_counts().woken_by,
+        WokenBy {
+            seen: 2,
+            obstacle: 0,
+            neighbour: 0
+        }
+    );
 }
 
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
