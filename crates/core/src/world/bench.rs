@@ -172,9 +172,7 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
             *b += u64::from(n);
         }
         woken += u64::from(lod.woken);
-        woken_by.seen += u64::from(lod.woken_by.seen);
-        woken_by.obstacle += u64::from(lod.woken_by.obstacle);
-        woken_by.neighbour += u64::from(lod.woken_by.neighbour);
+        woken_by.add(lod.woken_by);
         num_bands = num_bands.max(usize::from(lod.bands));
     }
     let per_tick = |n: u64| n as f64 / ticks.max(1) as f64;
@@ -242,11 +240,7 @@ pub fn measure<B: Behavior>(sim: &mut Pipeline<B>, warmup: usize, ticks: usize) 
         lod: world.lod().on,
         band_decisions_per_tick: bands[..num_bands].iter().map(|&n| per_tick(n)).collect(),
         woken_per_tick: per_tick(woken),
-        woken_by_per_tick: WokenBy {
-            seen: per_tick(woken_by.seen),
-            obstacle: per_tick(woken_by.obstacle),
-            neighbour: per_tick(woken_by.neighbour),
-        },
+        woken_by_per_tick: woken_by.map(per_tick),
     }
 }
 

@@ -249,6 +249,26 @@ pub struct WokenBy<T> {
     pub neighbour: T,
 }
 
+impl<T: std::ops::AddAssign + From<u32>> WokenBy<T> {
+    /// Adds one tick's counts.
+    pub fn add(&mut self, tick: WokenBy<u32>) {
+        self.seen += T::from(tick.seen);
+        self.obstacle += T::from(tick.obstacle);
+        self.neighbour += T::from(tick.neighbour);
+    }
+}
+
+impl<T> WokenBy<T> {
+    /// Each count through `f`.
+    pub fn map<U>(self, mut f: impl FnMut(T) -> U) -> WokenBy<U> {
+        WokenBy {
+            seen: f(self.seen),
+            obstacle: f(self.obstacle),
+            neighbour: f(self.neighbour),
+        }
+    }
+}
+
 impl LodCounts {
     /// Decisions in all bands.
     pub fn total(&self) -> u32 {
@@ -485,37 +505,33 @@ impl World {
             return;
         }
         alert.resize_with(f.len(), || AtomicBool::new(false));
-        let species = &self.catalog.species;
-        let reach = species
+        // Each species' view range, 0 for one that sees nothing (not finite, not positive).
+        let sight: Vec<f32> = self
+            .catalog
+            .species
             .iter()
             .map(|s| s.desc.view_range)
-            .filter(|r| r.is_finite() && *r > 0.0)
-            .fold(0.0f32, f32::max);
+            .map(|r| if r.is_finite() && r > 0.0 { r } else { 0.0 })
+            .collect();
+        let farthest = |except: Option<usize>| {
+            sight
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| Some(*k) != except)
+                .fold(0.0f32, |m, (_, r)| m.max(*r))
+        };
+        let reach = farthest(None);
         if reach <= 0.0 {
             return;
         }
         let view2 = |d: usize| {
-            let r = species[usize::from(f.species[d].0)].desc.view_range;
-            if r.is_finite() && r > 0.0 {
-                r * r
-            } else {
-                -1.0
-            }
+            let r = sight[usize::from(f.species[d].0)];
+            if r > 0.0 { r * r } else { -1.0 }
         };
         // A predator alerts only fish of other species: it looks as far as the farthest-seeing
         // of those (the barracuda sees twice as far as the porgies it hunts, so its own range
         // would visit eight times the fish).
-        let reach_of_others: Vec<f32> = (0..species.len())
-            .map(|own| {
-                species
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, _)| *k != own)
-                    .map(|(_, s)| s.desc.view_range)
-                    .filter(|r| r.is_finite() && *r > 0.0)
-                    .fold(0.0f32, f32::max)
-            })
-            .collect();
+        let reach_of_others: Vec<f32> = (0..sight.len()).map(|own| farthest(Some(own))).collect();
         let alert = &alert[..];
         let grid = &self.index.grid;
         self.index

@@ -424,13 +424,10 @@ fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
             still(&mut sim, Vec3::new(100.0, 200.0, 0.0)),
             still(&mut sim, Vec3::new(100.0, 200.0, 0.7 * l)),
         ];
-        let mut by = WokenBy::default();
+        let mut by = WokenBy::<u32>::default();
         for _ in 0..48 {
             sim.step();
-            let now = sim.world().lod_counts().woken_by;
-            by.seen += now.seen;
-            by.obstacle += now.obstacle;
-            by.neighbour += now.neighbour;
+            by.add(sim.world().lod_counts().woken_by);
         }
         // Slot 0 decides on ticks 0, 6, … 42; slot 1 would on 5, 11, … 47, but a fish is woken
         // only once it has been idle a whole base period (tick 5 is too early).
