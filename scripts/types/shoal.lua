@@ -397,11 +397,13 @@ function shoal.avoid_walls(margin, speed) end
 
 ---The crowding rules of a school in one pass over the neighbours: separation from any fish within
 ---`sep_radius`, alignment with and cohesion towards fish of the same species within `ali_radius`
----and `coh_radius`, mixed with the given weights. Only the `nearest` fish (any species, nearest
----first, ties by id) within the widest radius count: nil = 24 (schools follow a fixed number of
----neighbours, six to seven in starlings; the cost stays flat in dense schools), a whole number
----≥ 1, or "all" for every fish in range — then the same as shoal.blend of shoal.separation,
----shoal.alignment and shoal.cohesion. nil when no neighbour is in range.
+---and `coh_radius`, mixed with the given weights. nil `nearest`: every fish within the radii —
+---the same as shoal.blend of shoal.separation, shoal.alignment and shoal.cohesion — except where
+---the neighbourhood is packed (more than 1,024 fish in the grid cells within the widest radius):
+---there alignment and cohesion take an even sample of at most 1,024 of them, so the cost stays
+---bounded (separation always takes every fish). A whole number ≥ 1: only the nearest that many
+---(any species, nearest first, ties by id; starlings follow six to seven). "all": every fish
+---however many. nil when no neighbour is in range.
 ---@param sep_radius number
 ---@param sep_weight number
 ---@param ali_radius number

@@ -62,7 +62,7 @@ use pose::buffers::PoseBuffers;
 pub use crate::skin::FishModel;
 pub use crate::species::{SpeciesDesc, SpeciesRig};
 pub use contact::{drift, resolve_contact};
-pub use crowd::{CROWD_NEAREST, Crowd};
+pub use crowd::{CROWD_DENSE, CROWD_NEAREST, CROWD_SAMPLE, Crowd};
 pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
 pub use lod::{Lod, LodBand, LodCounts, LodError, WokenBy};

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use mlua::{Lua, Table, Value, Variadic};
-use shoal_core::world::CROWD_NEAREST;
+use shoal_core::world::{CROWD_DENSE, CROWD_NEAREST};
 
 use super::*;
 
@@ -121,20 +121,36 @@ pub(super) fn register_steering(lua: &Lua, shoal: &Table) -> mlua::Result<()> {
     Ok(())
 }
 
-/// `shoal.crowd`'s `nearest` argument: how many neighbours it takes (`None`: all). nil means
-/// [`CROWD_NEAREST`]; otherwise a whole number ≥ 1 or the string `"all"`.
-fn crowd_nearest(v: &Value) -> mlua::Result<Option<usize>> {
+/// Which neighbours `shoal.crowd` takes (its `nearest` argument).
+#[derive(Clone, Copy)]
+enum CrowdOf {
+    /// nil: every fish within the radii, sampled for alignment and cohesion where the
+    /// neighbourhood is dense ([`World::steer_crowd_bounded`]).
+    Bounded,
+    /// `"all"`: every fish within the radii, however many ([`World::steer_crowd`]).
+    All,
+    /// A whole number ≥ 1: the nearest that many ([`World::steer_crowd_nearest`]).
+    Nearest(usize),
+}
+
+/// `shoal.crowd`'s `nearest` argument: nil, a whole number ≥ 1 or the string `"all"`.
+fn crowd_of(v: &Value) -> mlua::Result<CrowdOf> {
     let bad = |shown: String| {
         rt(format!(
-            "shoal.crowd: nearest is {shown}: must be a whole number of neighbours (1 or more), \
-             \"all\", or nil for the default {CROWD_NEAREST}"
+            "shoal.crowd: nearest is {shown}: must be a whole number of neighbours (1 or more, \
+             e.g. {CROWD_NEAREST}), \"all\", or nil for every fish within the radii (sampled \
+             where more than {CROWD_DENSE} are near)"
         ))
     };
     match v {
-        Value::Nil => Ok(Some(CROWD_NEAREST)),
-        Value::Integer(n) if *n >= 1 => Ok(Some(usize::try_from(*n).unwrap_or(usize::MAX))),
-        Value::Number(x) if x.fract() == 0.0 && *x >= 1.0 && x.is_finite() => Ok(Some(*x as usize)),
-        Value::String(s) if s.as_bytes().as_ref() == b"all" => Ok(None),
+        Value::Nil => Ok(CrowdOf::Bounded),
+        Value::Integer(n) if *n >= 1 => {
+            Ok(CrowdOf::Nearest(usize::try_from(*n).unwrap_or(usize::MAX)))
+        }
+        Value::Number(x) if x.fract() == 0.0 && *x >= 1.0 && x.is_finite() => {
+            Ok(CrowdOf::Nearest(*x as usize))
+        }
+        Value::String(s) if s.as_bytes().as_ref() == b"all" => Ok(CrowdOf::All),
         Value::Integer(n) => Err(bad(n.to_string())),
         Value::Number(x) => Err(bad(x.to_string())),
         Value::String(s) => Err(bad(format!("{:?}", s.to_string_lossy()))),
@@ -225,14 +241,17 @@ pub(super) fn register_crowding(lua: &Lua, shoal: &Table) -> mlua::Result<()> {
                 Option<f32>,
                 Value,
             )| {
-                let nearest = crowd_nearest(&nearest)?;
+                let of = crowd_of(&nearest)?;
                 with_ctx(lua, "crowd", |w, fish, ctx| {
                     let s = speed.unwrap_or_else(|| cruise_and_length(w, fish).0);
                     let rs = finite_arg("crowd", "separation radius", rs)?;
                     let ra = finite_arg("crowd", "alignment radius", ra)?;
                     let rc = finite_arg("crowd", "cohesion radius", rc)?;
-                    let crowd = timed(ctx, || {
-                        w.steer_crowd_nearest(fish, [rs, ra, rc], s, nearest)
+                    let radii = [rs, ra, rc];
+                    let crowd = timed(ctx, || match of {
+                        CrowdOf::Bounded => w.steer_crowd_bounded(fish, radii, s),
+                        CrowdOf::All => w.steer_crowd(fish, rs, ra, rc, s),
+                        CrowdOf::Nearest(k) => w.steer_crowd_nearest(fish, radii, s, Some(k)),
                     });
                     let (sep, ali, coh) = crowd
                         .map(|c| (c.separation, c.alignment, c.cohesion))

@@ -372,8 +372,8 @@ fn test_crowd_is_the_blend_of_the_three_rules() {
         bad.contains("shoal.crowd: separation radius is NaN"),
         "{bad}"
     );
-    // Five neighbours: the default (the nearest 24) and "all" take them all; the nearest 2
-    // leave out the others' pull.
+    // Five neighbours: the default (every fish, unsampled at this density) and "all" take them
+    // all; the nearest 2 leave out the others' pull.
     assert_eq!(m["all"], m["crowd"], "{m}");
     let two = m["two"].as_array().unwrap();
     assert!(
@@ -390,6 +390,65 @@ fn test_crowd_is_the_blend_of_the_three_rules() {
             "{b}"
         );
     }
+}
+
+/// In a packed school `shoal.crowd`'s default samples alignment and cohesion (its answer is
+/// not "all"'s, bit for bit) and stays close to every fish's answer, unlike the nearest few;
+/// the same call on the same world gives the same answer.
+#[test]
+fn test_crowd_samples_a_packed_school_and_stays_close_to_all() {
+    let (_d, mut sim) = probe(
+        "return { tick = function(fish)\n  local m = fish.memory\n  m.crowd = { shoal.crowd(50, 1, 200, 2, 300, 1) }\n  m.again = { shoal.crowd(50, 1, 200, 2, 300, 1) }\n  m.all = { shoal.crowd(50, 1, 200, 2, 300, 1, nil, \"all\") }\n  m.few = { shoal.crowd(50, 1, 200, 2, 300, 1, nil, 6) }\nend }\n",
+    );
+    let centre = Vec3::new(0.0, 300.0, 0.0);
+    let id = spawn(&mut sim, centre, 0.0, "probe");
+    // 1,500 porgies within 100 units of the probe (about 30 a cubic body length), heading
+    // roughly +x, the school's centre off to one side.
+    let (mut k, mut spawned) = (0u32, 0);
+    while spawned < 1500 {
+        let h = |n: u32, m: u32| ((n.wrapping_mul(2_654_435_761) >> 8) % m) as f32 / m as f32;
+        let p = Vec3::new(h(k, 997), h(k + 7, 991), h(k + 13, 983)) * 2.0 - Vec3::ONE;
+        k += 1;
+        if p.length() > 1.0 {
+            continue;
+        }
+        spawned += 1;
+        let pos = centre + p * 100.0 + Vec3::new(40.0, 0.0, 0.0);
+        sim.spawn(
+            "black_porgy",
+            pos,
+            0.4 * (h(k, 89) - 0.5),
+            0.0,
+            Some(0.0),
+            Some("probe"),
+        )
+        .unwrap();
+    }
+    // Every fish runs the probe (so crowd queries are made every tick, and the grid keeps its
+    // crowding columns); the probe fish decides again six ticks later.
+    for _ in 0..7 {
+        sim.step();
+    }
+    let m = mem(&sim, id);
+    let heading = |key: &str| m[key][0].as_f64().unwrap_or_else(|| panic!("{key}: {m}"));
+    let turn = |a: f64, b: f64| {
+        let d = (a - b).rem_euclid(std::f64::consts::TAU);
+        d.min(std::f64::consts::TAU - d)
+    };
+    assert_eq!(m["crowd"], m["again"], "{m}");
+    assert_ne!(m["crowd"], m["all"], "the default sampled nothing: {m}");
+    let (sampled, few) = (
+        turn(heading("crowd"), heading("all")),
+        turn(heading("few"), heading("all")),
+    );
+    assert!(
+        sampled < 0.1,
+        "the sample turned {sampled} rad from every fish's answer: {m}"
+    );
+    assert!(
+        few > sampled,
+        "the nearest 6 ({few} rad) closer than the sample ({sampled}): {m}"
+    );
 }
 
 #[test]

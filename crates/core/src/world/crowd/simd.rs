@@ -132,6 +132,30 @@ impl CrowdColumns {
         }
     }
 
+    /// Adds every `stride`-th lane group of grid slots `run` to `sums` for `query`, counting
+    /// groups across calls in `next` (groups still to skip before the next one taken; start at
+    /// 0 to take the first). Returns the slots taken.
+    #[inline]
+    pub(super) fn add_run_sampled(
+        &self,
+        run: Range<usize>,
+        query: &LaneQuery,
+        sums: &mut LaneSums,
+        stride: usize,
+        next: &mut usize,
+    ) -> usize {
+        let mut taken = 0;
+        for (g, valid) in groups_of(run) {
+            if *next == 0 {
+                sums.add(query, valid, &self.groups[g]);
+                taken += valid.to_bitmask().count_ones() as usize;
+                *next = stride;
+            }
+            *next -= 1;
+        }
+        taken
+    }
+
     /// Pushes `(squared distance bits << 32) | slot` onto `out` for each candidate of grid
     /// slots `run` within `reach2` of `query`'s centre, but the querying fish, in slot order.
     /// The squared distance is the one [`LaneSums`] tests (so `Vec3::distance_squared`'s,
@@ -178,6 +202,16 @@ impl CrowdColumns {
     #[inline]
     pub(super) fn id(&self, slot: usize) -> u32 {
         self.groups[slot / 4].id.to_array()[slot % 4]
+    }
+}
+
+/// How many lane groups hold grid slots `run` (as [`groups_of`] yields them).
+#[inline]
+pub(super) fn groups_in(run: Range<usize>) -> usize {
+    if run.start < run.end {
+        (run.end - 1) / 4 - run.start / 4 + 1
+    } else {
+        0
     }
 }
 
