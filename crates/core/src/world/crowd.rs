@@ -401,10 +401,7 @@ impl World {
         let reach2 = reach * reach;
         let columns = &self.index.crowd_columns;
         let have_columns = columns.len() == keys.len();
-        // Ask the next rebuild for the columns (a plain load first: see `crowd_sums`).
-        if !self.index.crowd_wanted.load(Ordering::Relaxed) {
-            self.index.crowd_wanted.store(true, Ordering::Relaxed);
-        }
+        self.want_crowd_columns();
         // Neighbour order: squared distance (non-negative floats order like their bits), then
         // id (from the columns, next to the position, when they are filled).
         let order = |d2: f32, slot: usize, o: usize| {
@@ -488,6 +485,15 @@ impl World {
         }
     }
 
+    /// Asks the next grid rebuild for the crowding columns (a crowd query is being made). A
+    /// plain load first: a store per query would bounce the flag's cache line between the
+    /// lanes.
+    fn want_crowd_columns(&self) {
+        if !self.index.crowd_wanted.load(Ordering::Relaxed) {
+            self.index.crowd_wanted.store(true, Ordering::Relaxed);
+        }
+    }
+
     /// [`World::steer_crowd_bounded`]'s sums, with `dense` and `sample` in place of
     /// [`CROWD_DENSE`] and [`CROWD_SAMPLE`] (tests lower them); adds the grid slots sampled for
     /// alignment and cohesion to `sampled` (0 when every fish was summed).
@@ -509,9 +515,7 @@ impl World {
             // asks the next rebuild for the columns).
             return self.crowd_sums(id, centre, radii);
         }
-        if !self.index.crowd_wanted.load(Ordering::Relaxed) {
-            self.index.crowd_wanted.store(true, Ordering::Relaxed);
-        }
+        self.want_crowd_columns();
         let species = self.state.fish.species[me];
         let r2 = radii.map(squared);
         // The unbounded scan (the same runs and lane sums as `crowd_sums`, so bitwise its
@@ -584,12 +588,9 @@ impl World {
             // first query after a rebuild without them asks the next rebuild for them and
             // meanwhile scans the grid's positions and the roots' headings (the same values).
             if self.index.crowd_columns.len() == keys.len() {
-                // Ask the next rebuild for them again (a plain load first: a store per query
-                // would bounce the flag's cache line between the lanes). Without this, every
-                // other tick's queries took the fallback below.
-                if !self.index.crowd_wanted.load(Ordering::Relaxed) {
-                    self.index.crowd_wanted.store(true, Ordering::Relaxed);
-                }
+                // Ask the next rebuild for them again. Without this, every other tick's queries
+                // took the fallback below.
+                self.want_crowd_columns();
                 let query = LaneQuery::new(centre, me, species, r2);
                 let mut lanes = LaneSums::default();
                 let columns = &self.index.crowd_columns;
@@ -599,8 +600,8 @@ impl World {
                 });
                 return Some(lanes.total());
             }
-            // No columns yet: ask the next rebuild for them (see above).
-            self.index.crowd_wanted.store(true, Ordering::Relaxed);
+            // No columns yet: ask the next rebuild for them.
+            self.want_crowd_columns();
             self.index.grid.for_each_run_within(centre, reach, |run| {
                 for slot in run {
                     let pos = positions[slot];
