@@ -1055,9 +1055,10 @@ mod tests {
         }
     }
 
-    /// A school as dense as the 100,000-fish bench's (about two fish per cubic body length),
-    /// swimming roughly one way (headings spread ±0.6 rad about a direction that turns along
-    /// x), the grid rebuilt with the crowding columns.
+    /// A packed school: two fish per cubic body length, about five times the density of the
+    /// 100,000-fish bench's schools (whose nearest neighbour of 0.76 lengths means ~0.4), so
+    /// many crowd queries pass the dense limit; swimming roughly one way (headings spread ±0.6
+    /// rad about a direction that turns along x); the grid rebuilt with the crowding columns.
     fn dense_school(seed: u64, fish: usize) -> Scene {
         let mut scene = random_scene_sized(seed, 0, Vec3::new(24.0, 12.0, 12.0));
         let (w, l) = (&mut scene.world, scene.l);
@@ -1086,8 +1087,8 @@ mod tests {
         scene
     }
 
-    /// The bounded crowd query (`shoal.crowd`'s default). With the shipped limit, in a school
-    /// as dense as the bench's densest, it is the unbounded query bit for bit wherever the
+    /// The bounded crowd query (`shoal.crowd`'s default). With the shipped limit, in a packed
+    /// school, it is the unbounded query bit for bit wherever the
     /// cells hold at most [`CROWD_DENSE`] fish and samples where they hold more. Forced to
     /// sample everywhere (a limit of 0): separation is still bitwise `steer_separation`,
     /// alignment and cohesion sum at most [`CROWD_SAMPLE`] slots — a part of the fish — and
