@@ -419,7 +419,9 @@ impl PoseArg {
     pub fn describe(self) -> &'static str {
         match self {
             PoseArg::Cpu => "pose: CPU (skeletons and palettes)",
-            PoseArg::Gpu => "pose: GPU pass (the CPU writes its records)",
+            PoseArg::Gpu => {
+                "pose: GPU pass (the motion pass writes its records: no palette column)"
+            }
         }
     }
 }

@@ -85,7 +85,16 @@ impl SpatialIndex {
     /// The grid stage: rebuilds the spatial grid from the fish's current positions (and the
     /// food grid), with cells of [`GRID_CELL_OF_VIEW`] of the longest view range among
     /// `species`, and packs what the crowding and predator scans read.
-    pub(super) fn rebuild(&mut self, state: &WorldState, species: &[Species]) {
+    ///
+    /// `headings_written`: the pass that moved the fish also wrote their heading vectors into
+    /// the crowd columns' scratch ([`crowd::CrowdColumns::headings_to_fill`]; `World::advance`),
+    /// so the columns, if wanted, do not take them again.
+    pub(super) fn rebuild(
+        &mut self,
+        state: &WorldState,
+        species: &[Species],
+        headings_written: bool,
+    ) {
         let extent = state.tank.extent().max_element();
         let view = species
             .iter()
@@ -131,7 +140,7 @@ impl SpatialIndex {
                 self.grid.positions(),
                 &self.grid_species,
                 roots.len(),
-                |k| roots[k].heading,
+                (!headings_written).then_some(|k: usize| roots[k].heading),
                 |k| state.fish.ids[k].index,
             );
         } else {

@@ -3,7 +3,7 @@
 use std::ops::Range;
 use std::time::Instant;
 
-use glam::Mat4;
+use glam::{Mat4, Vec2};
 
 use super::contact::{drift, resolve_contact};
 use super::registry::Catalog;
@@ -11,6 +11,7 @@ use super::sense::wrap_angle;
 use super::shape::derive_shape;
 use super::{FishId, MAX_DRIVEN_JOINTS, PoseMode, StageCounters, World, WorldState, pose};
 use crate::motion::RootState;
+use std::sync::atomic::Ordering;
 
 impl World {
     // ---- the Rust stages of a tick ----------------------------------------------------------
@@ -23,6 +24,44 @@ impl World {
     /// root and stops). Then the pellets sink, drift and dissolve (`World::step_food`). Timed
     /// into `motion_ns`.
     pub fn step_motion(&mut self, dt: f32) {
+        self.step_motion_writing(dt, false, false);
+    }
+
+    /// Stages 3 to 5 of a tick ([`super::tick::step`]): [`World::step_motion`], then
+    /// [`World::update_pose`], then [`World::rebuild_grid`], with the same results, in fewer
+    /// passes over the fish: the motion pass, while it has each fish at hand, also writes what
+    /// the two later stages would read of it again — in [`PoseMode::Gpu`] the fish's record for
+    /// the GPU pose pass and its anchor (the pose stage then has nothing left to do), and, while
+    /// crowd queries are being made, its heading's cosine and sine for the crowd columns. At
+    /// 100,000 fish the separate passes read every fish's motion player, root and species twice
+    /// more and took each heading's sine and cosine twice (docs/performance.md). In GPU mode the
+    /// records' time is part of `motion_ns` (`palette_ns` is 0).
+    pub fn advance(&mut self, dt: f32) {
+        if !(dt.is_finite() && dt > 0.0) {
+            self.step_motion(dt);
+            self.update_pose();
+            self.rebuild_grid();
+            return;
+        }
+        let records = self.poses_on_gpu();
+        let headings = self.index.crowd_wanted.load(Ordering::Relaxed);
+        self.step_motion_writing(dt, records, headings);
+        if records {
+            self.counters.skeleton_ns = 0;
+            self.counters.palette_ns = 0;
+        } else {
+            self.update_pose();
+        }
+        let start = Instant::now();
+        self.index
+            .rebuild(&self.state, &self.catalog.species, headings);
+        self.state.crowd_columns = self.index.crowd_columns.len() > 0;
+        self.counters.grid_ns = start.elapsed().as_nanos() as u64;
+    }
+
+    /// [`World::step_motion`], writing also the GPU pose records (`records`, GPU mode only) and
+    /// the heading vectors of the crowd columns (`headings`) as [`World::advance`] says.
+    fn step_motion_writing(&mut self, dt: f32, records: bool, headings: bool) {
         if !(dt.is_finite() && dt > 0.0) {
             return;
         }
@@ -30,7 +69,12 @@ impl World {
         // In GPU mode the pose pass samples the body's shape itself (`shaders/pose.wgsl`): the
         // players only move the roots, and the stored shapes go stale until someone asks.
         let shape_on_cpu = !self.poses_on_gpu();
-        let rejected = move_fish(&mut self.state, &self.catalog, shape_on_cpu, dt);
+        let n = self.state.fish.len();
+        let out = PassOutputs {
+            records: records.then(|| self.pose.records_to_fill(n)),
+            headings: headings.then(|| self.index.crowd_columns.headings_to_fill(n)),
+        };
+        let rejected = move_fish(&mut self.state, &self.catalog, shape_on_cpu, dt, out);
         self.pose.shapes_current = shape_on_cpu;
         if rejected > 0 {
             if self.rejected_motion_steps == 0 {
@@ -82,7 +126,8 @@ impl World {
     /// [`SpatialIndex::rebuild`]: super::index::SpatialIndex::rebuild
     pub fn rebuild_grid(&mut self) {
         let start = Instant::now();
-        self.index.rebuild(&self.state, &self.catalog.species);
+        self.index
+            .rebuild(&self.state, &self.catalog.species, false);
         self.state.crowd_columns = self.index.crowd_columns.len() > 0;
         self.counters.grid_ns = start.elapsed().as_nanos() as u64;
     }
@@ -187,54 +232,124 @@ impl World {
     }
 }
 
+/// What the motion pass also writes per fish, in dense order, while it has the fish at hand
+/// (see [`World::advance`]); each slice is one entry per fish.
+struct PassOutputs<'a> {
+    /// GPU pose records, anchors, and each fish's first palette slot (read).
+    records: Option<pose::buffers::RecordsOut<'a>>,
+    /// `crowd::heading_vector` of each fish's heading after the step.
+    headings: Option<&'a mut [Vec2]>,
+}
+
+/// Fish per task of the motion pass.
+const MOTION_CHUNK: usize = 256;
+
+/// `slice` in chunks of [`MOTION_CHUNK`] entries, or `chunks` empty places without one.
+fn chunked<T>(slice: Option<&mut [T]>, chunks: usize) -> Vec<Option<&mut [T]>> {
+    match slice {
+        Some(s) => s.chunks_mut(MOTION_CHUNK).map(Some).collect(),
+        None => std::iter::repeat_with(|| None).take(chunks).collect(),
+    }
+}
+
 /// The fish's part of the motion stage ([`World::step_motion`]): every fish's motion player,
-/// body shape (when `shape_on_cpu`), drift and contact, over both cores. Returns how many steps
-/// were discarded for non-finite values.
-fn move_fish(state: &mut WorldState, catalog: &Catalog, shape_on_cpu: bool, dt: f32) -> u64 {
+/// body shape (when `shape_on_cpu`), drift and contact, over both cores, and what `out` asks
+/// for. Returns how many steps were discarded for non-finite values.
+fn move_fish(
+    state: &mut WorldState,
+    catalog: &Catalog,
+    shape_on_cpu: bool,
+    dt: f32,
+    out: PassOutputs<'_>,
+) -> u64 {
     let (species, wave_tables) = (&catalog.species, &catalog.wave_tables);
     let tank = state.tank;
     let obstacles = &state.obstacles;
     let currents = &state.currents;
     let fish = &mut state.fish;
+    let chunks = fish.len().div_ceil(MOTION_CHUNK);
+    let (records, anchors, offsets) = match out.records {
+        Some(r) => (Some(r.records), Some(r.anchors), r.offsets),
+        None => (None, None, &[][..]),
+    };
+    let mut records = chunked(records, chunks);
+    let mut anchors = chunked(anchors, chunks);
+    let mut headings = chunked(out.headings, chunks);
     use rayon::prelude::*;
     fish.players
-        .par_iter_mut()
-        .zip(fish.roots.par_iter_mut())
-        .zip(fish.lateral.par_iter_mut())
-        .zip(fish.yaw.par_iter_mut())
-        .zip(fish.contact.par_iter_mut())
-        .zip(fish.species.par_iter())
-        .with_min_len(256)
-        .map(|(((((player, root), lateral), yaw), contact), sid)| {
-            let sp = &species[usize::from(sid.0)];
-            let before = *root;
-            // The table was built from this species' params and body when it was added or
-            // replaced (species change no other way), so it matches without a check.
-            let table = &wave_tables[usize::from(sid.0)];
-            debug_assert!(table.matches(&sp.desc.motion, &sp.rig.body));
-            let mut rejected = 0;
-            // The whole step (`MotionPlayer::step_tabled`) is these halves, bit for bit.
-            player.advance_tabled(dt, &sp.desc.motion, root);
-            if shape_on_cpu {
-                let (head, finite) = derive_shape(player, root.speed, sp, table, lateral, yaw);
-                player.set_head_shape(head);
-                rejected = u64::from(!finite);
-            }
-            if !(root.pos.is_finite()
-                && root.heading.is_finite()
-                && root.pitch.is_finite()
-                && root.speed.is_finite())
-            {
-                *root = RootState {
-                    speed: 0.0,
-                    ..before
-                };
-                rejected = 1;
-            }
-            root.heading = wrap_angle(root.heading);
-            root.pos += drift(currents, root.pos) * dt;
-            *contact = resolve_contact(root, sp.desc.motion.l, &tank, obstacles);
-            rejected
-        })
+        .par_chunks_mut(MOTION_CHUNK)
+        .zip(fish.roots.par_chunks_mut(MOTION_CHUNK))
+        .zip(fish.lateral.par_chunks_mut(MOTION_CHUNK))
+        .zip(fish.yaw.par_chunks_mut(MOTION_CHUNK))
+        .zip(fish.contact.par_chunks_mut(MOTION_CHUNK))
+        .zip(fish.species.par_chunks(MOTION_CHUNK))
+        .zip(records.par_iter_mut())
+        .zip(anchors.par_iter_mut())
+        .zip(headings.par_iter_mut())
+        .enumerate()
+        .map(
+            |(
+                c,
+                ((((((((players, roots), lateral), yaw), contact), sids), recs), anchs), heads),
+            )| {
+                let mut rejected = 0;
+                for k in 0..players.len() {
+                    let (player, root, sid) = (&mut players[k], &mut roots[k], sids[k]);
+                    let sp = &species[usize::from(sid.0)];
+                    let before = *root;
+                    // The table was built from this species' params and body when it was added or
+                    // replaced (species change no other way), so it matches without a check.
+                    let table = &wave_tables[usize::from(sid.0)];
+                    debug_assert!(table.matches(&sp.desc.motion, &sp.rig.body));
+                    // The whole step (`MotionPlayer::step_tabled`) is these halves, bit for bit.
+                    player.advance_tabled(dt, &sp.desc.motion, root);
+                    if shape_on_cpu {
+                        let (head, finite) = derive_shape(
+                            player,
+                            root.speed,
+                            sp,
+                            table,
+                            &mut lateral[k],
+                            &mut yaw[k],
+                        );
+                        player.set_head_shape(head);
+                        rejected += u64::from(!finite);
+                    }
+                    if !(root.pos.is_finite()
+                        && root.heading.is_finite()
+                        && root.pitch.is_finite()
+                        && root.speed.is_finite())
+                    {
+                        *root = RootState {
+                            speed: 0.0,
+                            ..before
+                        };
+                        rejected += 1;
+                    }
+                    root.heading = wrap_angle(root.heading);
+                    root.pos += drift(currents, root.pos) * dt;
+                    contact[k] = resolve_contact(root, sp.desc.motion.l, &tank, obstacles);
+                    if let (Some(recs), Some(anchs)) = (recs.as_deref_mut(), anchs.as_deref_mut()) {
+                        let i = c * MOTION_CHUNK + k;
+                        // As `shape_of` gives it: the stored shape, re-derived from the player
+                        // when the GPU samples the shapes.
+                        let shape_yaw = || {
+                            let (mut l, mut y) = (lateral[k], yaw[k]);
+                            if !shape_on_cpu {
+                                derive_shape(player, root.speed, sp, table, &mut l, &mut y);
+                            }
+                            y
+                        };
+                        (recs[k], anchs[k]) = pose::buffers::gpu_record(
+                            catalog, player, root, sid.0, offsets[i], shape_yaw,
+                        );
+                    }
+                    if let Some(heads) = heads.as_deref_mut() {
+                        heads[k] = super::crowd::heading_vector(root.heading);
+                    }
+                }
+                rejected
+            },
+        )
         .sum()
 }

@@ -15,6 +15,12 @@
 //!   5. grid           World::rebuild_grid     the spatial grids the next tick senses; grid_ns
 //! ```
 //!
+//! Stages 3 to 5 run as one call, [`World::advance`]: the same results as the three methods one
+//! after another (`world_gpu_shape::advance_is_motion_then_pose_then_grid_in_either_pose_mode`),
+//! with what the pose and grid stages would read of each fish again (its GPU pose record and
+//! anchor, its heading's cosine and sine) written by the motion pass while it has the fish at
+//! hand.
+//!
 //! Each Rust stage is a one-line method of [`World`] that hands its parts to the stage
 //! explicitly: motion takes the state and the species catalogue (`stages::move_fish`), pose
 //! writes the pose buffers from the state and the catalogue (`PoseBuffers::update`), grid
@@ -54,10 +60,8 @@ pub fn exclusive(world: &mut Arc<World>) -> &mut World {
 pub fn step(world: &mut Arc<World>, behavior: &mut (impl Behavior + ?Sized)) {
     exclusive(world).scene_events();
     behavior.decide(world);
-    let world = exclusive(world);
-    world.step_motion(TICK_DT);
-    world.update_pose();
-    world.rebuild_grid();
+    // Stages 3 to 5: motion, pose, grid (`World::advance`: in fewer passes over the fish).
+    exclusive(world).advance(TICK_DT);
 }
 
 /// A world and the behaviour that decides for its fish, ticked by [`step`].

@@ -166,3 +166,55 @@ fn records_follow_the_state_not_the_last_motion_stage() {
     fresh.update_pose();
     assert_eq!(fresh.gpu_pose_records(), records);
 }
+
+/// `World::advance` writes the GPU records, the anchors and the crowd columns' headings in the
+/// motion pass: a world ticked with it must stay bit for bit the world ticked through the three
+/// stages one after another, in either pose mode, with crowd queries asked (so the columns are
+/// filled from the headings the motion pass wrote) and not.
+#[test]
+fn advance_is_motion_then_pose_then_grid_in_either_pose_mode() {
+    for mode in [PoseMode::Gpu, PoseMode::Cpu] {
+        let mut staged = common::porgy_and_eel_world();
+        let mut fused = common::porgy_and_eel_world();
+        staged.set_pose_mode(mode);
+        fused.set_pose_mode(mode);
+        let mut crowds_seen = 0;
+        for t in 0..240 {
+            steer(&mut staged, t);
+            steer(&mut fused, t);
+            // Crowd queries for the first half only: the columns are filled, then dropped.
+            let ask = t < 120;
+            let ids: Vec<_> = staged.fish_ids().collect();
+            for &id in &ids {
+                if ask {
+                    let a = staged.steer_crowd(id, 50.0, 200.0, 300.0, 40.0);
+                    let b = fused.steer_crowd(id, 50.0, 200.0, 300.0, 40.0);
+                    assert_eq!(a, b, "{mode:?} tick {t} fish {id:?}: crowd answers");
+                    crowds_seen += usize::from(a.is_some_and(|c| c.alignment.is_some()));
+                }
+            }
+            staged.step_motion(DT);
+            staged.update_pose();
+            staged.rebuild_grid();
+            fused.advance(DT);
+            assert_eq!(staged.poses_on_gpu(), mode == PoseMode::Gpu);
+            assert_eq!(
+                staged.gpu_pose_records(),
+                fused.gpu_pose_records(),
+                "{mode:?} tick {t}: records"
+            );
+            assert_eq!(
+                staged.pose_anchors(),
+                fused.pose_anchors(),
+                "{mode:?} tick {t}: anchors"
+            );
+            assert_eq!(staged.palettes(), fused.palettes(), "{mode:?} tick {t}");
+            assert!(staged.snapshot() == fused.snapshot(), "{mode:?} tick {t}");
+        }
+        assert_eq!(
+            fused.gpu_pose_records().len(),
+            (mode == PoseMode::Gpu) as usize * 20
+        );
+        assert!(crowds_seen > 500, "{mode:?}: {crowds_seen} alignments");
+    }
+}

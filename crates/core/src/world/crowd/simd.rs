@@ -65,9 +65,17 @@ impl CrowdColumns {
         self.slots = 0;
     }
 
+    /// The heading vectors' scratch, `num_fish` long, for a pass that has every fish's heading
+    /// at hand to write (`crowd::heading_vector` of each fish's heading, in fish order) before
+    /// [`CrowdColumns::fill`] is called with no `heading`: the motion pass of `World::advance`.
+    pub(in crate::world) fn headings_to_fill(&mut self, num_fish: usize) -> &mut [Vec2] {
+        self.headings.resize(num_fish, Vec2::ZERO);
+        &mut self.headings
+    }
+
     /// Fills the columns from the grid's cell-ordered `keys`, `positions` and `species`, with
-    /// the heading of fish `k` (a key, `0..num_fish`) read by `heading(k)` and its id's index
-    /// by `id(k)`, over both cores.
+    /// the heading of fish `k` (a key, `0..num_fish`) read by `heading(k)` (`None`: as written
+    /// into [`CrowdColumns::headings_to_fill`]) and its id's index by `id(k)`, over both cores.
     /// The headings' cosines and sines are taken first in fish order, where `heading` reads
     /// memory in order, then gathered in slot order.
     pub(in crate::world) fn fill(
@@ -76,17 +84,26 @@ impl CrowdColumns {
         positions: &[Vec3],
         species: &[SpeciesId],
         num_fish: usize,
-        heading: impl Fn(usize) -> f32 + Sync,
+        heading: Option<impl Fn(usize) -> f32 + Sync>,
         id: impl Fn(usize) -> u32 + Sync,
     ) {
         use rayon::prelude::*;
         self.slots = keys.len();
-        self.headings.resize(num_fish, Vec2::ZERO);
-        self.headings
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(k, h)| *h = super::heading_vector(heading(k)));
+        match heading {
+            Some(heading) => {
+                self.headings.resize(num_fish, Vec2::ZERO);
+                self.headings
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(1024)
+                    .for_each(|(k, h)| *h = super::heading_vector(heading(k)));
+            }
+            None => assert_eq!(
+                self.headings.len(),
+                num_fish,
+                "the heading vectors were written for every fish (CrowdColumns::headings_to_fill)"
+            ),
+        }
         let headings = &self.headings;
         self.groups.resize(keys.len().div_ceil(4), Candidates::PAD);
         self.groups
@@ -376,7 +393,7 @@ mod tests {
             &positions,
             &species,
             n as usize,
-            |k| 0.37 * k as f32,
+            Some(|k: usize| 0.37 * k as f32),
             |k| 1000 + k as u32,
         );
         let me = 5usize;

@@ -143,6 +143,21 @@ impl PoseBuffers {
         self.shapes_current = true;
     }
 
+    /// The record and anchor arrays sized for `n` fish, for a pass that writes every fish's
+    /// record itself ([`gpu_record`]; the motion pass of `World::advance`), with the palette
+    /// offsets it reads; the CPU palettes are emptied, as [`PoseBuffers::update`] leaves them in
+    /// GPU mode.
+    pub fn records_to_fill(&mut self, n: usize) -> RecordsOut<'_> {
+        self.palettes.clear();
+        self.gpu_fish.resize(n, bytemuck::Zeroable::zeroed());
+        self.pose_anchors.resize(n, Mat4::IDENTITY);
+        RecordsOut {
+            records: &mut self.gpu_fish,
+            anchors: &mut self.pose_anchors,
+            offsets: &self.palette_offsets,
+        }
+    }
+
     /// The GPU pose stage: each fish's pass record and slot-0 entry, over both cores in
     /// chunks of [`LEAF_FISH`] fish.
     fn write_gpu_records(
@@ -168,22 +183,53 @@ impl PoseBuffers {
                 let first = chunk * LEAF_FISH;
                 for (k, (record, anchor)) in records.iter_mut().zip(anchors).enumerate() {
                     let i = first + k;
-                    let species = fish.species[i].0;
-                    let sp = &catalog.species[usize::from(species)];
-                    let root = &fish.roots[i];
-                    let terms = fish.players[i].shape_terms(root.speed, &sp.desc.motion);
-                    *record = gpu::fish_record(root, &terms, u32::from(species), offsets[i]);
-                    let plan = &catalog.plans[usize::from(species)];
-                    *anchor = if plan.anchor_reads_yaw() {
-                        plan.anchor(root, &shape_of(state, catalog, shapes_current, i).1)
-                    } else {
-                        plan.anchor(root, &[])
-                    };
+                    (*record, *anchor) = gpu_record(
+                        catalog,
+                        &fish.players[i],
+                        &fish.roots[i],
+                        fish.species[i].0,
+                        offsets[i],
+                        || shape_of(state, catalog, shapes_current, i).1,
+                    );
                 }
             });
         counters.skeleton_ns = 0;
         counters.palette_ns = start.elapsed().as_nanos() as u64;
     }
+}
+
+/// What [`PoseBuffers::records_to_fill`] hands a pass that writes the GPU records itself: one
+/// entry per fish of each, in dense order.
+pub(in crate::world) struct RecordsOut<'a> {
+    pub records: &'a mut [GpuFishPose],
+    pub anchors: &'a mut [Mat4],
+    pub offsets: &'a [u32],
+}
+
+/// A fish's record for the GPU pose pass and its anchor (slot 0 of its palette, what the
+/// renderer culls with), from its motion player and root as the motion stage left them:
+/// `species` is its species' index, `offset` its first palette slot, and `yaw()` its driven
+/// joints' yaws now (asked only when the species' anchor reads one; see
+/// [`super::PosePlan::anchor_reads_yaw`]). The pose stage's record pass and the motion pass that
+/// writes the records itself (`World::advance`) both make them here.
+pub(in crate::world) fn gpu_record(
+    catalog: &Catalog,
+    player: &crate::motion::MotionPlayer,
+    root: &crate::motion::RootState,
+    species: u16,
+    offset: u32,
+    yaw: impl FnOnce() -> [f32; super::super::MAX_DRIVEN_JOINTS],
+) -> (GpuFishPose, Mat4) {
+    let sp = &catalog.species[usize::from(species)];
+    let terms = player.shape_terms(root.speed, &sp.desc.motion);
+    let record = gpu::fish_record(root, &terms, u32::from(species), offset);
+    let plan = &catalog.plans[usize::from(species)];
+    let anchor = if plan.anchor_reads_yaw() {
+        plan.anchor(root, &yaw())
+    } else {
+        plan.anchor(root, &[])
+    };
+    (record, anchor)
 }
 
 /// Dense fish `d`'s body shape now — its midline's lateral displacement at each `joints_x` entry
