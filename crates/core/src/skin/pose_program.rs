@@ -216,7 +216,12 @@ pub fn shape_yaws(
 /// The placement's rotation as the pose pass writes it: heading about +y, then pitch about the
 /// body's z, from full-angle sines and cosines (a level fish, pitch 0, needs no second pair).
 pub fn placement_rotation(heading: f32, pitch: f32) -> glam::Mat3A {
-    let (sh, ch) = heading.sin_cos();
+    placement_rotation_of(heading.sin_cos(), pitch)
+}
+
+/// [`placement_rotation`] from the heading's sine and cosine, `(sh, ch)` (`heading.sin_cos()`),
+/// for a caller that has them already.
+pub fn placement_rotation_of((sh, ch): (f32, f32), pitch: f32) -> glam::Mat3A {
     let (sp, cp) = if pitch == 0.0 {
         (0.0, 1.0)
     } else {

@@ -329,6 +329,12 @@ fn move_fish(
                     root.heading = wrap_angle(root.heading);
                     root.pos += drift(currents, root.pos) * dt;
                     contact[k] = resolve_contact(root, sp.desc.motion.l, &tank, obstacles);
+                    if recs.is_none() && heads.is_none() {
+                        continue;
+                    }
+                    // One sine and cosine of the heading for both outputs (`heading_vector` is
+                    // (cos, sin), bitwise `sin_cos`'s; the test of `advance` compares them).
+                    let heading_sin_cos = root.heading.sin_cos();
                     if let (Some(recs), Some(anchs)) = (recs.as_deref_mut(), anchs.as_deref_mut()) {
                         let i = c * MOTION_CHUNK + k;
                         // As `shape_of` gives it: the stored shape, re-derived from the player
@@ -341,11 +347,18 @@ fn move_fish(
                             y
                         };
                         (recs[k], anchs[k]) = pose::buffers::gpu_record(
-                            catalog, player, root, sid.0, offsets[i], shape_yaw,
+                            catalog,
+                            player,
+                            root,
+                            sid.0,
+                            offsets[i],
+                            heading_sin_cos,
+                            shape_yaw,
                         );
                     }
                     if let Some(heads) = heads.as_deref_mut() {
-                        heads[k] = super::crowd::heading_vector(root.heading);
+                        let (sin, cos) = heading_sin_cos;
+                        heads[k] = Vec2::new(cos, sin);
                     }
                 }
                 rejected

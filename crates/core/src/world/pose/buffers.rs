@@ -189,6 +189,7 @@ impl PoseBuffers {
                         &fish.roots[i],
                         fish.species[i].0,
                         offsets[i],
+                        fish.roots[i].heading.sin_cos(),
                         || shape_of(state, catalog, shapes_current, i).1,
                     );
                 }
@@ -208,7 +209,8 @@ pub(in crate::world) struct RecordsOut<'a> {
 
 /// A fish's record for the GPU pose pass and its anchor (slot 0 of its palette, what the
 /// renderer culls with), from its motion player and root as the motion stage left them:
-/// `species` is its species' index, `offset` its first palette slot, and `yaw()` its driven
+/// `species` is its species' index, `offset` its first palette slot, `heading_sin_cos`
+/// `root.heading.sin_cos()`, and `yaw()` its driven
 /// joints' yaws now (asked only when the species' anchor reads one; see
 /// [`super::PosePlan::anchor_reads_yaw`]). The pose stage's record pass and the motion pass that
 /// writes the records itself (`World::advance`) both make them here.
@@ -218,6 +220,7 @@ pub(in crate::world) fn gpu_record(
     root: &crate::motion::RootState,
     species: u16,
     offset: u32,
+    heading_sin_cos: (f32, f32),
     yaw: impl FnOnce() -> [f32; super::super::MAX_DRIVEN_JOINTS],
 ) -> (GpuFishPose, Mat4) {
     let sp = &catalog.species[usize::from(species)];
@@ -225,9 +228,9 @@ pub(in crate::world) fn gpu_record(
     let record = gpu::fish_record(root, &terms, u32::from(species), offset);
     let plan = &catalog.plans[usize::from(species)];
     let anchor = if plan.anchor_reads_yaw() {
-        plan.anchor(root, &yaw())
+        plan.anchor_with(root, heading_sin_cos, &yaw())
     } else {
-        plan.anchor(root, &[])
+        plan.anchor_with(root, heading_sin_cos, &[])
     };
     (record, anchor)
 }

@@ -24,7 +24,7 @@ use crate::motion::{Body, MotionParams, RootState, WaveTable};
 use crate::skeleton::NO_PARENT;
 use crate::skin::pose_program::{
     GPU_NOT_DRIVEN, GPU_POSE_MAX_MODELS, GPU_POSE_MAX_SAMPLES, GpuFishPose, GpuModelStep,
-    GpuPosePrograms, GpuProgram, GpuShapeSample, GpuSlotStep, placement_rotation,
+    GpuPosePrograms, GpuProgram, GpuShapeSample, GpuSlotStep, placement_rotation_of,
 };
 use crate::world::MAX_DRIVEN_JOINTS;
 
@@ -277,13 +277,20 @@ impl PosePlan {
     /// to f32 rounding, for a third of its cost (no quaternions). Only joint 0's model is made
     /// (joint 0 is a root, as parents come before children).
     pub fn anchor(&self, root: &RootState, yaw: &[f32]) -> Mat4 {
+        self.anchor_with(root, root.heading.sin_cos(), yaw)
+    }
+
+    /// [`PosePlan::anchor`] with the heading's sine and cosine, `heading_sin_cos`, given
+    /// (`root.heading.sin_cos()`, bitwise: the motion pass has them for the crowd columns).
+    pub fn anchor_with(&self, root: &RootState, heading_sin_cos: (f32, f32), yaw: &[f32]) -> Mat4 {
         fn run<T: Transform>(
             plan: &PosePlan,
             m: &Matrices<T>,
             root: &RootState,
+            heading_sin_cos: (f32, f32),
             yaw: &[f32],
         ) -> Mat4 {
-            let rotation = placement_rotation(root.heading, root.pitch);
+            let rotation = placement_rotation_of(heading_sin_cos, root.pitch);
             let placement = T::from_linear_translation(rotation, root.pos.into()) * m.model_to_body;
             let Some(step) = plan.schedule.palette.first() else {
                 return placement.to_mat4();
@@ -300,8 +307,8 @@ impl PosePlan {
             }
         }
         match &self.matrices {
-            PlanMatrices::Affine(m) => run(self, m, root, yaw),
-            PlanMatrices::General(m) => run(self, m, root, yaw),
+            PlanMatrices::Affine(m) => run(self, m, root, heading_sin_cos, yaw),
+            PlanMatrices::General(m) => run(self, m, root, heading_sin_cos, yaw),
         }
     }
 }
