@@ -109,8 +109,9 @@ pub struct SimArgs {
     #[command(flatten)]
     pub scripts: super::ScriptsArg,
     /// Where the fish are posed: `cpu` (every palette on the CPU, each tick) or `gpu` (what
-    /// the window does: the CPU writes each fish's record for the renderer's pose pass, shown
-    /// in the palette column, and the GPU poses; no GPU is used here).
+    /// the window does: the motion pass writes each fish's record for the renderer's pose pass
+    /// as it moves the fish, so the records are in the motion column, and the GPU poses; no
+    /// GPU is used here).
     #[arg(long, value_enum, default_value_t = PoseArg::Cpu)]
     pub pose: PoseArg,
     /// Behaviour level of detail (`--lod on|off`; Lua driver). Default: the scene's, off for
@@ -501,8 +502,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let target = OffscreenTarget::new(&gpu, args.size.0, args.size.1);
     println!(
         "({}x{}, {} frames each, GPU work waited for every frame; counts are per frame, of the \
-         last frame; LOD tolerance {} px; {}; culling: {}; pose ms: the tick's pose stage, \
-         CPU, median; instances ms: the window's scene bringing its fish instances and props \
+         last frame; LOD tolerance {} px; {}; culling: {}; pose ms: the tick's pose work, \
+         CPU, median (--pose gpu: the motion stage, which writes the records as it moves the \
+         fish; --pose cpu: skeletons and palettes); instances ms: the window's scene bringing its fish instances and props \
          up to the world, CPU, mean (kept while no fish comes, goes or changes species); \
          check ms: the renderer checking the frame (the instances once per revision, the pose \
          records every frame), mean; upload ms: the renderer's CPU work before recording the \
@@ -607,7 +609,13 @@ fn run_render(args: RenderArgs) -> anyhow::Result<ExitCode> {
         for frame in 0..args.frames + 1 {
             scene.step(1.0 / 60.0);
             let c = scene.world().counters();
-            pose_ms.push((c.skeleton_ns + c.palette_ns) as f64 * 1e-6);
+            // On the GPU path the motion pass writes the records as it moves the fish, so the
+            // CPU's pose work is inside the motion stage.
+            let pose_ns = match args.pose {
+                PoseArg::Gpu => c.motion_ns,
+                PoseArg::Cpu => c.skeleton_ns + c.palette_ns,
+            };
+            pose_ms.push(pose_ns as f64 * 1e-6);
             let mut input = scene.frame_input();
             input.camera = camera;
             let start = Instant::now();

@@ -661,7 +661,7 @@ fn print_summary(summary: &[Summary], rounds: usize) {
     }
     println!(
         "grid+motion+pose ratio: shoal's grid, motion, skeleton and palette stages (wall × \
-         threads; with --pose gpu the palette stage is the GPU pass's records) per fish-tick \
+         threads; with --pose gpu the motion stage writes the GPU pass's records) per fish-tick \
          against the peer's grid + motion per fish-tick."
     );
 }

@@ -190,8 +190,9 @@ fn a_scene_bench_takes_a_scene_by_name_and_names_the_scenes_there_are() {
     );
 }
 
-/// `--pose gpu` measures what the window's CPU does: no skeleton stage, and the palette column
-/// is the GPU pass's records; `--pose cpu` (the default) poses every palette.
+/// `--pose gpu` measures what the window's CPU does: the motion pass writes the GPU pass's
+/// records as it moves each fish, so the skeleton and palette columns are 0 and the motion
+/// column holds the records; `--pose cpu` (the default) poses every palette.
 #[test]
 fn pose_on_the_gpu_leaves_the_skeleton_stage_to_the_pass() {
     let stages = |pose: &str| {
@@ -200,15 +201,16 @@ fn pose_on_the_gpu_leaves_the_skeleton_stage_to_the_pass() {
         assert_eq!(report["pose"].as_str(), Some(pose));
         let s = &report["results"][0]["stages"];
         (
+            s["motion"].as_f64().unwrap(),
             s["skeleton"].as_f64().unwrap(),
             s["palette"].as_f64().unwrap(),
         )
     };
-    let (skeleton, palette) = stages("gpu");
-    assert_eq!(skeleton, 0.0);
-    assert!(palette > 0.0, "the records are timed");
-    let (skeleton, _) = stages("cpu");
-    assert!(skeleton > 0.0);
+    let (motion, skeleton, palette) = stages("gpu");
+    assert_eq!((skeleton, palette), (0.0, 0.0), "no pose stage runs");
+    assert!(motion > 0.0, "the motion pass, records and all, is timed");
+    let (_, skeleton, palette) = stages("cpu");
+    assert!(skeleton > 0.0 && palette > 0.0, "{skeleton} {palette}");
     let out = Command::new(env!("CARGO_BIN_EXE_shoal"))
         .args(["bench", "sim", "--pose", "vulkan"])
         .output()
