@@ -18,6 +18,7 @@
 pub mod asset;
 pub mod math;
 pub mod motion;
+pub mod prefetch;
 pub mod skeleton;
 pub mod skin;
 pub mod species;

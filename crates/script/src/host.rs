@@ -568,6 +568,14 @@ impl ScriptHost {
         }
     }
 
+    /// Hints the cache to load fish `id`'s table (the Lua object's header: its first lookup
+    /// reads it) for a decision a little later. Does nothing for a fish with no table yet.
+    pub fn prefetch_fish_table(&self, id: FishId) {
+        if let Some(t) = self.cached_table(id) {
+            shoal_core::prefetch::prefetch_lines(t.to_pointer().cast::<u8>(), 1);
+        }
+    }
+
     fn cache_table(&mut self, id: FishId, t: Table) {
         let slot = id.index as usize;
         if self.table_cache.len() <= slot {
