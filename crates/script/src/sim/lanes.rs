@@ -166,7 +166,7 @@ impl Lane {
             for i in 0..due.len() {
                 // At 100,000 fish each decision's motion player and Lua table are far from the
                 // last one's, and their first reads stall: start loading the next ones now
-                // (about 4 % of a decision's CPU time; docs/performance.md).
+                // (about 3 % of a decision's CPU time; docs/performance.md).
                 if let Some(next) = due.get(i + 1) {
                     shoal_core::prefetch::prefetch(next.controls.player(), 8);
                 }
