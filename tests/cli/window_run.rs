@@ -177,6 +177,23 @@ impl TracedWindow {
         None
     }
 
+    /// [`TracedWindow::wait_for`], also accepting a line read since `seen[from]` (the helpers
+    /// below read on past the event they wait for, so what it caused may have been read).
+    fn wait_since(
+        &mut self,
+        from: usize,
+        pred: &dyn Fn(&str) -> bool,
+        limit: Duration,
+    ) -> Option<String> {
+        match self.seen[from.min(self.seen.len())..]
+            .iter()
+            .find(|l| pred(l))
+        {
+            Some(line) => Some(line.clone()),
+            None => self.wait_for(pred, limit),
+        }
+    }
+
     /// Waits until the window has presented `n` more frames (it prints `ui: frame N` after each
     /// with `SHOAL_UI_TRACE`): time measured in frames, not seconds, so a slow renderer waits
     /// longer instead of letting the check pass before anything was drawn.
@@ -247,13 +264,85 @@ impl TracedWindow {
         assert!(status.success(), "xdotool {args:?} failed: {status:?}");
     }
 
+    /// Waits until the window has received a pointer event `pred` accepts (`ui: pointer …`,
+    /// printed as the event arrives), then for `frames` frames drawn after it: under load the
+    /// window can be several frames behind `xdotool`, and frames counted before the event
+    /// arrived saw nothing of it.
+    fn received(&mut self, what: &str, pred: &dyn Fn(&str) -> bool, frames: usize) {
+        self.wait_for(pred, Duration::from_secs(120))
+            .unwrap_or_else(|| panic!("the window never received {what}:\n{:#?}", self.seen));
+        self.frames(frames);
+    }
+
+    /// Moves the pointer to `x`,`y` and waits until the window has seen it there for `frames`
+    /// frames.
+    fn pointer_to(&mut self, x: &str, y: &str, frames: usize) {
+        let at = format!("ui: pointer at {x},{y}");
+        let there = self
+            .seen
+            .iter()
+            .rev()
+            .find(|l| l.starts_with("ui: pointer at "))
+            .is_some_and(|l| *l == at);
+        self.xdotool(&["mousemove", x, y]);
+        if there {
+            // No move, no event.
+            self.frames(frames);
+        } else {
+            self.received(&at.clone(), &|l| l == at, frames);
+        }
+    }
+
+    /// `xdotool mousedown 1` / `mouseup 1` / `click 1`, waiting until the window has the press
+    /// (and the release) and `frames` frames after it. Returns where in `seen` the lines after
+    /// the action begin.
+    fn button_1(&mut self, action: &str, frames: usize) -> usize {
+        let mark = self.seen.len();
+        self.xdotool(&[action, "1"]);
+        let state = if action == "mousedown" {
+            "Pressed"
+        } else {
+            "Released"
+        };
+        let line = format!("ui: pointer {state} Left");
+        self.received(&line.clone(), &|l| l.starts_with(&line), frames);
+        mark
+    }
+
+    /// Ten clicks of the wheel down at the pointer, waiting until the window has had them all.
+    fn scroll_down(&mut self) {
+        let mark = self.seen.len();
+        self.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
+        // (Under Xvfb winit gives two wheel events per click.)
+        while self.seen[mark..]
+            .iter()
+            .filter(|l| *l == "ui: wheel")
+            .count()
+            < 10
+        {
+            self.wait_for(&|l| l == "ui: wheel", Duration::from_secs(120))
+                .unwrap_or_else(|| {
+                    panic!("the window never received the wheel:\n{:#?}", self.seen)
+                });
+        }
+        self.frames(10);
+    }
+
     /// Moves onto the button `label`, lets a few frames see the pointer there (as a hand
-    /// would), and clicks.
-    fn click_button(&mut self, label: &str) {
-        let (x, y) = self.button(label);
-        self.xdotool(&["mousemove", &x, &y]);
-        self.frames(3);
-        self.xdotool(&["click", "1"]);
+    /// would), and clicks. A panel that is still scrolling moves the button under the
+    /// pointer: the pointer follows it until two looks agree. Returns where in `seen` the
+    /// lines after the click begin.
+    fn click_button(&mut self, label: &str) -> usize {
+        let mut at = self.button(label);
+        for _ in 0..10 {
+            self.pointer_to(&at.0, &at.1, 3);
+            let now = self.button(label);
+            if now == at {
+                break;
+            }
+            at = now;
+        }
+        self.button_1("click", 1)
     }
 }
 
@@ -275,9 +364,9 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
     w.button("quick turn left");
     // Let the window settle for a few frames, then click like a user.
     w.frames(3);
-    w.click_button("quick turn left");
-    let before_click = w.seen.len();
-    let requested = w.wait_for(
+    let before_click = w.click_button("quick turn left");
+    let requested = w.wait_since(
+        before_click,
         &|l| l.contains("fish #0: quick turn left requested"),
         Duration::from_secs(60),
     );
@@ -308,8 +397,9 @@ fn xdotool_click_on_a_motion_button_turns_the_selected_fish() {
 fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
     // Fish 0 selected: pausing and clicking change nothing else that prints `selected: `.
     let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
-    w.click_button("pause");
-    w.wait_for(
+    let clicked = w.click_button("pause");
+    w.wait_since(
+        clicked,
         &|l| l.starts_with("ui: button \"play\""),
         Duration::from_secs(60),
     )
@@ -333,8 +423,9 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
 #[test]
 fn xdotool_drop_food_button_and_shift_click_in_the_view() {
     let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
-    w.click_button("drop food");
-    w.wait_for(
+    let clicked = w.click_button("drop food");
+    w.wait_since(
+        clicked,
         &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
         Duration::from_secs(60),
     )
@@ -351,8 +442,7 @@ fn xdotool_drop_food_button_and_shift_click_in_the_view() {
         .to_owned();
     w.xdotool(&["windowfocus", &id]);
     // Onto the floor in front of the camera, then a click with shift held.
-    w.xdotool(&["mousemove", "300", "600"]);
-    w.frames(3);
+    w.pointer_to("300", "600", 3);
     let before = w.seen.len();
     w.xdotool(&["keydown", "shift"]);
     w.frames(2);
@@ -408,8 +498,7 @@ fn the_3d_view_ends_where_the_panel_begins() {
     // A click in the middle of the view is the view's.
     let before_click = w.seen.len();
     let x = (width / 2).to_string();
-    w.xdotool(&["mousemove", &x, "380"]);
-    w.frames(3);
+    w.pointer_to(&x, "380", 3);
     w.xdotool(&["click", "1"]);
     assert!(
         w.wait_for(&|l| l.starts_with("selected: "), Duration::from_secs(60))
@@ -506,22 +595,22 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
         .expect("size");
     let left = x.parse::<f32>().unwrap() - width / 2.0;
     let (from, to) = (format!("{:.0}", left + 4.0), format!("{:.0}", left + 45.0));
-    w.xdotool(&["mousemove", &from, &y]);
-    w.frames(2);
-    w.xdotool(&["mousedown", "1"]);
-    w.frames(2);
-    w.xdotool(&["mousemove", &to, &y]);
-    w.frames(2);
-    w.xdotool(&["mouseup", "1"]);
-    w.frames(2);
+    w.pointer_to(&from, &y, 2);
+    w.button_1("mousedown", 2);
+    w.pointer_to(&to, &y, 2);
+    w.button_1("mouseup", 2);
     // The new button is below the fold of the 760-pixel window: scroll the panel down to it
     // (the window prints it again where it lands).
     w.button("save to species file");
-    w.xdotool(&["mousemove", &x, "400"]);
-    w.frames(2);
-    w.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
-    w.frames(10);
-    w.click_button("save to species file");
+    w.pointer_to(&x, "400", 2);
+    w.scroll_down();
+    let clicked = w.click_button("save to species file");
+    w.wait_since(
+        clicked,
+        &|l| l.starts_with("console: ") && l.contains("black_porgy.lua: saved 1 value(s)"),
+        Duration::from_secs(120),
+    )
+    .unwrap_or_else(|| panic!("the console never said the porgy was saved:\n{:#?}", w.seen));
     let mut after = before.clone();
     for _ in 0..200 {
         w.frames(1);
@@ -551,7 +640,7 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
 impl TracedWindow {
     /// Scrolls the panel until the button `label` is inside the window (below its fold it is
     /// drawn, and traced, outside it), then clicks it.
-    fn scroll_and_click(&mut self, label: &str) {
+    fn scroll_and_click(&mut self, label: &str) -> usize {
         for _ in 0..12 {
             let (x, y) = self.button(label);
             // `ui: 3D view WxH, …`: the window's height.
@@ -564,12 +653,10 @@ impl TracedWindow {
             if y.parse::<f32>().unwrap_or(f32::MAX) < height - 30.0 {
                 break;
             }
-            self.xdotool(&["mousemove", &x, "400"]);
-            self.frames(2);
-            self.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
-            self.frames(10);
+            self.pointer_to(&x, "400", 2);
+            self.scroll_down();
         }
-        self.click_button(label);
+        self.click_button(label)
     }
 }
 
@@ -598,9 +685,10 @@ fn xdotool_drag_a_rock_in_the_view_and_save_it_to_the_scene_file() {
         "--scene",
         scene.to_str().unwrap(),
     ]);
-    w.scroll_and_click("edit scene in the view");
+    let clicked = w.scroll_and_click("edit scene in the view");
     let line = w
-        .wait_for(
+        .wait_since(
+            clicked,
             &|l| l.starts_with("ui: rock 1 at "),
             Duration::from_secs(120),
         )
@@ -609,18 +697,27 @@ fn xdotool_drag_a_rock_in_the_view_and_save_it_to_the_scene_file() {
         .split_once(',')
         .map(|(x, y)| (x.parse::<i32>().unwrap(), y.parse::<i32>().unwrap()))
         .unwrap();
-    w.xdotool(&["mousemove", &x.to_string(), &y.to_string()]);
-    w.frames(2);
-    w.xdotool(&["mousedown", "1"]);
-    w.frames(2);
+    w.pointer_to(&x.to_string(), &y.to_string(), 2);
+    let pressed = w.button_1("mousedown", 2);
     for k in 1..=6 {
         let (tx, ty) = (x - 15 * k, y + 5 * k);
-        w.xdotool(&["mousemove", &tx.to_string(), &ty.to_string()]);
-        w.frames(1);
+        w.pointer_to(&tx.to_string(), &ty.to_string(), 1);
     }
-    w.xdotool(&["mouseup", "1"]);
-    w.frames(3);
-    w.scroll_and_click("save to scene file");
+    w.button_1("mouseup", 3);
+    // The window prints the rock again wherever the drag takes it.
+    w.wait_since(
+        pressed,
+        &|l| l.starts_with("ui: rock 1 at ") && *l != line,
+        Duration::from_secs(120),
+    )
+    .unwrap_or_else(|| panic!("the rock never moved in the view:\n{:#?}", w.seen));
+    let clicked = w.scroll_and_click("save to scene file");
+    w.wait_since(
+        clicked,
+        &|l| l.starts_with("console: ") && l.contains("rocks.lua: saved 1 scene value(s)"),
+        Duration::from_secs(120),
+    )
+    .unwrap_or_else(|| panic!("the console never said the scene was saved:\n{:#?}", w.seen));
     let mut after = before.clone();
     for _ in 0..200 {
         w.frames(1);

@@ -899,6 +899,11 @@ impl ApplicationHandler for App {
                     }
                     _ => response.consumed,
                 };
+                if self.aq.ui.trace {
+                    // End-to-end tests wait for these lines, so the frames they count after an
+                    // `xdotool` step are frames that had its event.
+                    trace_pointer_event(&event, over_ui);
+                }
                 self.handle_input(&event, over_ui);
             }
         }
@@ -908,6 +913,22 @@ impl ApplicationHandler for App {
         if let Some(ws) = &self.window {
             ws.window.request_redraw();
         }
+    }
+}
+
+/// Prints what the window received of the pointer (`ui: pointer at X,Y`, `ui: pointer Pressed
+/// Left`, `ui: wheel`), for `SHOAL_UI_TRACE`.
+fn trace_pointer_event(event: &WindowEvent, over_ui: bool) {
+    match event {
+        WindowEvent::CursorMoved { position, .. } => {
+            println!("ui: pointer at {:.0},{:.0}", position.x, position.y);
+        }
+        WindowEvent::MouseInput { state, button, .. } => {
+            let on = if over_ui { " on the panel" } else { "" };
+            println!("ui: pointer {state:?} {button:?}{on}");
+        }
+        WindowEvent::MouseWheel { .. } => println!("ui: wheel"),
+        _ => {}
     }
 }
 
