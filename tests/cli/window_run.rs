@@ -194,6 +194,19 @@ impl TracedWindow {
         }
     }
 
+    /// [`TracedWindow::wait_since`] that must find the line: panics with `failure` and every
+    /// line seen when it does not come within `limit`.
+    fn expect_since(
+        &mut self,
+        from: usize,
+        pred: &dyn Fn(&str) -> bool,
+        limit: Duration,
+        failure: &str,
+    ) -> String {
+        self.wait_since(from, pred, limit)
+            .unwrap_or_else(|| panic!("{failure}:\n{:#?}", self.seen))
+    }
+
     /// Waits until the window has presented `n` more frames (it prints `ui: frame N` after each
     /// with `SHOAL_UI_TRACE`): time measured in frames, not seconds, so a slow renderer waits
     /// longer instead of letting the check pass before anything was drawn.
@@ -269,8 +282,8 @@ impl TracedWindow {
     /// window can be several frames behind `xdotool`, and frames counted before the event
     /// arrived saw nothing of it.
     fn received(&mut self, what: &str, pred: &dyn Fn(&str) -> bool, frames: usize) {
-        self.wait_for(pred, Duration::from_secs(120))
-            .unwrap_or_else(|| panic!("the window never received {what}:\n{:#?}", self.seen));
+        let failure = format!("the window never received {what}");
+        self.expect_since(self.seen.len(), pred, Duration::from_secs(120), &failure);
         self.frames(frames);
     }
 
@@ -289,7 +302,7 @@ impl TracedWindow {
             // No move, no event.
             self.frames(frames);
         } else {
-            self.received(&at.clone(), &|l| l == at, frames);
+            self.received(&at, &|l| l == at, frames);
         }
     }
 
@@ -305,7 +318,7 @@ impl TracedWindow {
             "Released"
         };
         let line = format!("ui: pointer {state} Left");
-        self.received(&line.clone(), &|l| l.starts_with(&line), frames);
+        self.received(&line, &|l| l.starts_with(&line), frames);
         mark
     }
 
@@ -320,10 +333,12 @@ impl TracedWindow {
             .count()
             < 10
         {
-            self.wait_for(&|l| l == "ui: wheel", Duration::from_secs(120))
-                .unwrap_or_else(|| {
-                    panic!("the window never received the wheel:\n{:#?}", self.seen)
-                });
+            self.expect_since(
+                self.seen.len(),
+                &|l| l == "ui: wheel",
+                Duration::from_secs(120),
+                "the window never received the wheel",
+            );
         }
         self.frames(10);
     }
@@ -398,12 +413,12 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
     // Fish 0 selected: pausing and clicking change nothing else that prints `selected: `.
     let mut w = TracedWindow::start(&["run", "--frames", "100000", "--select", "0"]);
     let clicked = w.click_button("pause");
-    w.wait_since(
+    w.expect_since(
         clicked,
         &|l| l.starts_with("ui: button \"play\""),
         Duration::from_secs(60),
-    )
-    .unwrap_or_else(|| panic!("pause did not pause:\n{:#?}", w.seen));
+        "pause did not pause",
+    );
     // The pointer rests on the panel for several frames, then moves into the view (x 640 is
     // left of the panel, which begins near 830) and clicks in one go.
     w.frames(5);
@@ -424,12 +439,12 @@ fn xdotool_quick_click_in_the_view_after_the_panel_reaches_the_picker() {
 fn xdotool_drop_food_button_and_shift_click_in_the_view() {
     let mut w = TracedWindow::start(&["run", "--frames", "100000"]);
     let clicked = w.click_button("drop food");
-    w.wait_since(
+    w.expect_since(
         clicked,
         &|l| l.starts_with("console: food #") && l.contains(" dropped at "),
         Duration::from_secs(60),
-    )
-    .unwrap_or_else(|| panic!("the button dropped no food:\n{:#?}", w.seen));
+        "the button dropped no food",
+    );
     let window = Command::new(XDOTOOL)
         .args(["search", "--name", "shoal"])
         .env("DISPLAY", &w.display)
@@ -605,12 +620,12 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
     w.pointer_to(&x, "400", 2);
     w.scroll_down();
     let clicked = w.click_button("save to species file");
-    w.wait_since(
+    w.expect_since(
         clicked,
         &|l| l.starts_with("console: ") && l.contains("black_porgy.lua: saved 1 value(s)"),
         Duration::from_secs(120),
-    )
-    .unwrap_or_else(|| panic!("the console never said the porgy was saved:\n{:#?}", w.seen));
+        "the console never said the porgy was saved",
+    );
     let mut after = before.clone();
     for _ in 0..200 {
         w.frames(1);
@@ -686,13 +701,12 @@ fn xdotool_drag_a_rock_in_the_view_and_save_it_to_the_scene_file() {
         scene.to_str().unwrap(),
     ]);
     let clicked = w.scroll_and_click("edit scene in the view");
-    let line = w
-        .wait_since(
-            clicked,
-            &|l| l.starts_with("ui: rock 1 at "),
-            Duration::from_secs(120),
-        )
-        .unwrap_or_else(|| panic!("the window never said where the rock is:\n{:#?}", w.seen));
+    let line = w.expect_since(
+        clicked,
+        &|l| l.starts_with("ui: rock 1 at "),
+        Duration::from_secs(120),
+        "the window never said where the rock is",
+    );
     let (x, y) = line["ui: rock 1 at ".len()..]
         .split_once(',')
         .map(|(x, y)| (x.parse::<i32>().unwrap(), y.parse::<i32>().unwrap()))
@@ -705,19 +719,19 @@ fn xdotool_drag_a_rock_in_the_view_and_save_it_to_the_scene_file() {
     }
     w.button_1("mouseup", 3);
     // The window prints the rock again wherever the drag takes it.
-    w.wait_since(
+    w.expect_since(
         pressed,
         &|l| l.starts_with("ui: rock 1 at ") && *l != line,
         Duration::from_secs(120),
-    )
-    .unwrap_or_else(|| panic!("the rock never moved in the view:\n{:#?}", w.seen));
+        "the rock never moved in the view",
+    );
     let clicked = w.scroll_and_click("save to scene file");
-    w.wait_since(
+    w.expect_since(
         clicked,
         &|l| l.starts_with("console: ") && l.contains("rocks.lua: saved 1 scene value(s)"),
         Duration::from_secs(120),
-    )
-    .unwrap_or_else(|| panic!("the console never said the scene was saved:\n{:#?}", w.seen));
+        "the console never said the scene was saved",
+    );
     let mut after = before.clone();
     for _ in 0..200 {
         w.frames(1);
