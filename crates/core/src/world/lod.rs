@@ -5,8 +5,12 @@
 //! declares; with no focus every fish is in the last band): band `k` holds the fish within
 //! `bands[k].radius` and beyond the bands before it. A fish whose species decides every `P`
 //! ticks decides, in band `k`, every `P × bands[k].every` ticks, on the ticks where
-//! `(tick + slot index) % period == 0` — the phase spreads one band's decisions evenly over its
-//! period instead of firing them on one frame. A behaviour module may ask for a minimum rate
+//! `(tick + slot index / block) % period == 0` — the phase spreads one band's decisions evenly
+//! over its period instead of firing them on one frame. `block` ([`phase_block`]) is 1 in a tank
+//! of up to 2,047 slots and grows with the slot count, so that in a big tank runs of neighbouring
+//! slots decide on the same tick: their Lua tables, motion players and roots lie next to each
+//! other in memory, and a lane's decisions read them in order instead of one cold fish after
+//! another (docs/performance.md). A behaviour module may ask for a minimum rate
 //! (`min_decision_hz`): the period is then never longer than that rate's.
 //!
 //! An **event wakes** a slow fish at once: when a fish not due has not decided for a whole base
@@ -53,6 +57,21 @@ pub const COLLISION_LENGTHS: f32 = 0.5;
 
 /// Most bands a schedule may have.
 pub const MAX_BANDS: usize = 6;
+
+/// A tank holds at least this many phase blocks ([`phase_block`]), so that a period of up to 32
+/// ticks still gets 32 or more blocks on each of its ticks: the decisions due on a tick stay
+/// within about 1/32 of the even share however the blocks fall.
+pub const MIN_PHASE_BLOCKS: usize = 1024;
+
+/// How many consecutive slot indices share a decision phase with level of detail on, in a
+/// store of `slots` slots: the largest power of two that leaves at least [`MIN_PHASE_BLOCKS`]
+/// blocks, 1 below 2,048 slots, at most 256. A power of two of the slot count, which only grows,
+/// so it changes only when the store doubles (the fish's phases then move once).
+pub fn phase_block(slots: usize) -> u64 {
+    let per = (slots / MIN_PHASE_BLOCKS).max(1);
+    let pow2 = 1usize << per.ilog2();
+    pow2.min(256) as u64
+}
 
 /// One band of the schedule: the fish within `radius` of a focus (and beyond the bands before)
 /// decide `every` times less often than their species' rate. With a `cap`, at most that many
@@ -345,6 +364,7 @@ impl World {
             let f = &world.state.fish;
             let lod = &world.lod;
             let on = lod.on;
+            let block = phase_block(f.slots());
             marks.clear();
             // `period` per species and behaviour, remembered per thread: a tick asks it once
             // for each of the few pairs instead of once per fish (behaviour names are shared,
@@ -367,10 +387,11 @@ impl World {
                     };
                     let (base, cap) = period_of(memo, f.species[d], behavior);
                     let base = base.max(1);
-                    let phase = tick + u64::from(f.ids[d].index);
+                    let slot = u64::from(f.ids[d].index);
                     if !on {
-                        return u8::from(phase.is_multiple_of(base));
+                        return u8::from((tick + slot).is_multiple_of(base));
                     }
+                    let phase = tick + slot / block;
                     let band = usize::from(bands[d]);
                     let p = (base * u64::from(lod.bands[band].every))
                         .min(cap.max(1))
@@ -774,6 +795,92 @@ mod tests {
             }
         }
         assert!(cleared > 1000 && hit > 1000, "cleared {cleared}, hit {hit}");
+    }
+
+    /// The phase block is 1 in small tanks, a power of two that leaves at least
+    /// [`MIN_PHASE_BLOCKS`] blocks in big ones, and never more than 256.
+    #[test]
+    fn the_phase_block_grows_with_the_slots_in_powers_of_two() {
+        for (slots, block) in [
+            (0, 1),
+            (1, 1),
+            (2_047, 1),
+            (2_048, 2),
+            (10_000, 8),
+            (100_000, 64),
+            (1 << 30, 256),
+        ] {
+            assert_eq!(phase_block(slots), block, "{slots} slots");
+        }
+        for slots in [2_048, 5_000, 77_777, 262_143, 262_144] {
+            let b = phase_block(slots) as usize;
+            assert!(
+                b.is_power_of_two() && slots / b >= MIN_PHASE_BLOCKS,
+                "{slots}: {b}"
+            );
+            assert!(
+                b == 256 || slots / (2 * b) < MIN_PHASE_BLOCKS,
+                "{slots}: {b} too small"
+            );
+        }
+    }
+
+    /// Level of detail on, no focus, no wakes, a 6-tick base period (so 24 in the last band):
+    /// the due ticks of `fish` scripted fish over 48 ticks, per slot.
+    fn due_ticks(fish: usize) -> Vec<Vec<u64>> {
+        let mut scene = random_scene_sized(1, fish, Vec3::splat(400.0));
+        let world = &mut scene.world;
+        let name: std::sync::Arc<str> = "school".into();
+        for b in &mut world.state.fish.behaviors {
+            *b = Some(name.clone());
+        }
+        world.lod.on = true;
+        world.lod.wake = false;
+        let mut due = vec![Vec::new(); fish];
+        let mut out = Vec::new();
+        for tick in 0..48 {
+            world.state.tick = tick;
+            world.schedule_decisions(|_, _| (6, u64::MAX), &mut out);
+            for (id, _) in &out {
+                due[id.index as usize].push(tick);
+            }
+        }
+        due
+    }
+
+    /// Below 2,048 slots a fish decides where `(tick + slot) % period == 0`, as it always did.
+    /// In a bigger tank each run of `phase_block` slots decides on one tick, every fish still
+    /// exactly once a period, and no tick takes more than 1/32 over its even share.
+    #[test]
+    fn neighbouring_slots_share_a_phase_and_the_ticks_stay_even() {
+        let due = due_ticks(1_000);
+        for (slot, ticks) in due.iter().enumerate() {
+            let first = (24 - slot as u64 % 24) % 24;
+            assert_eq!(ticks, &vec![first, first + 24], "slot {slot}");
+        }
+        let fish = 4_096;
+        let block = phase_block(fish) as usize;
+        assert_eq!(block, 4);
+        let due = due_ticks(fish);
+        let mut per_tick = [0usize; 48];
+        for (slot, ticks) in due.iter().enumerate() {
+            assert_eq!(ticks.len(), 2, "slot {slot}: {ticks:?}");
+            assert_eq!(ticks[1], ticks[0] + 24, "slot {slot}");
+            assert_eq!(
+                ticks,
+                &due[slot / block * block],
+                "slot {slot} left its block"
+            );
+            per_tick[ticks[0] as usize] += 1;
+            per_tick[ticks[1] as usize] += 1;
+        }
+        let share = (2 * fish) as f64 / 48.0;
+        let most = *per_tick.iter().max().unwrap() as f64;
+        assert!(
+            most <= share * (1.0 + 1.0 / 32.0),
+            "{most} a tick against {share}: {per_tick:?}"
+        );
+        assert!(due[0] != due[block], "the next block has its own phase");
     }
 
     /// A rock is far from a point exactly when it is beyond the distance, with a margin.

@@ -65,7 +65,7 @@ pub use contact::{drift, resolve_contact};
 pub use crowd::{CROWD_DENSE, CROWD_NEAREST, CROWD_SAMPLE, Crowd};
 pub use fish::{FishControls, FishRef};
 pub use food::FoodPhysics;
-pub use lod::{Lod, LodBand, LodCounts, LodError, WokenBy};
+pub use lod::{Lod, LodBand, LodCounts, LodError, MIN_PHASE_BLOCKS, WokenBy, phase_block};
 pub use registry::Species;
 pub use state::{EATEN_HISTORY, FoodDrops, WorldState, random_point};
 pub use tick::{Behavior, Pipeline, TICK_DT, step};

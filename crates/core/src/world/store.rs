@@ -68,6 +68,12 @@ impl FishStore {
         self.ids.len()
     }
 
+    /// How many slots were ever issued (live and free): it only grows, so a value derived from
+    /// it (the level-of-detail schedule's phase block) changes only when the store outgrows it.
+    pub fn slots(&self) -> usize {
+        self.generation.len()
+    }
+
     /// Dense position of `id`, or `None` if it is stale or was never issued.
     pub fn dense(&self, id: FishId) -> Option<usize> {
         let slot = id.index as usize;

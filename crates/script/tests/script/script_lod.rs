@@ -585,7 +585,8 @@ fn test_with_level_of_detail_on_the_lanes_do_not_change_the_run() {
     );
 }
 
-/// The benchmark school (3,000 fish: more than one chunk of every parallel pass) with level of
+/// The benchmark school (3,000 fish: more than one chunk of every parallel pass, and slots
+/// sharing phases in blocks of two, `shoal_core::world::phase_block`) with level of
 /// detail on, a focus and capped bands, run in a rayon pool of one thread (one script lane) and
 /// of four (four lanes): the world states are the same, every root bit for bit, and so is every
 /// tick's schedule.
