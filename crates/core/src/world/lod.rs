@@ -65,8 +65,9 @@ pub const MIN_PHASE_BLOCKS: usize = 1024;
 
 /// How many consecutive slot indices share a decision phase with level of detail on, in a
 /// store of `slots` slots: the largest power of two that leaves at least [`MIN_PHASE_BLOCKS`]
-/// blocks, 1 below 2,048 slots, at most 256. A power of two of the slot count, which only grows,
-/// so it changes only when the store doubles (the fish's phases then move once).
+/// blocks, 1 below 2,048 slots, at most 256. Despawns never lower the slot count, so the block
+/// changes only when spawns double the store past a power of two (the fish's phases then move
+/// once).
 pub fn phase_block(slots: usize) -> u64 {
     let per = (slots / MIN_PHASE_BLOCKS).max(1);
     let pow2 = 1usize << per.ilog2();

@@ -68,8 +68,9 @@ impl FishStore {
         self.ids.len()
     }
 
-    /// How many slots were ever issued (live and free): it only grows, so a value derived from
-    /// it (the level-of-detail schedule's phase block) changes only when the store outgrows it.
+    /// How many slots this store has issued (live and free): a despawn frees a slot but never
+    /// removes it, so a value derived from this (the level-of-detail schedule's phase block)
+    /// changes only when spawns outgrow it, or when a restore brings back an earlier store.
     pub fn slots(&self) -> usize {
         self.generation.len()
     }
