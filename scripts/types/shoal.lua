@@ -399,7 +399,7 @@ function shoal.avoid_walls(margin, speed) end
 ---`sep_radius`, alignment with and cohesion towards fish of the same species within `ali_radius`
 ---and `coh_radius`, mixed with the given weights. nil `nearest`: every fish within the radii —
 ---the same as shoal.blend of shoal.separation, shoal.alignment and shoal.cohesion — except where
----the neighbourhood is packed (more than 1,024 fish in the grid cells within the widest radius):
+---the neighbourhood is packed (more than 2,048 fish in the grid cells within the widest radius):
 ---there alignment and cohesion take an even sample of at most 1,024 of them, so the cost stays
 ---bounded (separation always takes every fish). A whole number ≥ 1: only the nearest that many
 ---(any species, nearest first, ties by id; starlings follow six to seven). "all": every fish

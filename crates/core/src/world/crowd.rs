@@ -45,10 +45,14 @@ use simd::{LaneQuery, LaneSums};
 /// still +6 % wall contacts): at that density a fish's cohesion radius holds about 200 fish and
 /// the centroid of the nearest 24 lies next to it. It was also dearer per decision than the
 /// four-lane scan of every fish (docs/performance.md). Most queries hold far fewer than this
-/// in their cells (at 100,000 fish in `shoal bench sim`, none of 384,000 queries held 512 or
-/// more), so they are exactly the unbounded rules; the sample bounds the dense tail (a ball of
-/// fish round a pellet, a school pressed into a corner, a designer's packed test scene).
-pub const CROWD_DENSE: usize = 1024;
+/// in their cells (at 100,000 fish in `shoal bench sim`, none of 400,000 queries held more
+/// than 1,024; in 12 s of `big_school`, none of 800,000 held more than 2,048 and 9 % held
+/// more than 1,024), so they are exactly the unbounded rules; the sample bounds the dense tail
+/// (a ball of fish round a pellet, a school pressed into a corner, a designer's packed test
+/// scene). It was 1,024 while the grid's cells were 150 units; the 225-unit cells a query
+/// visits hold about 1.5 times the fish, and with 1,024 the big school's sampled share rose
+/// from 2 % to 9 % of its queries, so the limit rose with them.
+pub const CROWD_DENSE: usize = 2048;
 
 /// At most this many grid slots (in aligned groups of four) a dense crowd query samples for
 /// alignment and cohesion: every m-th group of four in the grid's order of the cells within

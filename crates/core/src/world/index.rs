@@ -13,7 +13,7 @@ use super::grid::Grid;
 use super::{FishId, Species, SpeciesId, Tank, WorldState, crowd, nearest};
 
 /// The grid's cell size as a share of the longest view range (see [`SpatialIndex::rebuild`]).
-pub(super) const GRID_CELL_OF_VIEW: f32 = 0.3;
+pub(super) const GRID_CELL_OF_VIEW: f32 = 0.45;
 
 /// The spatial index of a world (see the module docs).
 pub(super) struct SpatialIndex {
@@ -101,12 +101,16 @@ impl SpatialIndex {
             .map(|s| s.desc.view_range)
             .filter(|r| r.is_finite() && *r > 0.0)
             .fold(0.0f32, f32::max);
-        // Cells of 0.3 of the longest view: queries cull the cells they visit row by row to
-        // their sphere, and smaller cells fit it closer. The shipped crowd query (300 units,
-        // under a predator's 500-unit view) scanned 23 % fewer instructions with 150-unit cells
-        // than with 250 (half-range) ones, the whole bench 2.7 % fewer (callgrind, 2,000 fish);
-        // full-range cells visit ~5x the sphere's volume. No smaller than 1/64 of the tank, so a
-        // tiny view range cannot explode the count.
+        // Cells of 0.45 of the longest view: queries cull the cells they visit row by row to
+        // their sphere, so smaller cells fit it closer, but each row of cells a query visits
+        // costs two lookups in the cell table (a cache miss once the tank is large) and its
+        // own setup. With the barracuda's 500-unit view, 150-unit cells (0.3) scanned 23 %
+        // fewer instructions than 250-unit ones at 2,000 fish (callgrind), yet 225-unit cells
+        // (0.45) took the 100,000-fish tick from 28.9 to 27.6 ms and the 10,000-fish tick
+        // (level of detail off) from 4.31 to 4.13 ms, sensing 12–15 % cheaper
+        // (docs/performance.md, 2026-12-07); 100-unit cells (0.2) were slower, 300-unit
+        // (0.6) no faster than 225. Full-range cells visit ~5x the sphere's volume. No smaller
+        // than 1/64 of the tank, so a tiny view range cannot explode the count.
         let cell = if view > 0.0 {
             (GRID_CELL_OF_VIEW * view).max(extent / 64.0)
         } else {

@@ -402,10 +402,11 @@ fn test_crowd_samples_a_packed_school_and_stays_close_to_all() {
     );
     let centre = Vec3::new(0.0, 300.0, 0.0);
     let id = spawn(&mut sim, centre, 0.0, "probe");
-    // 1,500 porgies within 100 units of the probe (about 30 a cubic body length), heading
-    // roughly +x, the school's centre off to one side.
+    // 3,000 porgies within 100 units of the probe (about 90 a cubic body length: more than
+    // the 2,048 the cells within the widest radius may hold unsampled), heading roughly +x,
+    // the school's centre off to one side.
     let (mut k, mut spawned) = (0u32, 0);
-    while spawned < 1500 {
+    while spawned < 3000 {
         let h = |n: u32, m: u32| ((n.wrapping_mul(2_654_435_761) >> 8) % m) as f32 / m as f32;
         let p = Vec3::new(h(k, 997), h(k + 7, 991), h(k + 13, 983)) * 2.0 - Vec3::ONE;
         k += 1;
