@@ -50,8 +50,8 @@ use simd::{LaneQuery, LaneSums};
 /// more than 1,024), so they are exactly the unbounded rules; the sample bounds the dense tail
 /// (a ball of fish round a pellet, a school pressed into a corner, a designer's packed test
 /// scene). It was 1,024 while the grid's cells were 150 units; the 225-unit cells a query
-/// visits hold about 1.5 times the fish, and with 1,024 the big school's sampled share rose
-/// from 2 % to 9 % of its queries, so the limit rose with them.
+/// visits hold more fish, and with 1,024 the big school's sampled share would have risen from
+/// 2 % to 9 % of its queries, so the limit rose with them.
 pub const CROWD_DENSE: usize = 2048;
 
 /// At most this many grid slots (in aligned groups of four) a dense crowd query samples for

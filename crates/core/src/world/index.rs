@@ -106,10 +106,10 @@ impl SpatialIndex {
         // costs two lookups in the cell table (a cache miss once the tank is large) and its
         // own setup. With the barracuda's 500-unit view, 150-unit cells (0.3) scanned 23 %
         // fewer instructions than 250-unit ones at 2,000 fish (callgrind), yet 225-unit cells
-        // (0.45) took the 100,000-fish tick from 28.9 to 27.6 ms and the 10,000-fish tick
-        // (level of detail off) from 4.31 to 4.13 ms, sensing 12–15 % cheaper
-        // (docs/performance.md, 2026-12-07); 100-unit cells (0.2) were slower, 300-unit
-        // (0.6) no faster than 225. Full-range cells visit ~5x the sphere's volume. No smaller
+        // (0.45) took the 100,000-fish tick (level of detail on) from 30.4 to 29.1 ms, the
+        // 10,000-fish tick (off) from 4.52 to 4.31 ms and sensing 9–15 % a decision
+        // (docs/performance.md, 2026-12-07); 100-unit cells (0.2) were slower, 0.38, 0.52
+        // and 0.6 within noise of 0.45. Full-range cells visit ~5x the sphere's volume. No smaller
         // than 1/64 of the tank, so a tiny view range cannot explode the count.
         let cell = if view > 0.0 {
             (GRID_CELL_OF_VIEW * view).max(extent / 64.0)
