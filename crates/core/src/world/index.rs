@@ -103,8 +103,7 @@ impl SpatialIndex {
             .fold(0.0f32, f32::max);
         // Cells of 0.45 of the longest view: queries cull the cells they visit row by row to
         // their sphere, so smaller cells fit it closer, but each row of cells a query visits
-        // costs two lookups in the cell table (a cache miss once the tank is large) and its
-        // own setup. With the barracuda's 500-unit view, 150-unit cells (0.3) scanned 23 %
+        // costs its own setup and two lookups in the cell table. With the barracuda's 500-unit view, 150-unit cells (0.3) scanned 23 %
         // fewer instructions than 250-unit ones at 2,000 fish (callgrind), yet 225-unit cells
         // (0.45) took the 100,000-fish tick (level of detail on) from 30.4 to 29.1 ms, the
         // 10,000-fish tick (off) from 4.52 to 4.31 ms and sensing 9–15 % a decision
