@@ -103,13 +103,14 @@ impl SpatialIndex {
             .fold(0.0f32, f32::max);
         // Cells of 0.45 of the longest view: queries cull the cells they visit row by row to
         // their sphere, so smaller cells fit it closer, but each row of cells a query visits
-        // costs its own setup and two lookups in the cell table. With the barracuda's 500-unit view, 150-unit cells (0.3) scanned 23 %
-        // fewer instructions than 250-unit ones at 2,000 fish (callgrind), yet 225-unit cells
-        // (0.45) took the 100,000-fish tick (level of detail on) from 30.4 to 29.1 ms, the
-        // 10,000-fish tick (off) from 4.52 to 4.31 ms and sensing 9–15 % a decision
-        // (docs/performance.md, 2026-12-07); 100-unit cells (0.2) were slower, 0.38, 0.52
-        // and 0.6 within noise of 0.45. Full-range cells visit ~5x the sphere's volume. No smaller
-        // than 1/64 of the tank, so a tiny view range cannot explode the count.
+        // costs its own setup and two lookups in the cell table. With the barracuda's 500-unit
+        // view, 150-unit cells (0.3) scanned 23 % fewer instructions than 250-unit ones at
+        // 2,000 fish (callgrind), yet 225-unit cells (0.45) took the 100,000-fish tick (level
+        // of detail on) from 30.4 to 29.1 ms, the 10,000-fish tick (off) from 4.52 to 4.31 ms
+        // and sensing 9–15 % a decision (docs/performance.md, 2026-12-07); 100-unit cells
+        // (0.2) were slower, 0.38, 0.52 and 0.6 within noise of 0.45. Full-range cells visit
+        // ~5x the sphere's volume. No smaller than 1/64 of the tank, so a tiny view range
+        // cannot explode the count.
         let cell = if view > 0.0 {
             (GRID_CELL_OF_VIEW * view).max(extent / 64.0)
         } else {
