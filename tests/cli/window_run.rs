@@ -322,16 +322,19 @@ impl TracedWindow {
         mark
     }
 
-    /// Ten clicks of the wheel down at the pointer, waiting until the window has had them all.
-    fn scroll_down(&mut self) {
+    /// `clicks` clicks of the wheel at the pointer, down or up, waiting until the window has had
+    /// them all.
+    fn scroll(&mut self, down: bool, clicks: usize) {
         let mark = self.seen.len();
-        self.xdotool(&["click", "--repeat", "10", "--delay", "50", "5"]);
+        let repeat = clicks.to_string();
+        let button = if down { "5" } else { "4" };
+        self.xdotool(&["click", "--repeat", &repeat, "--delay", "50", button]);
         // (Under Xvfb winit gives two wheel events per click.)
         while self.seen[mark..]
             .iter()
             .filter(|l| *l == "ui: wheel")
             .count()
-            < 10
+            < 2 * clicks
         {
             self.expect_since(
                 self.seen.len(),
@@ -616,10 +619,7 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
     w.button_1("mouseup", 2);
     // The new button is below the fold of the 760-pixel window: scroll the panel down to it
     // (the window prints it again where it lands).
-    w.button("save to species file");
-    w.pointer_to(&x, "400", 2);
-    w.scroll_down();
-    let clicked = w.click_button("save to species file");
+    let clicked = w.scroll_and_click("save to species file");
     w.expect_since(
         clicked,
         &|l| l.starts_with("console: ") && l.contains("black_porgy.lua: saved 1 value(s)"),
@@ -653,10 +653,12 @@ fn xdotool_drag_the_speed_slider_and_save_it_to_the_species_file() {
 }
 
 impl TracedWindow {
-    /// Scrolls the panel until the button `label` is inside the window (below its fold it is
-    /// drawn, and traced, outside it), then clicks it.
+    /// Scrolls the panel until the button `label` is inside the window (off it, above or below,
+    /// it is drawn, and traced, outside it), then clicks it. A few wheel clicks at a time, and
+    /// back up if they overshoot: under load the window can take a burst of wheel events as
+    /// one long scroll, and once carried a button from below the fold past the top.
     fn scroll_and_click(&mut self, label: &str) -> usize {
-        for _ in 0..12 {
+        for _ in 0..24 {
             let (x, y) = self.button(label);
             // `ui: 3D view WxH, …`: the window's height.
             let height: f32 = self
@@ -665,11 +667,13 @@ impl TracedWindow {
                 .and_then(|(_, r)| r.split(',').next())
                 .and_then(|h| h.parse().ok())
                 .expect("the view's height");
-            if y.parse::<f32>().unwrap_or(f32::MAX) < height - 30.0 {
+            let y = y.parse::<f32>().unwrap_or(f32::MAX);
+            let (below, above) = (y >= height - 30.0, y < 30.0);
+            if !(below || above) {
                 break;
             }
             self.pointer_to(&x, "400", 2);
-            self.scroll_down();
+            self.scroll(below, 3);
         }
         self.click_button(label)
     }
