@@ -346,21 +346,70 @@ impl TracedWindow {
         self.frames(10);
     }
 
-    /// Moves onto the button `label`, lets a few frames see the pointer there (as a hand
-    /// would), and clicks. A panel that is still scrolling moves the button under the
-    /// pointer: the pointer follows it until two looks agree. Returns where in `seen` the
-    /// lines after the click begin.
-    fn click_button(&mut self, label: &str) -> usize {
-        let mut at = self.button(label);
-        for _ in 0..10 {
-            self.pointer_to(&at.0, &at.1, 3);
-            let now = self.button(label);
-            if now == at {
-                break;
+    /// Whether a line `pred` accepts was read since `seen[from]` or comes within `n` more
+    /// frames.
+    fn within_frames(&mut self, from: usize, pred: &dyn Fn(&str) -> bool, n: usize) -> bool {
+        let mut frames = 0;
+        let mut k = from.min(self.seen.len());
+        loop {
+            while k < self.seen.len() {
+                let line = &self.seen[k];
+                if pred(line) {
+                    return true;
+                }
+                frames += usize::from(line.starts_with("ui: frame "));
+                k += 1;
             }
-            at = now;
+            if frames > n {
+                return false;
+            }
+            self.wait_for(
+                &|l| l.starts_with("ui: frame ") || pred(l),
+                Duration::from_secs(120),
+            )
+            .unwrap_or_else(|| panic!("the window stopped presenting frames:\n{:#?}", self.seen));
         }
-        self.button_1("click", 1)
+    }
+
+    /// Moves onto the button `label`, lets a few frames see the pointer there (as a hand
+    /// would), and clicks, until the window says the button took the click (`ui: clicked`,
+    /// traced on the frame egui counts it). A panel that is still scrolling moves the button
+    /// under the pointer: the pointer follows it until two looks agree. Returns where in
+    /// `seen` the lines after the click that was taken begin.
+    ///
+    /// A click is tried again (at most twice) when the window did not take it: egui counts a
+    /// press and a release in frames more than 0.8 s apart as no click, and a loaded CI machine
+    /// has been seen to lose one that way. A button that takes no click at all still fails.
+    fn click_button(&mut self, label: &str) -> usize {
+        let taken = format!("ui: clicked {label:?}");
+        for attempt in 1..=3 {
+            let mut at = self.button(label);
+            for _ in 0..10 {
+                self.pointer_to(&at.0, &at.1, 3);
+                let now = self.button(label);
+                if now == at {
+                    break;
+                }
+                at = now;
+            }
+            let mark = self.button_1("click", 1);
+            if self.within_frames(mark, &|l| l == taken, 10) {
+                return mark;
+            }
+            let slow: Vec<&String> = self.seen[mark.saturating_sub(40)..]
+                .iter()
+                .filter(|l| l.starts_with("ui: frame ") && l.contains(" after "))
+                .collect();
+            eprintln!(
+                "click {attempt} on {label:?} at {},{} was not taken by the window \
+                 (slow frames around it: {slow:?})",
+                at.0, at.1
+            );
+        }
+        panic!(
+            "the window never took a click on {label:?} in 3 tries:\n{:#?}",
+            self.seen
+        )
     }
 }
 

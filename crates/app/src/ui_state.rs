@@ -146,8 +146,12 @@ impl UiState {
     }
 
     /// With [`UiState::trace`], prints a widget's centre and size in physical pixels whenever it
-    /// is drawn somewhere new: `ui: button "quick turn left" at X,Y size WxH`.
+    /// is drawn somewhere new: `ui: button "quick turn left" at X,Y size WxH`; and
+    /// `ui: clicked "quick turn left"` on the frame egui takes a click on it.
     pub fn trace_widget(&mut self, ui: &egui::Ui, label: &str, response: &egui::Response) {
+        if self.trace && response.clicked() {
+            println!("ui: clicked {label:?}");
+        }
         self.trace_line(label, || {
             let r = response.rect * ui.ctx().pixels_per_point();
             format!(

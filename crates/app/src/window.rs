@@ -444,8 +444,17 @@ impl App {
             .frame_done(fish_drawn, now.elapsed().as_secs_f32() * 1e3, sim_ms);
         self.presented += 1;
         if self.aq.ui.trace {
-            // End-to-end tests count frames instead of sleeping.
-            println!("ui: frame {}", self.presented);
+            // End-to-end tests count frames instead of sleeping. A frame begun long after the
+            // one before says so: egui takes a press and a release in frames more than 0.8 s
+            // apart as no click, and a test that lost a click needs to see why.
+            if frame_dt > 0.5 {
+                println!(
+                    "ui: frame {} ({frame_dt:.2} s after the one before)",
+                    self.presented
+                );
+            } else {
+                println!("ui: frame {}", self.presented);
+            }
         }
         let times = &mut self.aq.ui.times;
         times.push_back(FrameTimes {
