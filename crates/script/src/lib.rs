@@ -44,6 +44,7 @@ pub mod reload;
 pub mod sandbox;
 pub mod scene;
 pub mod sim;
+pub mod stolen;
 pub mod strings;
 pub mod testing;
 pub mod timeline;

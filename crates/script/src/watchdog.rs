@@ -19,7 +19,9 @@
 //!
 //! The watchdog also enforces each call's time limit: once a call has used its limit of CPU time
 //! (its thread's CPU clock, read by the watchdog: a call that is merely waiting for a busy
-//! machine's processor is not stopped) it marks the call expired ([`expired`]) and signals the
+//! machine's processor is not stopped, nor one whose virtual processor the hypervisor stopped,
+//! which that clock counts: see [`crate::stolen`]) it marks the call expired ([`expired`]) and
+//! signals the
 //! thread again; the handler sets the hook to run before *every* instruction, and the hook stops
 //! the call at the next one. Host functions that can run long (the sandbox's string functions)
 //! poll [`expired`] themselves. Coroutines are Lua threads with hooks of their own: the sandbox creates them
@@ -250,6 +252,29 @@ mod watch {
     use mlua::ffi;
 
     use super::{IDLE_LOOKS, NO_TAG, PERIOD, SLOTS, Sampler};
+    use crate::stolen;
+
+    /// A call in flight this long is watched for stolen time (see [`crate::stolen`]): the
+    /// watchdog reads `/proc/stat` while one is, every [`READ_STAT_EVERY`].
+    const LONG_NS: u64 = 2_000_000;
+
+    /// How often `/proc/stat` is read while a long call is in flight.
+    const READ_STAT_EVERY: u64 = 2_000_000;
+
+    /// What the watchdog keeps of the call in flight in one slot.
+    #[derive(Clone, Copy, Default)]
+    struct Seen {
+        /// The call (0: none yet).
+        call: u64,
+        /// When the watchdog first saw it, ns since the watchdog started.
+        at: u64,
+        /// Its thread's CPU time then.
+        cpu: Option<u64>,
+        /// The machine's stolen time when the call was first seen running long.
+        stolen: Option<u64>,
+        /// When it first looked past its time limit.
+        over_since: Option<u64>,
+    }
 
     /// One watched Lua state. Written by the thread running the state's calls (and read by the
     /// watchdog and the signal handler), except `meter_gen`, `sample_wanted` and `expired`,
@@ -502,14 +527,29 @@ mod watch {
     /// sampling interval has passed since the state's last one.
     fn watchdog() {
         let start = Instant::now();
-        // Per slot: the call last seen in flight, when it was first seen (ns since `start`) and
-        // its thread's CPU time then.
-        let mut seen = [(0u64, 0u64, None::<u64>); SLOTS];
+        // Per slot: the call last seen in flight.
+        let mut seen = [Seen::default(); SLOTS];
+        // SAFETY: sysconf has no preconditions.
+        let ticks_per_s = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+        let unit_ns = 1_000_000_000 / u64::try_from(ticks_per_s).unwrap_or(100).max(1);
+        let mut stolen = stolen::Watch::new(unit_ns);
+        // A long call was in flight at the last look; when `/proc/stat` was read last.
+        let (mut long, mut read_at) = (false, None::<u64>);
         // Per slot: when its last sample was asked for.
         let mut sampled = [0u64; SLOTS];
         let mut idle = 0u32;
         loop {
             let now = u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX);
+            if !long {
+                if read_at.take().is_some() {
+                    stolen.forget();
+                }
+            } else if read_at.is_none_or(|at| now.saturating_sub(at) >= READ_STAT_EVERY) {
+                let text = std::fs::read_to_string("/proc/stat").ok();
+                stolen.update(now, text.as_deref().and_then(stolen::parse));
+                read_at = Some(now);
+            }
+            long = false;
             let mut any = false;
             for ((s, seen), sampled) in TABLE.iter().zip(seen.iter_mut()).zip(sampled.iter_mut()) {
                 let call = s.busy.load(Ordering::SeqCst);
@@ -518,10 +558,22 @@ mod watch {
                 }
                 any = true;
                 let tid = s.tid.load(Ordering::SeqCst);
-                if seen.0 != call {
-                    *seen = (call, now, thread_cpu_ns(tid));
+                if seen.call != call {
+                    *seen = Seen {
+                        call,
+                        at: now,
+                        cpu: thread_cpu_ns(tid),
+                        stolen: None,
+                        over_since: None,
+                    };
                 }
-                if look(s, call, tid, now, seen, sampled) {
+                if now.saturating_sub(seen.at) >= LONG_NS {
+                    long = true;
+                    if seen.stolen.is_none() {
+                        seen.stolen = stolen.stolen_ns();
+                    }
+                }
+                if look(s, call, tid, now, seen, &stolen, sampled) {
                     // SAFETY: tgkill only sends a signal. Should the thread have finished the
                     // call (or even exited and its id been reused) meanwhile, the handler finds
                     // no call of that thread to meter and does nothing; SIGURG is otherwise
@@ -556,20 +608,30 @@ mod watch {
         call: u64,
         tid: i32,
         now: u64,
-        seen: &(u64, u64, Option<u64>),
+        seen: &mut Seen,
+        stolen: &stolen::Watch,
         sampled: &mut u64,
     ) -> bool {
         let limit = s.limit_ns.load(Ordering::SeqCst);
-        if s.expired.load(Ordering::SeqCst) != call && now.saturating_sub(seen.1) >= limit {
-            // Past the limit in wall time; stopped once its CPU time is too (a thread whose
-            // clock cannot be read is stopped on wall time).
-            let used = match (seen.2, thread_cpu_ns(tid)) {
+        if s.expired.load(Ordering::SeqCst) != call && now.saturating_sub(seen.at) >= limit {
+            // Past the limit in wall time; stopped once its CPU time is too, less the time the
+            // hypervisor took meanwhile (a thread whose clock cannot be read is stopped on wall
+            // time).
+            let used = match (seen.cpu, thread_cpu_ns(tid)) {
                 (Some(then), Some(cpu)) => cpu.saturating_sub(then),
                 _ => u64::MAX,
             };
             if used >= limit {
-                s.expired.store(call, Ordering::SeqCst);
-                return true;
+                let over_since = *seen.over_since.get_or_insert(now);
+                let taken = seen
+                    .stolen
+                    .zip(stolen.stolen_ns())
+                    .map(|(then, stolen)| stolen.saturating_sub(then));
+                let waited = now.saturating_sub(over_since);
+                if stolen::past_limit(used, taken, stolen.stalled(now), waited, limit) {
+                    s.expired.store(call, Ordering::SeqCst);
+                    return true;
+                }
             }
         }
         let mut signal = false;
@@ -589,7 +651,7 @@ mod watch {
         // `after`/`tid` may already belong to a newer call of the slot: then that call is
         // metered a little early, which only costs it speed.
         let after = s.after_ns.load(Ordering::SeqCst);
-        if now.saturating_sub(seen.1) < after {
+        if now.saturating_sub(seen.at) < after {
             return signal;
         }
         s.meter_gen.store(call, Ordering::SeqCst);
