@@ -88,8 +88,7 @@ impl Watch {
     /// watch then knows nothing, and the time limit is the CPU clock alone).
     pub fn update(&mut self, now: u64, reading: Option<CpuTimes>) {
         let Some(reading) = reading else {
-            self.last = None;
-            self.moved_at.clear();
+            self.forget();
             return;
         };
         match &self.last {

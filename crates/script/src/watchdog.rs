@@ -21,9 +21,8 @@
 //! (its thread's CPU clock, read by the watchdog: a call that is merely waiting for a busy
 //! machine's processor is not stopped, nor one whose virtual processor the hypervisor stopped,
 //! which that clock counts: see [`crate::stolen`]) it marks the call expired ([`expired`]) and
-//! signals the
-//! thread again; the handler sets the hook to run before *every* instruction, and the hook stops
-//! the call at the next one. Host functions that can run long (the sandbox's string functions)
+//! signals the thread again; the handler sets the hook to run before *every* instruction, and
+//! the hook stops the call at the next one. Host functions that can run long (the sandbox's string functions)
 //! poll [`expired`] themselves. Coroutines are Lua threads with hooks of their own: the sandbox creates them
 //! through mlua, which gives them the budget hook for good (they are rare in behaviours).
 //!
