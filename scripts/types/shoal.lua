@@ -124,7 +124,7 @@
 ---@class (exact) shoal.Lod
 ---@field on? boolean           # level of detail on by default for this scene (`--lod on|off` overrides)
 ---@field focus? shoal.Vec3[]   # focus points for headless runs (the window uses its camera and selection)
----@field bands? shoal.LodBand[]  # nearest first; default {radius=600, every=1}, {radius=1500, every=2}, {every=4}
+---@field bands? shoal.LodBand[]  # nearest first; default {radius=600, every=1}, {radius=1500, every=2}, {every=3}
 ---@field wake? boolean         # events (contact, wall or rock ahead, predator or pellet in view) wake slow fish (default true)
 ---@field wall_lookahead? number  # seconds ahead (at cruising speed) a slow fish is woken for a wall, floor, surface or rock (0 to 60, default 2.5: the shipped behaviours' horizon)
 

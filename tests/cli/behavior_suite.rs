@@ -78,8 +78,9 @@ fn test_shipped_behavior_suite_passes_with_level_of_detail_on() {
 
 /// `t:world{lod = ...}` pins level of detail for its world whatever `--lod` says, and
 /// `t:world{focus = ...}` keeps the fish near it at full rate: with `--lod on`, a probe that
-/// counts its decisions makes all 20 of two seconds in both, and 5 (a quarter) in a world that
-/// pins neither. Bad values and the unknown-key list name the new keys.
+/// counts its decisions makes all 30 of three seconds in both, and 10 (a third: the default far
+/// band's rate) in a world that pins neither. Bad values and the unknown-key list name the new
+/// keys.
 #[test]
 fn test_world_options_pin_level_of_detail_and_its_focus() {
     let dir = tempfile::tempdir().unwrap();
@@ -94,24 +95,24 @@ local function count(t, opts)
   w:write_script("behaviors/counter.lua", COUNTER)
   local fish = w:spawn{ species = "black_porgy", pos = {0, 200, 0}, heading = 0, speed = 0,
                         behavior = "counter" }
-  w:run(2)
+  w:run(3)
   return fish.memory.n
 end
 test("pinned off", function(t)
   local n = count(t, { seed = 1, lod = false })
-  t:expect(n == 20, "20 decisions with lod = false, got " .. tostring(n))
+  t:expect(n == 30, "30 decisions with lod = false, got " .. tostring(n))
 end)
 test("focus on the probe", function(t)
   local n = count(t, { seed = 1, focus = {0, 200, 0} })
-  t:expect(n == 20, "20 decisions at the focus, got " .. tostring(n))
+  t:expect(n == 30, "30 decisions at the focus, got " .. tostring(n))
 end)
 test("a list of focus points", function(t)
   local n = count(t, { seed = 1, focus = { {900, 200, 0}, {0, 200, 0} } })
-  t:expect(n == 20, "20 decisions at the second focus, got " .. tostring(n))
+  t:expect(n == 30, "30 decisions at the second focus, got " .. tostring(n))
 end)
 test("neither", function(t)
   local n = count(t, { seed = 1 })
-  t:expect(n == 5, "a quarter of the rate with --lod on and no focus, got " .. tostring(n))
+  t:expect(n == 10, "a third of the rate with --lod on and no focus, got " .. tostring(n))
 end)
 test("bad lod", function(t) t:world{ lod = "yes" } end)
 test("bad focus", function(t) t:world{ focus = { {0, 1} } } end)

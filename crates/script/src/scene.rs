@@ -306,7 +306,7 @@ pub fn take_measures(scene: &Table, file: &str) -> Result<Vec<String>, FieldErro
 }
 
 /// A scene's `lod` table: `lod = { on = true, focus = { {0, 150, 0} },
-/// bands = { {radius = 600, every = 1, cap = 500}, {radius = 1500, every = 2}, {every = 4} },
+/// bands = { {radius = 600, every = 1, cap = 500}, {radius = 1500, every = 2}, {every = 3} },
 /// wake = true, wall_lookahead = 2.5 }`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -317,7 +317,7 @@ pub struct LodDesc {
     /// Focus points for headless runs (a window focuses on its camera and selection instead).
     #[serde(default)]
     pub focus: Vec<[f32; 3]>,
-    /// The bands, nearest first (default: 600 units at full rate, 1,500 at half, a quarter
+    /// The bands, nearest first (default: 600 units at full rate, 1,500 at half, a third
     /// beyond); the last band's radius may be left out (it reaches everywhere).
     #[serde(default)]
     pub bands: Option<Vec<LodBandDesc>>,

@@ -7,6 +7,7 @@ use crate::common;
 use std::path::Path;
 
 use glam::Vec3;
+use shoal_core::world::lod::default_bands;
 use shoal_core::world::{FishId, Lod, LodBand, WokenBy};
 use shoal_script::Simulation;
 use shoal_script::timeline::inputs::{Input, TimedInput};
@@ -112,17 +113,19 @@ fn capped(radii: [f32; 2], caps: [Option<u32>; 2]) -> Vec<LodBand> {
     ]
 }
 
-/// Off, every fish decides at its species' 10 Hz: 8 times in 48 ticks. On with no focus, every
-/// fish is in the last band (a quarter of the rate): exactly twice, each on its own phase, so no
-/// tick holds more than its share.
+/// Off, every fish decides at its species' 10 Hz: 12 times in 72 ticks. On with no focus, every
+/// fish is in the default last band (a third of the rate): exactly four times, each on its own
+/// phase, so no tick holds more than its share.
 #[test]
 fn test_without_a_focus_every_fish_decides_at_the_last_bands_rate() {
-    for (on, expected) in [(false, 8), (true, 2)] {
+    let every = default_bands().last().unwrap().every;
+    assert_eq!(every, 3, "the default far band");
+    for (on, expected) in [(false, 12), (true, 4)] {
         let (_d, mut sim) = probe(COUNTER, 2);
         sim.set_lod_on(on);
         let fish = row(&mut sim, 0.0);
         let mut per_tick = Vec::new();
-        for _ in 0..48 {
+        for _ in 0..72 {
             sim.step();
             per_tick.push(sim.world().lod_counts().total());
         }
@@ -130,11 +133,8 @@ fn test_without_a_focus_every_fish_decides_at_the_last_bands_rate() {
             assert_eq!(decisions(&sim, id), expected, "lod {on}, fish {id:?}");
         }
         let most = *per_tick.iter().max().unwrap();
-        let share = if on {
-            12usize.div_ceil(24)
-        } else {
-            12usize.div_ceil(6)
-        };
+        let period = if on { 6 * every as usize } else { 6 };
+        let share = 12usize.div_ceil(period);
         assert!(
             most as usize <= share,
             "lod {on}: a tick made {most} decisions, more than the phase spread allows ({share}): {per_tick:?}"
@@ -284,7 +284,7 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
     for _ in 0..10 {
         sim.step();
     }
-    // Slot 0 decided on tick 0 (its phase in the last band is tick 0, 24, …).
+    // Slot 0 decided on tick 0 (its phase in the last band is tick 0, 18, …).
     let first = fish[0];
     assert_eq!(first.index, 0);
     assert_eq!(decisions(&sim, first), 1);
@@ -312,10 +312,11 @@ fn test_food_in_reach_and_a_wall_ahead_wake_a_slow_fish_at_once() {
         assert_eq!((by.seen, by.neighbour), (0, 0));
         woken_by_walls += by.obstacle;
     }
-    // Woken each base period (every 6 ticks), not every tick: 8 decisions, 2 of them due.
+    // Woken each base period (every 6 ticks), not every tick: 8 decisions, 3 of them due
+    // (ticks 0, 18 and 36); the free fish (slot 1) decides on ticks 17 and 35 only.
     assert_eq!(decisions(&sim, walled), 8);
     assert_eq!(decisions(&sim, free), 2);
-    assert_eq!(woken_by_walls, 6);
+    assert_eq!(woken_by_walls, 5);
 }
 
 /// A still fish beside a side wall, heading along it (nothing straight ahead), is woken each
@@ -431,18 +432,18 @@ fn test_a_fish_about_to_touch_another_is_woken_at_its_full_rate() {
         }
         // Slot 0 decides on ticks 0, 6, … 42; slot 1 would on 5, 11, … 47, but a fish is woken
         // only once it has been idle a whole base period (tick 5 is too early).
-        let expected = if wake { [8, 7] } else { [2, 2] };
+        let expected = if wake { [8, 7] } else { [3, 2] };
         for (id, n) in close.into_iter().zip(expected) {
             assert_eq!(decisions(&sim, id), n, "wake {wake}: {id:?}");
         }
         for id in apart {
             assert_eq!(decisions(&sim, id), 2, "wake {wake}: {id:?}");
         }
-        // Of the close pair's 15 decisions, 4 were due (ticks 0, 24 and 23, 47): their
-        // neighbour woke the other 11.
+        // Of the close pair's 15 decisions, 5 were due (ticks 0, 18, 36 and 17, 35): their
+        // neighbour woke the other 10.
         assert_eq!(
             (by.seen, by.obstacle, by.neighbour),
-            (0, 0, if wake { 11 } else { 0 }),
+            (0, 0, if wake { 10 } else { 0 }),
             "wake {wake}"
         );
     }
@@ -476,8 +477,8 @@ fn test_a_predator_coming_into_view_wakes_the_fish_that_see_it() {
         Some("probe"),
     );
     let counts = |sim: &Simulation| [near, beyond, keen, kin].map(|id| decisions(sim, id));
-    // In the last band slot k decides on the ticks ≡ −k (mod 24): slot 0 on ticks 0 and 24,
-    // the others once by tick 23. At tick 30 none is due and each has been idle at least a
+    // In the last band slot k decides on the ticks ≡ −k (mod 18): slot 0 on ticks 0 and 18,
+    // the others once by tick 17. At tick 30 none is due and each has been idle at least a
     // base period (6 ticks), so each may be woken.
     for _ in 0..30 {
         sim.step();
