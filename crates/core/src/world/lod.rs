@@ -21,18 +21,20 @@
 //! due (while these last, it decides every base period); another fish within half a body
 //! length, on the ticks it would decide at full rate; a predator of another
 //! species or a pellet came within its view range since its last decision (a fish that decided
-//! with it in view has reacted, and keeps swimming on that). Each is a handful of comparisons
-//! (the predators and pellets mark the fish around them from one grid query each), so the check
-//! costs far less than a decision.
+//! with it in view has reacted, and keeps swimming on that), or the nearest predator in view has
+//! closed to [`THREAT_CLOSING`] of its distance then, on the ticks it would decide at full rate
+//! (a fleeing fish at full rate turns from the hunter again each base period; without this one
+//! in the far band fled on a stale bearing and let it come nearer). Each is a handful of
+//! comparisons (the predators and pellets mark the fish around them from one grid query each),
+//! so the check costs far less than a decision.
 //!
 //! The schedule reads only the tick, the fish's slot indices, their state (positions, headings,
-//! contact, the tick each last decided and whether something was in view then) and the focus
-//! points, which are inputs (a recording
-//! keeps them). So a run with level of detail on is as deterministic as one without: the same
-//! whatever the number of lanes or threads, and a replay is bit-exact.
+//! contact, the tick each last decided and what was in view then) and the focus points, which
+//! are inputs (a recording keeps them). So a run with level of detail on is as deterministic as
+//! one without: the same whatever the number of lanes or threads, and a replay is bit-exact.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::Vec3;
 
@@ -54,6 +56,11 @@ pub const DEFAULT_WALL_LOOKAHEAD_S: f32 = 2.5;
 /// decide at its species' full rate (see [`World::crowded`]): bodies that close are about to
 /// touch, which a full-rate fish's separation rule would already be answering.
 pub const COLLISION_LENGTHS: f32 = 0.5;
+
+/// A predator in view that has come this much nearer (as a fraction of its distance when the
+/// fish last decided) wakes a slow fish on the ticks it would decide at full rate: a fleeing
+/// fish at full rate turns from the hunter again every base period.
+pub const THREAT_CLOSING: f32 = 0.8;
 
 /// Most bands a schedule may have.
 pub const MAX_BANDS: usize = 6;
@@ -264,7 +271,8 @@ pub struct LodCounts {
 /// What woke slow fish (see the module docs), per cause.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct WokenBy<T> {
-    /// A predator of another species or a pellet came into view.
+    /// A predator of another species or a pellet came into view, or a predator in view closed
+    /// in.
     pub seen: T,
     /// Contact, or a wall, the floor, the surface or a rock near or ahead.
     pub obstacle: T,
@@ -296,6 +304,26 @@ impl LodCounts {
     /// Decisions in all bands.
     pub fn total(&self) -> u32 {
         self.decisions.iter().sum()
+    }
+}
+
+/// A fish's sighting this tick, one `u32` ([`World::mark_alerts`]): [`Sight::NONE`], nothing in
+/// view; [`Sight::PELLET`], a pellet and no predator; anything smaller, a predator of another
+/// species, the bits of the nearest one's squared distance (not negative and finite, so below
+/// the bits of infinity, and ordered as the distances are: each query keeps the smallest with
+/// `fetch_min`, so the marks do not depend on the order of the queries).
+struct Sight;
+
+impl Sight {
+    const NONE: u32 = u32::MAX;
+    const PELLET: u32 = 0x7f80_0000; // f32::INFINITY's bits
+    /// The nearest predator's squared distance in a sighting (infinite: none).
+    fn threat(bits: u32) -> f32 {
+        if bits < Self::PELLET {
+            f32::from_bits(bits)
+        } else {
+            f32::INFINITY
+        }
     }
 }
 
@@ -362,7 +390,7 @@ impl World {
             }
         }
         {
-            let alert = &alert;
+            let sight = &alert[..];
             let bands = &bands;
             let world: &World = self;
             let f = &world.state.fish;
@@ -407,7 +435,7 @@ impl World {
                     if !(due || could_wake) {
                         return 0;
                     }
-                    let alert = lod.wake && world.alerted_now(d, alert);
+                    let alert = lod.wake && world.alerted_now(d, sight);
                     let alert_bit = if alert { ALERT } else { 0 };
                     if due {
                         return (1 + band as u8) | alert_bit;
@@ -415,7 +443,8 @@ impl World {
                     // A predator or pellet wakes the fish when it came into view since its last
                     // decision (a fish that decided with it in view has reacted and goes on with
                     // that); contact and a wall or rock ahead wake it every base period while
-                    // they last.
+                    // they last; a predator in view that has closed in since, on the ticks it
+                    // would decide at full rate (`threat_seen`: its squared distance then).
                     // The ticks until it is next due: how far it swims on its last request before
                     // it decides again.
                     let until_due = p - phase % p;
@@ -425,6 +454,12 @@ impl World {
                         BY_OBSTACLE
                     } else if phase.is_multiple_of(base) && world.crowded(d) {
                         BY_NEIGHBOUR
+                    } else if alert
+                        && phase.is_multiple_of(base)
+                        && world.threat_now(d, sight)
+                            < THREAT_CLOSING * THREAT_CLOSING * f.threat_seen[d]
+                    {
+                        BY_SEEN
                     } else {
                         return 0;
                     };
@@ -436,6 +471,23 @@ impl World {
         let mut counts = LodCounts {
             bands: if on { self.lod.bands.len() as u8 } else { 1 },
             ..LodCounts::default()
+        };
+        // Without the marks (the grid was not exact), the nearest predator of each deciding fish
+        // that has one in view, scanned before the pass below takes the fish to write to.
+        let scanned: Vec<f32> = if alert.is_empty() && self.lod.on && self.lod.wake {
+            marks
+                .iter()
+                .enumerate()
+                .map(|(d, &m)| {
+                    if m & ALERT != 0 {
+                        self.threat_now(d, &alert)
+                    } else {
+                        f32::INFINITY
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
         };
         // One pass over a byte or two per fish: the per-fish work is done above.
         let f = &mut self.state.fish;
@@ -456,6 +508,13 @@ impl World {
             by.neighbour += u32::from(m & BY_NEIGHBOUR != 0);
             f.last_decided[d] = tick;
             f.alerted[d] = m & ALERT != 0;
+            f.threat_seen[d] = if m & ALERT == 0 {
+                f32::INFINITY
+            } else if let Some(s) = alert.get(d) {
+                Sight::threat(s.load(Ordering::Relaxed))
+            } else {
+                scanned[d]
+            };
             out.push((f.ids[d], f.species[d]));
         }
         self.lod_marks = marks;
@@ -515,21 +574,22 @@ impl World {
         }
     }
 
-    /// Marks, per dense fish, whether a predator of another species or a pellet is within its
-    /// view range, from one grid query around each predator and pellet (there are far fewer of
-    /// them than fish, so this costs a few thousand candidate visits where a query per fish
-    /// would cost one per fish), the queries over rayon's threads (a mark is only ever set, so
-    /// the marks do not depend on the order). Leaves `alert` empty when the grid is not exact
-    /// (fish spawned or despawned since its rebuild): [`World::alerted_now`] then scans them
-    /// itself.
-    fn mark_alerts(&self, alert: &mut Vec<AtomicBool>) {
+    /// Marks, per dense fish, what of the predators of other species and the pellets is within
+    /// its view range ([`Sight`]: none, a pellet, or the nearest predator's squared distance),
+    /// from one grid query around each predator and pellet (there are far fewer of them than
+    /// fish, so this costs a few thousand candidate visits where a query per fish would cost one
+    /// per fish), the queries over rayon's threads (a mark only ever falls, to the smallest
+    /// value, so the marks do not depend on the order). Leaves `alert` empty when the grid is
+    /// not exact (fish spawned or despawned since its rebuild): [`World::alerted_now`] and
+    /// [`World::threat_now`] then scan them themselves.
+    fn mark_alerts(&self, alert: &mut Vec<AtomicU32>) {
         use rayon::prelude::*;
         alert.clear();
         let f = &self.state.fish;
         if !(self.index.grid_exact && self.index.grid_positions_current) {
             return;
         }
-        alert.resize_with(f.len(), || AtomicBool::new(false));
+        alert.resize_with(f.len(), || AtomicU32::new(Sight::NONE));
         // Each species' view range, 0 for one that sees nothing (not finite, not positive).
         let sight: Vec<f32> = self
             .catalog
@@ -574,7 +634,7 @@ impl World {
                 grid.for_each_within(spot.pos(), reach, |key, _, d2| {
                     let d = key as usize;
                     if f.species[d] != spot.species() && d2 <= view2(d) {
-                        alert[d].store(true, Ordering::Relaxed);
+                        alert[d].fetch_min(d2.to_bits(), Ordering::Relaxed);
                     }
                     true
                 });
@@ -588,7 +648,7 @@ impl World {
                 grid.for_each_within(pellet.pos, reach, |key, _, d2| {
                     let d = key as usize;
                     if d2 <= view2(d) {
-                        alert[d].store(true, Ordering::Relaxed);
+                        alert[d].fetch_min(Sight::PELLET, Ordering::Relaxed);
                     }
                     true
                 });
@@ -670,11 +730,37 @@ impl World {
         found
     }
 
+    /// The squared distance from dense fish `d` to the nearest predator of another species in
+    /// its view range (infinite: none): from `alert` ([`World::mark_alerts`]'s marks) when it
+    /// has them, else scanned.
+    fn threat_now(&self, d: usize, alert: &[AtomicU32]) -> f32 {
+        if let Some(a) = alert.get(d) {
+            return Sight::threat(a.load(Ordering::Relaxed));
+        }
+        let f = &self.state.fish;
+        let pos = f.roots[d].pos;
+        let range = self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .view_range;
+        if !(range.is_finite() && range > 0.0) {
+            return f32::INFINITY;
+        }
+        let me = f.species[d];
+        self.index
+            .predators
+            .iter()
+            .filter_map(|&p| f.dense(p))
+            .filter(|&o| f.species[o] != me)
+            .map(|o| f.roots[o].pos.distance_squared(pos))
+            .filter(|&d2| d2 <= range * range)
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:
     /// from `alert` ([`World::mark_alerts`]'s marks) when it has them, else scanned.
-    fn alerted_now(&self, d: usize, alert: &[AtomicBool]) -> bool {
+    fn alerted_now(&self, d: usize, alert: &[AtomicU32]) -> bool {
         if let Some(a) = alert.get(d) {
-            return a.load(Ordering::Relaxed);
+            return a.load(Ordering::Relaxed) != Sight::NONE;
         }
         let f = &self.state.fish;
         let root = &f.roots[d];

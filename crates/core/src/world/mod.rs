@@ -156,8 +156,9 @@ pub struct World {
     lod_counts: LodCounts,
     /// The last schedule's per-fish marks (a buffer kept between ticks).
     lod_marks: Vec<u8>,
-    /// The last schedule's per-fish alerts (predator or pellet in view; a buffer).
-    lod_alert: Vec<std::sync::atomic::AtomicBool>,
+    /// The last schedule's per-fish sightings (what of predators and pellets is in view; see
+    /// `lod::Sight`; a buffer).
+    lod_alert: Vec<std::sync::atomic::AtomicU32>,
     /// The last schedule's band of each fish (a buffer).
     lod_bands: Vec<u8>,
     /// One capped band's candidates, (distance and slot key, dense index) (a buffer).

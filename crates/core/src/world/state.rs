@@ -141,6 +141,7 @@ impl WorldState {
             + vec(&f.steer)
             + vec(&f.last_decided)
             + vec(&f.alerted)
+            + vec(&f.threat_seen)
             + vec(&self.foods)
             + self.eaten.capacity() * std::mem::size_of::<(FoodId, Food)>()
             + vec(&self.obstacles)

@@ -61,6 +61,10 @@ pub(crate) struct FishStore {
     /// Whether a predator or pellet was in the fish's view range when it last decided (the
     /// level-of-detail schedule wakes it when one comes into view, not while one stays).
     pub alerted: Vec<bool>,
+    /// The squared distance to the nearest predator of another species in the fish's view
+    /// range when it last decided (infinite: none): the schedule wakes a slow fish when one
+    /// has closed in since ([`super::lod::THREAT_CLOSING`]).
+    pub threat_seen: Vec<f32>,
 }
 
 impl FishStore {
@@ -110,6 +114,7 @@ impl FishStore {
         self.steer.push(SteerMemo::default());
         self.last_decided.push(0);
         self.alerted.push(false);
+        self.threat_seen.push(f32::INFINITY);
         id
     }
 
@@ -152,6 +157,7 @@ impl FishStore {
         self.steer.swap_remove(dense);
         self.last_decided.swap_remove(dense);
         self.alerted.swap_remove(dense);
+        self.threat_seen.swap_remove(dense);
         if let Some(moved) = self.ids.get(dense) {
             self.dense_of[moved.index as usize] = dense as u32;
         }

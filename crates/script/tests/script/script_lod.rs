@@ -501,6 +501,59 @@ fn test_a_predator_coming_into_view_wakes_the_fish_that_see_it() {
     );
 }
 
+/// A predator already in view that closes in wakes a slow fish on the ticks it would decide at
+/// full rate, as a fleeing fish at full rate turns from it again; one that keeps its distance
+/// wakes nobody, and a porgy it moved away from sleeps on.
+#[test]
+fn test_a_predator_closing_in_wakes_the_fish_it_hunts() {
+    let (_d, mut sim) = probe(COUNTER, 1);
+    sim.set_lod_on(true);
+    // Slot 0 and slot 1, each 200 units from a still barracuda (porgies see 300).
+    let hunted = still(&mut sim, Vec3::new(-200.0, 200.0, 0.0));
+    let other = still(&mut sim, Vec3::new(200.0, 200.0, 0.0));
+    let hunter = still_of(&mut sim, "barracuda", Vec3::new(0.0, 200.0, 0.0), None);
+    let mut late_wakes = 0;
+    for tick in 0..30 {
+        sim.step();
+        if tick >= 12 {
+            late_wakes += sim.world().lod_counts().woken;
+        }
+    }
+    // The hunted porgy decided on ticks 0 and 18 only (the barracuda was in view from the
+    // start, so it never came into view); the other was woken once when it first could be.
+    assert_eq!(decisions(&sim, hunted), 2);
+    assert_eq!(
+        late_wakes, 0,
+        "a predator that keeps its distance wakes nobody"
+    );
+    let other_before = decisions(&sim, other);
+    // The barracuda is now 120 units from the hunted porgy (closer than 0.8 × 200) and 280
+    // from the other (in view, farther): tick 30 is the hunted one's full-rate tick.
+    assert!(sim.despawn(hunter));
+    still_of(&mut sim, "barracuda", Vec3::new(-80.0, 200.0, 0.0), None);
+    sim.world_mut().rebuild_grid();
+    sim.step();
+    assert_eq!(decisions(&sim, hunted), 3, "woken by the closing predator");
+    assert_eq!(decisions(&sim, other), other_before);
+    assert_eq!(
+        sim.world().lod_counts().woken_by,
+        WokenBy {
+            seen: 1,
+            obstacle: 0,
+            neighbour: 0
+        }
+    );
+    // Having decided with it at 120 units, it is not woken again while the barracuda stays:
+    // through tick 42 it decides only when due (tick 36), not on its full-rate tick 42.
+    let mut wakes = 0;
+    for _ in 31..=42 {
+        sim.step();
+        wakes += sim.world().lod_counts().woken;
+    }
+    assert_eq!(wakes, 0);
+    assert_eq!(decisions(&sim, hunted), 4);
+}
+
 /// A behaviour that asks for a minimum rate keeps it however far its fish are; a bad value is
 /// a load error that names the file and the field.
 #[test]
