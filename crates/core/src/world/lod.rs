@@ -128,10 +128,10 @@ impl Default for Lod {
 }
 
 /// The default bands: full rate within 600 units of a focus (about twelve porgy lengths), half
-/// rate to 1,500, a third beyond. A third, not a quarter: at a quarter the big school's fish,
-/// holding each heading four times as long, spread towards the glass faster than at full rate
-/// and touch it about 3 % more often, a difference `shoal compare` finds at 16 seeds; at a third
-/// it finds none (docs/performance.md, "Where the big school's extra wall contacts come from").
+/// rate to 1,500, a third beyond. A third, not a quarter: at a quarter `shoal compare` finds the
+/// big school touching the glass about 3 % more often than at full rate over 16 seeds and its
+/// barracuda catching more over 32; at a third neither over 16 seeds, nor the catches over 32
+/// (the wall contacts still read +2 % there; docs/performance.md, "The same at 32 seeds").
 pub fn default_bands() -> Vec<LodBand> {
     vec![
         LodBand {
