@@ -737,14 +737,11 @@ impl World {
         if let Some(a) = alert.get(d) {
             return Sight::threat(a.load(Ordering::Relaxed));
         }
+        let Some(r2) = self.view_range2(d) else {
+            return f32::INFINITY;
+        };
         let f = &self.state.fish;
         let pos = f.roots[d].pos;
-        let range = self.catalog.species[usize::from(f.species[d].0)]
-            .desc
-            .view_range;
-        if !(range.is_finite() && range > 0.0) {
-            return f32::INFINITY;
-        }
         let me = f.species[d];
         self.index
             .predators
@@ -752,8 +749,17 @@ impl World {
             .filter_map(|&p| f.dense(p))
             .filter(|&o| f.species[o] != me)
             .map(|o| f.roots[o].pos.distance_squared(pos))
-            .filter(|&d2| d2 <= range * range)
+            .filter(|&d2| d2 <= r2)
             .fold(f32::INFINITY, f32::min)
+    }
+
+    /// The square of dense fish `d`'s view range (`None`: its species sees nothing).
+    fn view_range2(&self, d: usize) -> Option<f32> {
+        let f = &self.state.fish;
+        let range = self.catalog.species[usize::from(f.species[d].0)]
+            .desc
+            .view_range;
+        (range.is_finite() && range > 0.0).then_some(range * range)
     }
 
     /// Whether a predator of another species or a pellet is within dense fish `d`'s view range:
@@ -762,27 +768,17 @@ impl World {
         if let Some(a) = alert.get(d) {
             return a.load(Ordering::Relaxed) != Sight::NONE;
         }
-        let f = &self.state.fish;
-        let root = &f.roots[d];
-        let range = self.catalog.species[usize::from(f.species[d].0)]
-            .desc
-            .view_range;
-        if !(range.is_finite() && range > 0.0) {
-            return false;
+        if self.threat_now(d, alert).is_finite() {
+            return true;
         }
-        let r2 = range * range;
-        let me = f.species[d];
-        let predator = self.index.predators.iter().any(|&p| {
-            f.dense(p).is_some_and(|o| {
-                f.species[o] != me && f.roots[o].pos.distance_squared(root.pos) <= r2
-            })
-        });
-        predator
-            || self
-                .state
-                .foods
-                .iter()
-                .any(|(_, p)| !p.eaten && p.pos.distance_squared(root.pos) <= r2)
+        let Some(r2) = self.view_range2(d) else {
+            return false;
+        };
+        let pos = self.state.fish.roots[d].pos;
+        self.state
+            .foods
+            .iter()
+            .any(|(_, p)| !p.eaten && p.pos.distance_squared(pos) <= r2)
     }
 }
 
@@ -915,8 +911,6 @@ mod tests {
         }
     }
 
-    /// Level of detail on, no focus, no wakes, a 6-tick base period (so 24 in the last band):
-    /// the due ticks of `fish` scripted fish over 48 ticks, per slot.
     /// The far band's period for a species deciding every 6 ticks, with the default bands.
     fn far_period() -> u64 {
         6 * u64::from(default_bands().last().unwrap().every)
